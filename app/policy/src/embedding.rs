@@ -1,0 +1,86 @@
+//! Action-state embeddings (ASEs): the 64-d feature of every action, laid out for
+//! a fast nearest-neighbour scan.
+
+use seespot_sim::Primitive;
+
+/// Embedding width D.
+pub const EMBEDDING_DIM: usize = 64;
+
+/// The ASE map of one primitive in one state: `R x H x W x D` features.
+///
+/// Layout: `features[((r * H + y) * W + x) * D + c]`, contiguous f32, so each
+/// action's embedding is one `D`-long row. `norms_sq` holds each row's squared L2
+/// norm, or `f32::INFINITY` where the common-sense mask forbids the action, so a
+/// `||a||^2 - 2 a.b + ||b||^2` scan never matches a masked action.
+#[derive(Clone, Debug)]
+pub struct AseMap {
+    pub primitive: Primitive,
+    /// H = W, pixels.
+    pub resolution: usize,
+    /// R.
+    pub rotations: usize,
+    /// D.
+    pub dim: usize,
+    pub features: Vec<f32>,
+    pub norms_sq: Vec<f32>,
+    /// `R x H x W`, true where the action is allowed.
+    pub mask: Vec<bool>,
+}
+
+impl AseMap {
+    /// Number of actions `R * H * W`.
+    pub fn len(&self) -> usize {
+        self.rotations * self.resolution * self.resolution
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The embedding of action `index` (flat `(r * H + y) * W + x`).
+    pub fn feature(&self, index: usize) -> &[f32] {
+        &self.features[index * self.dim..(index + 1) * self.dim]
+    }
+
+    /// Builds a map from features and a mask, computing the norms.
+    pub fn new(
+        primitive: Primitive,
+        resolution: usize,
+        rotations: usize,
+        dim: usize,
+        features: Vec<f32>,
+        mask: Vec<bool>,
+    ) -> Self {
+        assert_eq!(features.len(), rotations * resolution * resolution * dim);
+        assert_eq!(mask.len(), rotations * resolution * resolution);
+        let norms_sq = features
+            .chunks_exact(dim)
+            .zip(&mask)
+            .map(|(f, &ok)| {
+                if ok {
+                    f.iter().map(|v| v * v).sum()
+                } else {
+                    f32::INFINITY
+                }
+            })
+            .collect();
+        Self {
+            primitive,
+            resolution,
+            rotations,
+            dim,
+            features,
+            norms_sq,
+            mask,
+        }
+    }
+}
+
+/// Q-values of one primitive in one state, `R x H x W`, index `(r * H + y) * W + x`.
+#[derive(Clone, Debug)]
+pub struct QMap {
+    pub primitive: Primitive,
+    pub resolution: usize,
+    pub rotations: usize,
+    pub q: Vec<f32>,
+}

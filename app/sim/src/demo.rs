@@ -1,0 +1,266 @@
+//! Demonstrations on disk: one directory per demonstration.
+//!
+//! ```text
+//! demos/row/0/
+//!   meta.json            seed, task, resolution, workspace bounds, seespot version, steps
+//!   000_color.png        RGB 8-bit heightmap before step 0
+//!   000_depth.png        16-bit grey depth before step 0, in units of 1e-5 m (0..0.65535 m)
+//!   001_color.png ...
+//!   final_color.png      the state after the last step
+//!   final_depth.png
+//! ```
+//!
+//! Depth is stored losslessly at 1e-5 m resolution (values are rounded to it when
+//! written; heights over 0.65535 m, never reached by four 5 cm blocks, saturate).
+
+use std::fs::File;
+use std::io::{BufReader, BufWriter};
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::action::{Action, NUM_ROTATIONS, Primitive};
+use crate::heightmap::Heightmaps;
+use crate::task::{MAX_PROGRESS, TaskId};
+use crate::workspace::{Grid, WORKSPACE_SIZE};
+
+/// Depth PNG unit, metres per level.
+pub const DEPTH_UNIT: f32 = 1e-5;
+/// Version of the demonstration format.
+pub const DEMO_FORMAT: u32 = 1;
+
+/// Metadata of one demonstration (`meta.json`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DemoMeta {
+    pub format: u32,
+    pub task: TaskId,
+    pub seed: u64,
+    pub resolution: usize,
+    /// Workspace bounds `[[x_min, x_max], [y_min, y_max]]`, metres.
+    pub workspace: [[f32; 2]; 2],
+    pub seespot_version: String,
+    pub steps: Vec<DemoStepMeta>,
+}
+
+/// One step's record in `meta.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DemoStepMeta {
+    pub action: Action,
+    /// Gripper pose of the action `[x, y, z, yaw]`, metres and radians.
+    pub world_pose: [f32; 4],
+    pub progress_before: u8,
+    pub progress_after: u8,
+}
+
+/// One step: the state before the action, and the action.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DemoStep {
+    pub heightmaps: Heightmaps,
+    pub meta: DemoStepMeta,
+}
+
+/// A whole demonstration.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Demo {
+    pub meta: DemoMeta,
+    pub steps: Vec<DemoStep>,
+    /// The state after the last step.
+    pub final_heightmaps: Heightmaps,
+}
+
+/// A demonstration that could not be written or read.
+#[derive(Debug, thiserror::Error)]
+pub enum DemoError {
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}: {message}")]
+    Invalid { path: PathBuf, message: String },
+}
+
+fn invalid(path: &Path, message: impl Into<String>) -> DemoError {
+    DemoError::Invalid {
+        path: path.to_owned(),
+        message: message.into(),
+    }
+}
+
+impl Demo {
+    /// The step whose state has progress `p` and whose action uses `primitive`.
+    pub fn step_at(&self, progress: u8, primitive: Primitive) -> Option<(usize, &DemoStep)> {
+        self.steps
+            .iter()
+            .enumerate()
+            .find(|(_, s)| s.meta.progress_before == progress && s.meta.action.primitive == primitive)
+    }
+
+    /// Writes the demonstration into `dir` (created if needed).
+    pub fn write(&self, dir: &Path) -> Result<(), DemoError> {
+        std::fs::create_dir_all(dir).map_err(|source| DemoError::Io {
+            path: dir.to_owned(),
+            source,
+        })?;
+        for (i, step) in self.steps.iter().enumerate() {
+            write_heightmaps(dir, &format!("{i:03}"), &step.heightmaps)?;
+        }
+        write_heightmaps(dir, "final", &self.final_heightmaps)?;
+        let path = dir.join("meta.json");
+        let json = serde_json::to_string_pretty(&self.meta).map_err(|e| invalid(&path, e.to_string()))?;
+        std::fs::write(&path, json).map_err(|source| DemoError::Io { path, source })
+    }
+
+    /// Reads and validates a demonstration directory.
+    pub fn read(dir: &Path) -> Result<Self, DemoError> {
+        let path = dir.join("meta.json");
+        let text = std::fs::read_to_string(&path).map_err(|source| DemoError::Io {
+            path: path.clone(),
+            source,
+        })?;
+        let meta: DemoMeta =
+            serde_json::from_str(&text).map_err(|e| invalid(&path, format!("bad metadata: {e}")))?;
+        meta.validate(&path)?;
+        let grid = Grid::new(meta.resolution);
+        let steps = meta
+            .steps
+            .iter()
+            .enumerate()
+            .map(|(i, m)| {
+                Ok(DemoStep {
+                    heightmaps: read_heightmaps(dir, &format!("{i:03}"), grid)?,
+                    meta: m.clone(),
+                })
+            })
+            .collect::<Result<Vec<_>, DemoError>>()?;
+        let final_heightmaps = read_heightmaps(dir, "final", grid)?;
+        Ok(Self {
+            meta,
+            steps,
+            final_heightmaps,
+        })
+    }
+}
+
+impl DemoMeta {
+    pub fn new(task: TaskId, seed: u64, grid: Grid) -> Self {
+        let h = WORKSPACE_SIZE / 2.0;
+        Self {
+            format: DEMO_FORMAT,
+            task,
+            seed,
+            resolution: grid.resolution,
+            workspace: [[-h, h], [-h, h]],
+            seespot_version: crate::VERSION.to_owned(),
+            steps: Vec::new(),
+        }
+    }
+
+    /// Checks ranges and progress order.
+    fn validate(&self, path: &Path) -> Result<(), DemoError> {
+        if self.format != DEMO_FORMAT {
+            return Err(invalid(path, format!("field `format`: {} is not the supported {DEMO_FORMAT}", self.format)));
+        }
+        if !crate::scene::RESOLUTION_RANGE.contains(&self.resolution) {
+            return Err(invalid(path, format!("field `resolution`: {} is out of range", self.resolution)));
+        }
+        if self.steps.is_empty() {
+            return Err(invalid(path, "field `steps`: a demonstration needs at least one step"));
+        }
+        let mut expected = Primitive::Grasp;
+        for (i, s) in self.steps.iter().enumerate() {
+            let a = s.action;
+            if a.rotation >= NUM_ROTATIONS || a.y >= self.resolution || a.x >= self.resolution {
+                return Err(invalid(path, format!("field `steps[{i}].action`: {a} is outside the {}-px action grid", self.resolution)));
+            }
+            if a.primitive != expected {
+                return Err(invalid(path, format!("field `steps[{i}].action.primitive`: expected {expected}, grasps and places alternate")));
+            }
+            expected = match expected {
+                Primitive::Grasp => Primitive::Place,
+                Primitive::Place => Primitive::Grasp,
+            };
+            for (name, p) in [("progress_before", s.progress_before), ("progress_after", s.progress_after)] {
+                if !(1..=MAX_PROGRESS).contains(&p) {
+                    return Err(invalid(path, format!("field `steps[{i}].{name}`: {p} is outside 1..=4")));
+                }
+            }
+            if s.progress_after < s.progress_before {
+                return Err(invalid(path, format!("field `steps[{i}].progress_after`: progress fell from {} to {}", s.progress_before, s.progress_after)));
+            }
+            if i > 0 && self.steps[i - 1].progress_after != s.progress_before {
+                return Err(invalid(path, format!("field `steps[{i}].progress_before`: {} does not follow step {} (progress {})", s.progress_before, i - 1, self.steps[i - 1].progress_after)));
+            }
+        }
+        Ok(())
+    }
+}
+
+fn io(path: &Path) -> impl FnOnce(std::io::Error) -> DemoError + '_ {
+    move |source| DemoError::Io {
+        path: path.to_owned(),
+        source,
+    }
+}
+
+fn write_png(path: &Path, n: usize, color: png::ColorType, depth: png::BitDepth, data: &[u8]) -> Result<(), DemoError> {
+    let file = File::create(path).map_err(io(path))?;
+    let mut enc = png::Encoder::new(BufWriter::new(file), n as u32, n as u32);
+    enc.set_color(color);
+    enc.set_depth(depth);
+    let mut w = enc.write_header().map_err(|e| invalid(path, e.to_string()))?;
+    w.write_image_data(data).map_err(|e| invalid(path, e.to_string()))?;
+    w.finish().map_err(|e| invalid(path, e.to_string()))
+}
+
+/// Writes `{stem}_color.png` and `{stem}_depth.png`.
+pub fn write_heightmaps(dir: &Path, stem: &str, hm: &Heightmaps) -> Result<(), DemoError> {
+    let n = hm.resolution();
+    write_png(&dir.join(format!("{stem}_color.png")), n, png::ColorType::Rgb, png::BitDepth::Eight, &hm.color)?;
+    let mut depth = Vec::with_capacity(n * n * 2);
+    for &d in &hm.depth {
+        let v = (d / DEPTH_UNIT).round().clamp(0.0, u16::MAX as f32) as u16;
+        depth.extend_from_slice(&v.to_be_bytes());
+    }
+    write_png(&dir.join(format!("{stem}_depth.png")), n, png::ColorType::Grayscale, png::BitDepth::Sixteen, &depth)
+}
+
+fn read_png(path: &Path, n: usize, color: png::ColorType, depth: png::BitDepth) -> Result<Vec<u8>, DemoError> {
+    let file = File::open(path).map_err(io(path))?;
+    let dec = png::Decoder::new(BufReader::new(file));
+    let mut reader = dec.read_info().map_err(|e| invalid(path, format!("not a readable PNG: {e}")))?;
+    let size = reader
+        .output_buffer_size()
+        .ok_or_else(|| invalid(path, "image too large"))?;
+    let mut buf = vec![0; size];
+    let info = reader
+        .next_frame(&mut buf)
+        .map_err(|e| invalid(path, format!("damaged PNG data: {e}")))?;
+    if info.width as usize != n || info.height as usize != n {
+        return Err(invalid(path, format!("image is {}x{}, expected {n}x{n}", info.width, info.height)));
+    }
+    if info.color_type != color || info.bit_depth != depth {
+        return Err(invalid(path, format!("image is {:?} {:?}, expected {color:?} {depth:?}", info.color_type, info.bit_depth)));
+    }
+    buf.truncate(info.buffer_size());
+    Ok(buf)
+}
+
+/// Reads `{stem}_color.png` and `{stem}_depth.png`, checking shape and format.
+pub fn read_heightmaps(dir: &Path, stem: &str, grid: Grid) -> Result<Heightmaps, DemoError> {
+    let n = grid.resolution;
+    let color = read_png(&dir.join(format!("{stem}_color.png")), n, png::ColorType::Rgb, png::BitDepth::Eight)?;
+    let raw = read_png(&dir.join(format!("{stem}_depth.png")), n, png::ColorType::Grayscale, png::BitDepth::Sixteen)?;
+    let depth = raw
+        .chunks_exact(2)
+        .map(|b| u16::from_be_bytes([b[0], b[1]]) as f32 * DEPTH_UNIT)
+        .collect();
+    Ok(Heightmaps { grid, color, depth })
+}
+
+/// Rounds depth to the stored 1e-5 m unit, as a write then read would.
+pub fn quantize_depth(hm: &mut Heightmaps) {
+    for d in &mut hm.depth {
+        *d = (*d / DEPTH_UNIT).round().clamp(0.0, u16::MAX as f32) * DEPTH_UNIT;
+    }
+}

@@ -1,0 +1,57 @@
+//! The seespot block world.
+//!
+//! A rapier3d tabletop with four 5 cm cubes, a gripper that executes the two
+//! discrete primitives `grasp(r, y, x)` and `place(r, y, x)`, a top-down
+//! orthographic heightmap camera, the four tasks of See-SPOT-Run with their
+//! progress measure, and a scripted oracle per task that records demonstrations.
+//!
+//! Frames and units: the world frame has z up, metres, the table top at z = 0.
+//! The workspace is a 0.448 m square centred on the origin. A pixel `(y, x)` of a
+//! heightmap maps to `x_w = x_min + x * pixel_size`, `y_w = y_min + y * pixel_size`.
+//!
+//! ```no_run
+//! use seespot_sim::{Oracle, TaskId, Trial, WorldConfig};
+//! let mut trial = Trial::new(WorldConfig::default(), TaskId::Stack, 1);
+//! let mut oracle = Oracle::new(TaskId::Stack);
+//! while trial.end().is_none() {
+//!     let action = oracle.act(trial.world());
+//!     trial.step(action);
+//! }
+//! assert!(trial.succeeded());
+//! ```
+
+pub mod action;
+pub mod demo;
+pub mod heightmap;
+pub mod noise;
+pub mod oracle;
+pub mod progress;
+pub mod scene;
+pub mod task;
+pub mod trial;
+pub mod workspace;
+pub mod world;
+
+pub use action::{Action, NUM_ROTATIONS, Primitive};
+pub use demo::{Demo, DemoError, DemoMeta, DemoStep};
+pub use heightmap::Heightmaps;
+pub use noise::SensorNoise;
+pub use oracle::Oracle;
+pub use scene::{Scene, SceneError};
+pub use task::TaskId;
+pub use trial::{StepRecord, Trial, TrialEnd};
+pub use workspace::Grid;
+pub use world::{ActionOutcome, BlockPose, World, WorldConfig};
+
+/// Edge length of every block, metres.
+pub const BLOCK_SIZE: f32 = 0.05;
+
+/// Number of blocks in every scene.
+pub const NUM_BLOCKS: usize = 4;
+
+/// Block colours, RGB: red, blue, green, yellow.
+pub const BLOCK_COLORS: [[u8; 3]; NUM_BLOCKS] =
+    [[255, 87, 89], [78, 121, 167], [89, 161, 79], [237, 201, 72]];
+
+/// The version of seespot that wrote a file (demos, models, results).
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");

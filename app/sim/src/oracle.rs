@@ -1,0 +1,336 @@
+//! The scripted oracle: for each task, the next action on the discrete action
+//! grid, chosen from the current block poses. One grasp/place pair raises
+//! progress by one, so a demonstration has monotonically increasing progress and
+//! the ideal length when the start allows.
+
+use crate::action::{Action, Primitive, nearest_rotation};
+use crate::progress::{self, is_on};
+use crate::task::TaskId;
+use crate::workspace::{Grid, WORKSPACE_SIZE};
+use crate::world::{BlockPose, World};
+use crate::{BLOCK_SIZE, NUM_BLOCKS};
+
+/// Centre-to-centre spacing the oracle uses for rows, metres (inside 5-10 cm).
+pub const ROW_SPACING: f32 = 0.075;
+/// Blocks the oracle sets down on their own keep this far from others, metres.
+pub const CLEAR_DISTANCE: f32 = 0.11;
+/// Targets stay this far inside the workspace edge, metres.
+pub const EDGE_MARGIN: f32 = 0.05;
+
+/// A scripted expert for one task.
+#[derive(Clone, Debug)]
+pub struct Oracle {
+    task: TaskId,
+    /// Where the block in hand goes: world `(x, y)` and yaw.
+    place_target: Option<(f32, f32, f32)>,
+}
+
+impl Oracle {
+    pub fn new(task: TaskId) -> Self {
+        Self {
+            task,
+            place_target: None,
+        }
+    }
+
+    /// The next action for `world`.
+    pub fn act(&mut self, world: &World) -> Action {
+        let grid = world.grid();
+        let poses = world.block_poses();
+        let held = world.held_block();
+        if held.is_some() {
+            let (x, y, yaw) = self
+                .place_target
+                .take()
+                .unwrap_or_else(|| fallback_spot(&poses, held));
+            return to_action(grid, Primitive::Place, x, y, yaw);
+        }
+        let (block, target) = self.plan(&poses);
+        self.place_target = Some(target);
+        grasp_action(world, block)
+            .or_else(|| {
+                // The planned block cannot be caught: try any other clear block that the
+                // plan would also accept moving, keeping the same target.
+                (0..NUM_BLOCKS)
+                    .filter(|&i| i != block && is_clear(&poses, i) && !self.keeps(&poses, i, target))
+                    .find_map(|i| grasp_action(world, i))
+            })
+            .unwrap_or_else(|| {
+                let p = poses[block];
+                to_action(grid, Primitive::Grasp, p.position[0], p.position[1], p.yaw())
+            })
+    }
+
+    /// Whether block `i` must stay where it is for the plan with place `target`
+    /// (it is the target's support, or part of the structure being built).
+    fn keeps(&self, poses: &[BlockPose; NUM_BLOCKS], i: usize, target: (f32, f32, f32)) -> bool {
+        let p = xy(&poses[i]);
+        if dist(p, (target.0, target.1)) < BLOCK_SIZE {
+            return true;
+        }
+        match self.task {
+            TaskId::Stack | TaskId::Unstack => tallest_tower(poses).len() >= 2 && tallest_tower(poses).contains(&i),
+            TaskId::Row => {
+                let row = progress::best_row(poses);
+                row.len() >= 2 && row.contains(&i)
+            }
+            TaskId::VerticalSquare => progress::stacked_pairs(poses)
+                .iter()
+                .any(|&(u, l)| u == i || l == i),
+        }
+    }
+
+    /// Chooses the block to grasp next and where it should go.
+    fn plan(&self, poses: &[BlockPose; NUM_BLOCKS]) -> (usize, (f32, f32, f32)) {
+        match self.task {
+            TaskId::Stack => plan_stack(poses),
+            TaskId::Unstack => plan_unstack(poses),
+            TaskId::Row => plan_row(poses),
+            TaskId::VerticalSquare => plan_vertical_square(poses),
+        }
+    }
+}
+
+/// A grasp of block `i` that the world says will catch it: the block's centre, at
+/// the rotation of its faces, else a quarter or eighth turn from it.
+fn grasp_action(world: &World, i: usize) -> Option<Action> {
+    let p = world.block_poses()[i];
+    let quarter = std::f32::consts::FRAC_PI_2;
+    [0.0, quarter, quarter / 2.0, -quarter / 2.0]
+        .into_iter()
+        .map(|d| to_action(world.grid(), Primitive::Grasp, p.position[0], p.position[1], p.yaw() + d))
+        .find(|a| world.check_grasp(*a) == Ok(i))
+}
+
+fn to_action(grid: Grid, primitive: Primitive, x: f32, y: f32, yaw: f32) -> Action {
+    let h = WORKSPACE_SIZE / 2.0 - 1e-4;
+    let (py, px) = grid
+        .world_to_pixel(x.clamp(-h, h), y.clamp(-h, h))
+        .unwrap_or((grid.resolution / 2, grid.resolution / 2));
+    Action::new(primitive, nearest_rotation(yaw), py, px)
+}
+
+fn xy(p: &BlockPose) -> (f32, f32) {
+    (p.position[0], p.position[1])
+}
+
+fn dist(a: (f32, f32), b: (f32, f32)) -> f32 {
+    ((a.0 - b.0).powi(2) + (a.1 - b.1).powi(2)).sqrt()
+}
+
+/// Whether nothing sits on block `i`.
+fn is_clear(poses: &[BlockPose], i: usize) -> bool {
+    (0..poses.len()).all(|j| j == i || !is_on(&poses[j], &poses[i]))
+}
+
+fn on_table(p: &BlockPose) -> bool {
+    p.position[2] < BLOCK_SIZE * 0.8
+}
+
+/// The tallest tower, top first.
+fn tallest_tower(poses: &[BlockPose]) -> Vec<usize> {
+    (0..poses.len())
+        .map(|i| progress::tower_below(poses, i))
+        .max_by_key(|t| t.len())
+        .unwrap_or_default()
+}
+
+/// A free spot on the table: the candidate farthest from every block but `skip`.
+fn free_spot(poses: &[BlockPose], skip: &[usize]) -> (f32, f32) {
+    let lim = WORKSPACE_SIZE / 2.0 - EDGE_MARGIN - 0.02;
+    let mut best = ((0.0, 0.0), f32::MIN);
+    let steps = 9;
+    for iy in 0..steps {
+        for ix in 0..steps {
+            let c = (
+                -lim + 2.0 * lim * ix as f32 / (steps - 1) as f32,
+                -lim + 2.0 * lim * iy as f32 / (steps - 1) as f32,
+            );
+            let d = (0..poses.len())
+                .filter(|i| !skip.contains(i))
+                .map(|i| dist(c, xy(&poses[i])))
+                .fold(f32::MAX, f32::min);
+            // Prefer spots near the centre among those clear enough.
+            let score = d.min(CLEAR_DISTANCE) - 0.01 * dist(c, (0.0, 0.0));
+            if score > best.1 {
+                best = (c, score);
+            }
+        }
+    }
+    best.0
+}
+
+fn fallback_spot(poses: &[BlockPose], held: Option<usize>) -> (f32, f32, f32) {
+    let skip: Vec<usize> = held.into_iter().collect();
+    let (x, y) = free_spot(poses, &skip);
+    (x, y, 0.0)
+}
+
+fn plan_stack(poses: &[BlockPose; NUM_BLOCKS]) -> (usize, (f32, f32, f32)) {
+    let tower = tallest_tower(poses);
+    // A base: the top of the tallest tower, or (no tower) the block nearest the centre.
+    let base = if tower.len() >= 2 {
+        tower[0]
+    } else {
+        (0..NUM_BLOCKS)
+            .filter(|&i| on_table(&poses[i]))
+            .min_by(|&a, &b| {
+                dist(xy(&poses[a]), (0.0, 0.0)).total_cmp(&dist(xy(&poses[b]), (0.0, 0.0)))
+            })
+            .unwrap_or(0)
+    };
+    let in_tower: Vec<usize> = if tower.len() >= 2 {
+        tower.clone()
+    } else {
+        vec![base]
+    };
+    let pick = pick_free_block(poses, &in_tower);
+    let b = poses[base];
+    (pick, (b.position[0], b.position[1], b.yaw()))
+}
+
+/// The highest clear block that is not in `exclude`.
+fn pick_free_block(poses: &[BlockPose], exclude: &[usize]) -> usize {
+    (0..poses.len())
+        .filter(|i| !exclude.contains(i) && is_clear(poses, *i))
+        .max_by(|&a, &b| poses[a].position[2].total_cmp(&poses[b].position[2]))
+        .or_else(|| (0..poses.len()).find(|i| !exclude.contains(i)))
+        .unwrap_or(0)
+}
+
+fn plan_unstack(poses: &[BlockPose; NUM_BLOCKS]) -> (usize, (f32, f32, f32)) {
+    let tower = tallest_tower(poses);
+    let top = tower[0];
+    let (x, y) = free_spot(poses, &[top]);
+    (top, (x, y, poses[top].yaw()))
+}
+
+/// Whether world `(x, y)` is inside the workspace with a margin and far enough
+/// from every block but `skip`.
+fn spot_ok(poses: &[BlockPose], skip: &[usize], c: (f32, f32)) -> bool {
+    let lim = WORKSPACE_SIZE / 2.0 - EDGE_MARGIN;
+    c.0.abs() <= lim
+        && c.1.abs() <= lim
+        && (0..poses.len())
+            .filter(|i| !skip.contains(i))
+            .all(|i| dist(c, xy(&poses[i])) >= BLOCK_SIZE * 1.5)
+}
+
+/// Next free position extending the line of `row` (two or more blocks, sorted or
+/// not) at [`ROW_SPACING`], either end.
+fn extend_row(poses: &[BlockPose], row: &[usize], moving: usize) -> Option<(f32, f32, f32)> {
+    let pts: Vec<(f32, f32)> = row.iter().map(|&i| xy(&poses[i])).collect();
+    let (a, b) = if pts.len() >= 2 {
+        // Direction from the two farthest-apart members.
+        let mut best = (pts[0], pts[1], 0.0);
+        for i in 0..pts.len() {
+            for j in i + 1..pts.len() {
+                let d = dist(pts[i], pts[j]);
+                if d > best.2 {
+                    best = (pts[i], pts[j], d);
+                }
+            }
+        }
+        (best.0, best.1)
+    } else {
+        return None;
+    };
+    let len = dist(a, b).max(1e-6);
+    let u = ((b.0 - a.0) / len, (b.1 - a.1) / len);
+    let yaw = u.1.atan2(u.0);
+    let skip: Vec<usize> = vec![moving];
+    let beyond_b = (b.0 + u.0 * ROW_SPACING, b.1 + u.1 * ROW_SPACING);
+    let beyond_a = (a.0 - u.0 * ROW_SPACING, a.1 - u.1 * ROW_SPACING);
+    [beyond_b, beyond_a]
+        .into_iter()
+        .filter(|c| spot_ok(poses, &skip, *c))
+        .min_by(|p, q| dist(*p, (0.0, 0.0)).total_cmp(&dist(*q, (0.0, 0.0))))
+        .map(|c| (c.0, c.1, yaw))
+}
+
+fn plan_row(poses: &[BlockPose; NUM_BLOCKS]) -> (usize, (f32, f32, f32)) {
+    let row = progress::best_row(poses);
+    if row.len() >= 2 {
+        let outside: Vec<usize> = (0..NUM_BLOCKS).filter(|i| !row.contains(i)).collect();
+        for &m in &outside {
+            if is_clear(poses, m)
+                && let Some(t) = extend_row(poses, &row, m)
+            {
+                return (m, t);
+            }
+        }
+    }
+    // Start a row: next to the anchor nearest the centre, towards the centre.
+    let anchor = (0..NUM_BLOCKS)
+        .filter(|&i| on_table(&poses[i]))
+        .min_by(|&a, &b| dist(xy(&poses[a]), (0.0, 0.0)).total_cmp(&dist(xy(&poses[b]), (0.0, 0.0))))
+        .unwrap_or(0);
+    let pick = pick_free_block(poses, &[anchor]);
+    (pick, beside(poses, anchor, pick))
+}
+
+/// A spot [`ROW_SPACING`] beside block `anchor`, along one of its face axes, clear
+/// of other blocks (the block `moving` ignored), preferring the workspace centre.
+fn beside(poses: &[BlockPose], anchor: usize, moving: usize) -> (f32, f32, f32) {
+    let a = poses[anchor];
+    let base_yaw = a.yaw();
+    let mut best: Option<((f32, f32, f32), f32)> = None;
+    for k in 0..8 {
+        let yaw = base_yaw + k as f32 * std::f32::consts::FRAC_PI_4;
+        let c = (
+            a.position[0] + ROW_SPACING * yaw.cos(),
+            a.position[1] + ROW_SPACING * yaw.sin(),
+        );
+        // Keep the next slot along the line free too, so the row can grow.
+        let next = (
+            a.position[0] + 2.0 * ROW_SPACING * yaw.cos(),
+            a.position[1] + 2.0 * ROW_SPACING * yaw.sin(),
+        );
+        if !spot_ok(poses, &[moving], c) {
+            continue;
+        }
+        let score = dist(c, (0.0, 0.0)) + if spot_ok(poses, &[moving], next) { 0.0 } else { 0.2 }
+            + k as f32 * 1e-4;
+        if best.is_none_or(|(_, s)| score < s) {
+            best = Some(((c.0, c.1, base_yaw), score));
+        }
+    }
+    best.map(|b| b.0).unwrap_or_else(|| {
+        let (x, y) = free_spot(poses, &[moving]);
+        (x, y, 0.0)
+    })
+}
+
+fn plan_vertical_square(poses: &[BlockPose; NUM_BLOCKS]) -> (usize, (f32, f32, f32)) {
+    let pairs = progress::stacked_pairs(poses);
+    // Pairs whose lower block is on the table and which carry nothing else.
+    let towers: Vec<(usize, usize)> = pairs
+        .iter()
+        .copied()
+        .filter(|&(u, l)| on_table(&poses[l]) && is_clear(poses, u))
+        .collect();
+    if let Some(&(u, l)) = towers.first() {
+        let others: Vec<usize> = (0..NUM_BLOCKS).filter(|&i| i != u && i != l).collect();
+        // A block next to the tower's bottom in a row: put the last block on it.
+        for &o in &others {
+            if on_table(&poses[o]) && is_clear(poses, o) && progress::is_row(poses, &[l, o]) {
+                let rest: Vec<usize> = others.iter().copied().filter(|&j| j != o).collect();
+                let pick = pick_free_block(poses, &[u, l, o]);
+                let pick = if rest.contains(&pick) { pick } else { rest[0] };
+                let b = poses[o];
+                return (pick, (b.position[0], b.position[1], b.yaw()));
+            }
+        }
+        // Otherwise move a free block beside the tower's bottom.
+        let pick = pick_free_block(poses, &[u, l]);
+        return (pick, beside(poses, l, pick));
+    }
+    // No tower yet: stack one block on the block nearest the centre.
+    let base = (0..NUM_BLOCKS)
+        .filter(|&i| on_table(&poses[i]) && is_clear(poses, i))
+        .min_by(|&a, &b| dist(xy(&poses[a]), (0.0, 0.0)).total_cmp(&dist(xy(&poses[b]), (0.0, 0.0))))
+        .unwrap_or(0);
+    let pick = pick_free_block(poses, &[base]);
+    let b = poses[base];
+    (pick, (b.position[0], b.position[1], b.yaw()))
+}

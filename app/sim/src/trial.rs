@@ -1,0 +1,163 @@
+//! A trial: a world, a task, its progress history and the end rules of DESIGN §2.
+
+use serde::{Deserialize, Serialize};
+
+use crate::action::Action;
+use crate::task::{MAX_PROGRESS, MAX_TRIAL_ACTIONS, TaskId};
+use crate::world::{ActionOutcome, World, WorldConfig};
+
+/// Why a trial ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum TrialEnd {
+    /// Progress reached 4.
+    Success,
+    /// The action limit (30 for test trials) was reached.
+    ActionLimit,
+    /// A block left the workspace.
+    OutOfWorkspace,
+}
+
+/// One executed action and what it did to the task's progress.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StepRecord {
+    pub action: Action,
+    pub outcome: ActionOutcome,
+    pub progress_before: u8,
+    pub progress_after: u8,
+    /// Progress dropped below a value it had earlier in the trial.
+    pub reversal: bool,
+}
+
+/// A running trial of one task from one seed.
+#[derive(Debug)]
+pub struct Trial {
+    world: World,
+    task: TaskId,
+    seed: u64,
+    max_actions: usize,
+    progress: u8,
+    max_progress: u8,
+    start_progress: u8,
+    steps: Vec<StepRecord>,
+    end: Option<TrialEnd>,
+}
+
+impl Trial {
+    /// A test trial (30-action limit) from the task's start: the tower for
+    /// `unstack`, a random drop otherwise.
+    pub fn new(config: WorldConfig, task: TaskId, seed: u64) -> Self {
+        let world = if task.starts_from_tower() {
+            World::tower(config, seed)
+        } else {
+            World::random(config, seed)
+        };
+        Self::from_world(world, task, seed, MAX_TRIAL_ACTIONS)
+    }
+
+    /// A trial over an existing world with its own action limit.
+    pub fn from_world(world: World, task: TaskId, seed: u64, max_actions: usize) -> Self {
+        let progress = task.progress(&world.table_poses());
+        let mut trial = Self {
+            world,
+            task,
+            seed,
+            max_actions,
+            progress,
+            max_progress: progress,
+            start_progress: progress,
+            steps: Vec::new(),
+            end: None,
+        };
+        trial.end = trial.check_end();
+        trial
+    }
+
+    pub fn world(&self) -> &World {
+        &self.world
+    }
+
+    pub fn world_mut(&mut self) -> &mut World {
+        &mut self.world
+    }
+
+    pub fn task(&self) -> TaskId {
+        self.task
+    }
+
+    pub fn seed(&self) -> u64 {
+        self.seed
+    }
+
+    /// Current progress P in `1..=4`.
+    pub fn progress(&self) -> u8 {
+        self.progress
+    }
+
+    /// Highest progress reached so far.
+    pub fn max_progress(&self) -> u8 {
+        self.max_progress
+    }
+
+    /// Progress of the start state.
+    pub fn start_progress(&self) -> u8 {
+        self.start_progress
+    }
+
+    pub fn steps(&self) -> &[StepRecord] {
+        &self.steps
+    }
+
+    pub fn actions(&self) -> usize {
+        self.steps.len()
+    }
+
+    /// Why the trial ended, or `None` while it runs.
+    pub fn end(&self) -> Option<TrialEnd> {
+        self.end
+    }
+
+    pub fn succeeded(&self) -> bool {
+        self.end == Some(TrialEnd::Success)
+    }
+
+    /// Whether any step reversed progress.
+    pub fn had_reversal(&self) -> bool {
+        self.steps.iter().any(|s| s.reversal)
+    }
+
+    /// Executes `action`, updates progress and the end state.
+    ///
+    /// # Panics
+    /// When the trial has already ended.
+    pub fn step(&mut self, action: Action) -> &StepRecord {
+        assert!(self.end.is_none(), "step() on an ended trial");
+        let before = self.progress;
+        let outcome = self.world.execute(action);
+        let after = self.task.progress(&self.world.table_poses());
+        let reversal = after < self.max_progress;
+        self.progress = after;
+        self.max_progress = self.max_progress.max(after);
+        self.steps.push(StepRecord {
+            action,
+            outcome,
+            progress_before: before,
+            progress_after: after,
+            reversal,
+        });
+        self.end = self.check_end();
+        self.steps.last().expect("just pushed")
+    }
+
+    fn check_end(&self) -> Option<TrialEnd> {
+        if self.progress >= MAX_PROGRESS && self.world.held_block().is_none() {
+            Some(TrialEnd::Success)
+        } else if self.world.block_out_of_workspace() {
+            Some(TrialEnd::OutOfWorkspace)
+        } else if self.steps.len() >= self.max_actions {
+            Some(TrialEnd::ActionLimit)
+        } else {
+            None
+        }
+    }
+}

@@ -1,0 +1,668 @@
+//! The rapier3d tabletop and the gripper that executes grasp and place.
+//!
+//! # Gripper model
+//!
+//! seespot models a parallel-jaw gripper by its effect on the blocks rather than
+//! by simulated fingers, so that one action costs a few hundred physics steps and
+//! stays deterministic:
+//!
+//! * **grasp(r, y, x)**: the jaws (opening [`JAW_OPENING`], closing along the yaw
+//!   `r * 22.5 deg`) descend to [`GRIP_DEPTH`] below the action height (the highest
+//!   point in the finger window). The grasp catches the highest block whose centre
+//!   lies between the open jaws and whose top reaches the grip depth. It fails on an
+//!   empty pixel, when the block is tilted more than [`MAX_GRASP_TILT`] (the jaws
+//!   slide off an edge), when a finger would land on another block, or when the hand
+//!   is already full. Closing the jaws squares the block to them (its yaw snaps to
+//!   the jaws, it is centred along the closing axis); the block then becomes a
+//!   kinematic body and is lifted physically (blocks leaning on it fall), then
+//!   carried out of the camera's view.
+//! * **place(r, y, x)**: the held block, turned to the yaw `r * 22.5 deg`, descends
+//!   kinematically above the pixel until its bottom is [`PLACE_CLEARANCE`] above the
+//!   action height. A kinematic body pushes whatever it meets on the way, so a
+//!   block lowered beside a tower with its corner over the tower knocks the tower
+//!   over. Then it is released as a dynamic body and physics settles (an
+//!   off-centre block tips off a tower top).
+//!
+//! Physics runs at [`PHYSICS_HZ`] with stiffer contacts than rapier's defaults
+//! ([`CONTACT_NATURAL_FREQUENCY`]), so an aligned tower of four does not sink into
+//! itself.
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rapier3d::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::action::{Action, Primitive};
+use crate::heightmap::{Heightmaps, TABLE_COLOR};
+use crate::noise::SensorNoise;
+use crate::workspace::{Grid, WORKSPACE_SIZE};
+use crate::{BLOCK_COLORS, BLOCK_SIZE, NUM_BLOCKS};
+
+/// Physics rate, Hz.
+pub const PHYSICS_HZ: f32 = 240.0;
+/// Contact spring natural frequency, Hz (rapier's default is 30).
+pub const CONTACT_NATURAL_FREQUENCY: f32 = 120.0;
+/// Height from which random-start blocks are dropped, metres (DESIGN §1).
+pub const DROP_HEIGHT: f32 = 0.15;
+/// Random starts drop blocks inside the workspace inset by this much, metres.
+pub const DROP_INSET: f32 = 0.1;
+/// Distance between the open jaws, metres.
+pub const JAW_OPENING: f32 = 0.08;
+/// Half-width of a finger pad across the closing axis, metres.
+pub const FINGER_HALF_WIDTH: f32 = 0.01;
+/// How far below the action height the fingers close, metres.
+pub const GRIP_DEPTH: f32 = 0.02;
+/// Largest offset of the block centre across the closing axis that still holds, metres.
+pub const MAX_GRASP_OFFSET: f32 = 0.018;
+/// Largest block tilt the jaws can square, radians (20 deg).
+pub const MAX_GRASP_TILT: f32 = 0.35;
+/// Gap between the released block's bottom and the action height, metres.
+pub const PLACE_CLEARANCE: f32 = 0.004;
+/// Speed of the kinematic descent and lift, metres per second.
+pub const GRIPPER_SPEED: f32 = 0.4;
+/// Where a held block is parked, out of the camera's view, metres.
+pub const PARK_POSITION: [f32; 3] = [0.0, 0.6, 0.4];
+/// Longest settle after an action, seconds.
+pub const MAX_SETTLE_SECONDS: f32 = 2.0;
+/// A block whose centre is below this is off the table, metres.
+pub const FELL_OFF_Z: f32 = -0.05;
+
+/// How a world is set up: pixel grid and sensor noise.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Default)]
+pub struct WorldConfig {
+    pub grid: Grid,
+    #[serde(default)]
+    pub noise: SensorNoise,
+}
+
+/// Pose of one block: centre position (metres, world frame) and orientation as a
+/// unit quaternion `[x, y, z, w]`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BlockPose {
+    pub position: [f32; 3],
+    pub rotation: [f32; 4],
+}
+
+impl BlockPose {
+    /// An upright block at `(x, y, z)` turned by `yaw` radians about +z.
+    pub fn upright(x: f32, y: f32, z: f32, yaw: f32) -> Self {
+        let q = Rotation::from_rotation_z(yaw);
+        Self {
+            position: [x, y, z],
+            rotation: [q.x, q.y, q.z, q.w],
+        }
+    }
+
+    /// An upright block resting on the table (`level` 0) or on `level` blocks.
+    pub fn on_table(x: f32, y: f32, level: usize, yaw: f32) -> Self {
+        Self::upright(x, y, BLOCK_SIZE * (level as f32 + 0.5), yaw)
+    }
+
+    pub fn quat(&self) -> Rotation {
+        let [x, y, z, w] = self.rotation;
+        Rotation::from_xyzw(x, y, z, w).normalize()
+    }
+
+    /// Angle between the world +z axis and the block face axis nearest to it, radians.
+    pub fn tilt(&self) -> f32 {
+        let q = self.quat();
+        let best = [Vector::X, Vector::Y, Vector::Z]
+            .into_iter()
+            .map(|a| (q * a).z.abs())
+            .fold(0.0f32, f32::max);
+        best.clamp(0.0, 1.0).acos()
+    }
+
+    /// Yaw of the block's faces about +z, radians in `[-pi/4, pi/4)` (a cube
+    /// looks the same every quarter turn).
+    pub fn yaw(&self) -> f32 {
+        let q = self.quat();
+        // The face axis most horizontal-aligned: take the axis with the smallest |z|.
+        let axis = [Vector::X, Vector::Y, Vector::Z]
+            .into_iter()
+            .map(|a| q * a)
+            .min_by(|a, b| a.z.abs().total_cmp(&b.z.abs()))
+            .unwrap_or(Vector::X);
+        let quarter = std::f32::consts::FRAC_PI_2;
+        let yaw = axis.y.atan2(axis.x);
+        (yaw + quarter / 2.0).rem_euclid(quarter) - quarter / 2.0
+    }
+
+    /// Height of the block's highest point above the table, metres.
+    pub fn top(&self) -> f32 {
+        let q = self.quat();
+        let h = BLOCK_SIZE / 2.0;
+        let extent: f32 = [Vector::X, Vector::Y, Vector::Z]
+            .into_iter()
+            .map(|a| (q * a).z.abs() * h)
+            .sum();
+        self.position[2] + extent
+    }
+}
+
+/// What executing one action did.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ActionOutcome {
+    /// A grasp that ends with a block in hand, or a place that released a block.
+    pub success: bool,
+    /// Why the action failed, when it did.
+    pub failure: Option<ActionFailure>,
+    /// The gripper pose of the action: `[x, y, z, yaw]` (metres, radians), z at the
+    /// action height.
+    pub pose: [f32; 4],
+    /// The block that was grasped or placed.
+    pub block: Option<usize>,
+}
+
+/// Why a primitive failed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ActionFailure {
+    /// No block between the jaws.
+    EmptyPixel,
+    /// The block is tilted too far for the jaws to square it.
+    TiltedBlock,
+    /// A finger would land on another block.
+    FingerCollision,
+    /// A grasp while already holding a block.
+    HandFull,
+    /// A place with an empty hand.
+    HandEmpty,
+}
+
+/// The block world: a table, four cubes, a gripper.
+pub struct World {
+    physics: PhysicsWorld,
+    blocks: [RigidBodyHandle; NUM_BLOCKS],
+    colliders: [ColliderHandle; NUM_BLOCKS],
+    held: Option<usize>,
+    /// Offset of the held block's centre across the jaws' closing axis, metres.
+    held_offset: f32,
+    config: WorldConfig,
+    noise_rng: ChaCha8Rng,
+    last_pose: Option<[f32; 4]>,
+    steps: u64,
+}
+
+impl std::fmt::Debug for World {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("World")
+            .field("held", &self.held)
+            .field("blocks", &self.block_poses())
+            .finish()
+    }
+}
+
+impl World {
+    /// A world with the blocks at the given poses (upright, as placed), settled.
+    pub fn from_poses(config: WorldConfig, poses: &[BlockPose; NUM_BLOCKS], seed: u64) -> Self {
+        let mut physics = PhysicsWorld::new();
+        physics.gravity = Vector::new(0.0, 0.0, -9.81);
+        let p = &mut physics.integration_parameters;
+        p.dt = 1.0 / PHYSICS_HZ;
+        p.contact_softness.natural_frequency = CONTACT_NATURAL_FREQUENCY;
+        p.static_contact_softness.natural_frequency = 2.0 * CONTACT_NATURAL_FREQUENCY;
+        physics.insert_collider(
+            ColliderBuilder::cuboid(1.0, 1.0, 0.05)
+                .translation(Vector::new(0.0, 0.0, -0.05))
+                .friction(0.7),
+            None,
+        );
+        let h = BLOCK_SIZE / 2.0;
+        let mut colliders = [ColliderHandle::invalid(); NUM_BLOCKS];
+        let blocks = std::array::from_fn(|i| {
+            let pose = poses[i];
+            let [x, y, z] = pose.position;
+            let body = RigidBodyBuilder::dynamic()
+                .pose(Pose::from_parts(Vector::new(x, y, z), pose.quat()));
+            let collider = ColliderBuilder::cuboid(h, h, h)
+                .friction(0.7)
+                .restitution(0.0)
+                .density(800.0);
+            let (b, c) = physics.insert(body, collider);
+            colliders[i] = c;
+            b
+        });
+        let mut world = Self {
+            physics,
+            blocks,
+            colliders,
+            held: None,
+            held_offset: 0.0,
+            config,
+            noise_rng: ChaCha8Rng::seed_from_u64(seed ^ 0x5ee5_9071),
+            last_pose: None,
+            steps: 0,
+        };
+        world.settle();
+        world
+    }
+
+    /// A random start (DESIGN §1): each block dropped from [`DROP_HEIGHT`] at a
+    /// uniform x, y in the workspace inset by [`DROP_INSET`], random orientation,
+    /// the physics settled after each drop.
+    pub fn random(config: WorldConfig, seed: u64) -> Self {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        // Start with the blocks parked far apart, then drop them one by one.
+        let parked: [BlockPose; NUM_BLOCKS] =
+            std::array::from_fn(|i| BlockPose::on_table(2.0 + i as f32 * 0.2, 2.0, 0, 0.0));
+        let mut world = Self::from_poses(config, &parked, seed);
+        for i in 0..NUM_BLOCKS {
+            world.drop_block(i, &mut rng, DROP_HEIGHT);
+        }
+        world
+    }
+
+    /// The unstack start: a 4-block tower at a random pose inside the workspace.
+    pub fn tower(config: WorldConfig, seed: u64) -> Self {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let lim = WORKSPACE_SIZE / 2.0 - DROP_INSET;
+        let x = rng.random_range(-lim..lim);
+        let y = rng.random_range(-lim..lim);
+        let yaw = rng.random_range(0.0..std::f32::consts::FRAC_PI_2);
+        let poses = std::array::from_fn(|i| {
+            let mut p = BlockPose::on_table(x, y, i, yaw);
+            p.position[2] += 0.0005 * i as f32;
+            p
+        });
+        Self::from_poses(config, &poses, seed)
+    }
+
+    /// Drops block `i` from `height` at a random pose over the inset workspace and
+    /// lets it settle. This is one step of a random start, and the step that
+    /// `seespot bench sim` measures.
+    pub fn drop_block(&mut self, i: usize, rng: &mut impl Rng, height: f32) {
+        let lim = WORKSPACE_SIZE / 2.0 - DROP_INSET;
+        let x = rng.random_range(-lim..lim);
+        let y = rng.random_range(-lim..lim);
+        let axis = Vector::new(
+            rng.random_range(-1.0..1.0f32),
+            rng.random_range(-1.0..1.0f32),
+            rng.random_range(-1.0..1.0f32),
+        )
+        .normalize_or(Vector::Z);
+        let angle = rng.random_range(0.0..std::f32::consts::TAU);
+        let q = Rotation::from_axis_angle(axis, angle);
+        if self.held == Some(i) {
+            self.held = None;
+        }
+        let body = &mut self.physics.bodies[self.blocks[i]];
+        body.set_body_type(RigidBodyType::Dynamic, true);
+        body.set_position(Pose::from_parts(Vector::new(x, y, height), q), true);
+        body.set_linvel(Vector::ZERO, true);
+        body.set_angvel(Vector::ZERO, true);
+        self.settle();
+    }
+
+    pub fn config(&self) -> &WorldConfig {
+        &self.config
+    }
+
+    pub fn grid(&self) -> Grid {
+        self.config.grid
+    }
+
+    /// The block in hand, if any.
+    pub fn held_block(&self) -> Option<usize> {
+        self.held
+    }
+
+    /// The primitive the next action must use: grasp with an empty hand, else place.
+    pub fn next_primitive(&self) -> Primitive {
+        if self.held.is_some() {
+            Primitive::Place
+        } else {
+            Primitive::Grasp
+        }
+    }
+
+    /// Poses of all four blocks, indexed by block (colour) id.
+    pub fn block_poses(&self) -> [BlockPose; NUM_BLOCKS] {
+        std::array::from_fn(|i| {
+            let body = &self.physics.bodies[self.blocks[i]];
+            let t = body.translation();
+            let q = *body.rotation();
+            BlockPose {
+                position: [t.x, t.y, t.z],
+                rotation: [q.x, q.y, q.z, q.w],
+            }
+        })
+    }
+
+    /// Poses of the blocks on the table (the held block left out), with their ids.
+    pub fn table_blocks(&self) -> Vec<(usize, BlockPose)> {
+        self.block_poses()
+            .into_iter()
+            .enumerate()
+            .filter(|(i, _)| Some(*i) != self.held)
+            .collect()
+    }
+
+    /// Poses of the blocks on the table, without ids: what progress is computed from.
+    pub fn table_poses(&self) -> Vec<BlockPose> {
+        self.table_blocks().into_iter().map(|(_, p)| p).collect()
+    }
+
+    /// Whether a block on the table has left the workspace square or the table.
+    pub fn block_out_of_workspace(&self) -> bool {
+        let grid = self.config.grid;
+        self.table_blocks().iter().any(|(_, p)| {
+            !grid.contains(p.position[0], p.position[1]) || p.position[2] < FELL_OFF_Z
+        })
+    }
+
+    /// Pose of the last executed action `[x, y, z, yaw]`, for display.
+    pub fn last_action_pose(&self) -> Option<[f32; 4]> {
+        self.last_pose
+    }
+
+    /// Physics steps taken since the world was made.
+    pub fn physics_steps(&self) -> u64 {
+        self.steps
+    }
+
+    /// Renders noise-free heightmaps.
+    pub fn render(&self) -> Heightmaps {
+        render(self.config.grid, &self.table_poses_with_ids())
+    }
+
+    /// Renders heightmaps with the configured sensor noise (the noise stream is
+    /// seeded by the world seed, so the same trial sees the same noise).
+    pub fn observe(&mut self) -> Heightmaps {
+        let mut hm = self.render();
+        self.config.noise.apply(&mut hm, &mut self.noise_rng);
+        hm
+    }
+
+    fn table_poses_with_ids(&self) -> Vec<(usize, BlockPose)> {
+        self.table_blocks()
+    }
+
+    /// Executes one action and lets the physics settle.
+    pub fn execute(&mut self, action: Action) -> ActionOutcome {
+        let grid = self.config.grid;
+        let (x, y) = grid.pixel_to_world(action.y, action.x);
+        let yaw = action.yaw();
+        let hm = self.render();
+        let z = hm.action_height(action.y, action.x);
+        let pose = [x, y, z, yaw];
+        self.last_pose = Some(pose);
+        let (failure, block) = match action.primitive {
+            Primitive::Grasp => match self.grasp(x, y, z, yaw) {
+                Ok(b) => (None, Some(b)),
+                Err(f) => (Some(f), None),
+            },
+            Primitive::Place => match self.place(x, y, z, yaw) {
+                Ok(b) => (None, Some(b)),
+                Err(f) => (Some(f), None),
+            },
+        };
+        ActionOutcome {
+            success: failure.is_none(),
+            failure,
+            pose,
+            block,
+        }
+    }
+
+    /// Whether `grasp` would catch a block, without moving anything: the block it
+    /// would lift, or why it would fail. The oracle uses it to pick a rotation.
+    pub fn check_grasp(&self, action: Action) -> Result<usize, ActionFailure> {
+        let (x, y) = self.config.grid.pixel_to_world(action.y, action.x);
+        let z = self.render().action_height(action.y, action.x);
+        self.grasp_target(x, y, z, action.yaw())
+    }
+
+    fn grasp_target(&self, x: f32, y: f32, z: f32, yaw: f32) -> Result<usize, ActionFailure> {
+        if self.held.is_some() {
+            return Err(ActionFailure::HandFull);
+        }
+        let (u, v) = ((yaw.cos(), yaw.sin()), (-yaw.sin(), yaw.cos()));
+        let grip_z = z - GRIP_DEPTH;
+        let poses = self.block_poses();
+        let target = (0..NUM_BLOCKS)
+            .filter(|i| {
+                let p = &poses[*i];
+                let (dx, dy) = (p.position[0] - x, p.position[1] - y);
+                let along = dx * u.0 + dy * u.1;
+                let across = dx * v.0 + dy * v.1;
+                let rel = p.yaw() - yaw;
+                let half_extent = BLOCK_SIZE / 2.0 * (rel.cos().abs() + rel.sin().abs());
+                across.abs() <= MAX_GRASP_OFFSET
+                    && along.abs() + half_extent <= JAW_OPENING / 2.0
+                    && p.top() >= grip_z
+                    && p.top() - BLOCK_SIZE * 1.2 < grip_z
+            })
+            .max_by(|a, b| poses[*a].top().total_cmp(&poses[*b].top()))
+            .ok_or(ActionFailure::EmptyPixel)?;
+        if poses[target].tilt() > MAX_GRASP_TILT {
+            return Err(ActionFailure::TiltedBlock);
+        }
+        // The fingers come down outside the open jaws; another block there blocks them.
+        let others: Vec<(usize, BlockPose)> = (0..NUM_BLOCKS)
+            .filter(|i| *i != target)
+            .map(|i| (i, poses[i]))
+            .collect();
+        let finger = JAW_OPENING / 2.0 + 0.005;
+        for side in [-1.0f32, 1.0] {
+            for t in [-FINGER_HALF_WIDTH, 0.0, FINGER_HALF_WIDTH] {
+                let fx = x + side * finger * u.0 + t * v.0;
+                let fy = y + side * finger * u.1 + t * v.1;
+                if let Some((h, _, _)) = height_at(&others, fx, fy)
+                    && h > grip_z + 0.005
+                {
+                    return Err(ActionFailure::FingerCollision);
+                }
+            }
+        }
+        Ok(target)
+    }
+
+    fn grasp(&mut self, x: f32, y: f32, z: f32, yaw: f32) -> Result<usize, ActionFailure> {
+        let target = self.grasp_target(x, y, z, yaw)?;
+        let v = (-yaw.sin(), yaw.cos());
+        // Close the jaws: square the block to them and centre it along the closing axis.
+        let p = self.block_poses()[target];
+        let (dx, dy) = (p.position[0] - x, p.position[1] - y);
+        let across = dx * v.0 + dy * v.1;
+        let cz = p.position[2];
+        let (cx, cy) = (x + across * v.0, y + across * v.1);
+        self.held_offset = across;
+        let handle = self.blocks[target];
+        self.physics.bodies[handle].set_body_type(RigidBodyType::KinematicPositionBased, true);
+        self.teleport(
+            handle,
+            Pose::from_parts(Vector::new(cx, cy, cz), Rotation::from_rotation_z(yaw)),
+        );
+        self.held = Some(target);
+        // Lift 10 cm physically: whatever leant on the block is left to fall.
+        self.move_kinematic(handle, Vector::new(cx, cy, cz + 0.1), yaw, None);
+        let [px, py, pz] = PARK_POSITION;
+        self.teleport(handle, Pose::from_translation(Vector::new(px, py, pz)));
+        self.settle();
+        Ok(target)
+    }
+
+    fn place(&mut self, x: f32, y: f32, z: f32, yaw: f32) -> Result<usize, ActionFailure> {
+        let held = self.held.ok_or(ActionFailure::HandEmpty)?;
+        let handle = self.blocks[held];
+        let v = (-yaw.sin(), yaw.cos());
+        let (cx, cy) = (x + self.held_offset * v.0, y + self.held_offset * v.1);
+        let target_z = z + PLACE_CLEARANCE + BLOCK_SIZE / 2.0;
+        let highest = self
+            .table_poses()
+            .iter()
+            .map(|p| p.top())
+            .fold(0.0f32, f32::max);
+        let start_z = (highest + 0.01 + BLOCK_SIZE / 2.0).max(target_z);
+        self.teleport(
+            handle,
+            Pose::from_parts(Vector::new(cx, cy, start_z), Rotation::from_rotation_z(yaw)),
+        );
+        // Lower until the target height or the first touch (the arm stops on contact).
+        self.move_kinematic(handle, Vector::new(cx, cy, target_z), yaw, Some(self.colliders[held]));
+        let body = &mut self.physics.bodies[handle];
+        body.set_body_type(RigidBodyType::Dynamic, true);
+        body.set_linvel(Vector::ZERO, true);
+        body.set_angvel(Vector::ZERO, true);
+        self.held = None;
+        self.settle();
+        Ok(held)
+    }
+
+    /// Moves a kinematic body in a straight line at [`GRIPPER_SPEED`], stepping the
+    /// physics so that it pushes what it meets; with `stop_on_contact`, the motion
+    /// ends at the first step where that collider touches anything.
+    fn move_kinematic(
+        &mut self,
+        handle: RigidBodyHandle,
+        to: Vector,
+        yaw: f32,
+        stop_on_contact: Option<ColliderHandle>,
+    ) {
+        let from = self.physics.bodies[handle].translation();
+        let dist = (to - from).length();
+        let step = GRIPPER_SPEED / PHYSICS_HZ;
+        let n = (dist / step).ceil().max(1.0) as usize;
+        for k in 1..=n {
+            let p = from + (to - from) * (k as f32 / n as f32);
+            self.physics.bodies[handle].set_next_kinematic_position(Pose::from_parts(
+                p,
+                Rotation::from_rotation_z(yaw),
+            ));
+            self.step();
+            if let Some(c) = stop_on_contact
+                && self
+                    .physics
+                    .narrow_phase
+                    .contact_pairs_with(c)
+                    .any(|pair| pair.has_any_active_contact())
+            {
+                let here = self.physics.bodies[handle].translation();
+                self.physics.bodies[handle]
+                    .set_next_kinematic_position(Pose::from_parts(here, Rotation::from_rotation_z(yaw)));
+                return;
+            }
+        }
+    }
+
+    /// Moves a kinematic body without sweeping through the space in between (the
+    /// arm carries a held block around, out of the scene): pose and next pose agree,
+    /// so the solver sees no velocity.
+    fn teleport(&mut self, handle: RigidBodyHandle, pose: Pose) {
+        let body = &mut self.physics.bodies[handle];
+        body.set_position(pose, true);
+        body.set_next_kinematic_position(pose);
+        body.set_linvel(Vector::ZERO, true);
+        body.set_angvel(Vector::ZERO, true);
+    }
+
+    fn step(&mut self) {
+        self.physics.step();
+        self.steps += 1;
+    }
+
+    /// Steps until every dynamic block is at rest (or [`MAX_SETTLE_SECONDS`]).
+    pub fn settle(&mut self) {
+        let max_steps = (MAX_SETTLE_SECONDS * PHYSICS_HZ) as usize;
+        let mut calm = 0;
+        for _ in 0..max_steps {
+            self.step();
+            let moving = self.blocks.iter().any(|h| {
+                let b = &self.physics.bodies[*h];
+                b.is_dynamic()
+                    && !b.is_sleeping()
+                    && (b.linvel().length() > 0.005 || b.angvel().length() > 0.05)
+            });
+            calm = if moving { 0 } else { calm + 1 };
+            if calm >= 4 {
+                break;
+            }
+        }
+    }
+}
+
+/// Highest point of the blocks under world `(x, y)` with the hit block id and
+/// whether the hit face points up: a vertical ray cast from above.
+fn height_at(blocks: &[(usize, BlockPose)], x: f32, y: f32) -> Option<(f32, usize, bool)> {
+    let mut best: Option<(f32, usize, bool)> = None;
+    for (id, p) in blocks {
+        if let Some((z, up)) = ray_down(p, x, y)
+            && best.is_none_or(|(bz, _, _)| z > bz)
+        {
+            best = Some((z, *id, up));
+        }
+    }
+    best
+}
+
+/// Intersection of the vertical ray through `(x, y)` with a block: the hit height
+/// and whether the face hit is the block's most upward-facing one.
+fn ray_down(p: &BlockPose, x: f32, y: f32) -> Option<(f32, bool)> {
+    let q = p.quat();
+    let inv = q.inverse();
+    let top = 1.0f32;
+    let origin = inv * Vector::new(x - p.position[0], y - p.position[1], top - p.position[2]);
+    let dir = inv * Vector::new(0.0, 0.0, -1.0);
+    let h = BLOCK_SIZE / 2.0;
+    let (mut t0, mut t1) = (f32::MIN, f32::MAX);
+    let mut axis = 2;
+    for k in 0..3 {
+        let (o, d) = (origin[k], dir[k]);
+        if d.abs() < 1e-9 {
+            if o.abs() > h {
+                return None;
+            }
+            continue;
+        }
+        let (a, b) = ((-h - o) / d, (h - o) / d);
+        let (near, far) = if a < b { (a, b) } else { (b, a) };
+        if near > t0 {
+            t0 = near;
+            axis = k;
+        }
+        t1 = t1.min(far);
+    }
+    if t0 > t1 || t1 < 0.0 {
+        return None;
+    }
+    // The face is flat-facing-up when its normal is the most vertical axis.
+    let up = dir[axis].abs() >= 0.9;
+    Some((top - t0, up))
+}
+
+/// Renders noise-free colour and depth heightmaps of the given blocks.
+pub fn render(grid: Grid, blocks: &[(usize, BlockPose)]) -> Heightmaps {
+    let mut hm = Heightmaps::empty(grid);
+    let n = grid.resolution;
+    let res = grid.pixel_size();
+    let reach = BLOCK_SIZE * 0.87;
+    for (id, p) in blocks {
+        let [bx, by, _] = p.position;
+        let lo_x = ((bx - reach - grid.x_min()) / res).floor().max(0.0) as usize;
+        let hi_x = ((bx + reach - grid.x_min()) / res).ceil().min(n as f32 - 1.0);
+        let lo_y = ((by - reach - grid.y_min()) / res).floor().max(0.0) as usize;
+        let hi_y = ((by + reach - grid.y_min()) / res).ceil().min(n as f32 - 1.0);
+        if hi_x < 0.0 || hi_y < 0.0 {
+            continue;
+        }
+        let color = BLOCK_COLORS[*id];
+        for py in lo_y..=hi_y as usize {
+            for px in lo_x..=hi_x as usize {
+                let (x, y) = grid.pixel_to_world(py, px);
+                if let Some((z, up)) = ray_down(p, x, y) {
+                    let i = py * n + px;
+                    if z > hm.depth[i] {
+                        hm.depth[i] = z;
+                        let shade = if up { 1.0 } else { 0.7 };
+                        for c in 0..3 {
+                            hm.color[i * 3 + c] = (color[c] as f32 * shade) as u8;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    debug_assert_eq!(TABLE_COLOR.len(), 3);
+    hm
+}

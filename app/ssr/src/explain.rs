@@ -1,0 +1,63 @@
+//! The explanation record of one SSR decision: everything the visual debugger
+//! needs to show why the robot chose its action.
+
+use serde::{Deserialize, Serialize};
+use seespot_sim::{Action, Primitive, TaskId};
+
+/// How SSR picks among the (policy, demo) pairs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Method {
+    /// Smallest cycle consistency distance C (Eq. 8).
+    SsrCcd,
+    /// Smallest embedding distance L (Eq. 9).
+    SsrL2cd,
+}
+
+/// One (policy m, demo n) pair's correspondence.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct PairExplanation {
+    /// The task the policy was trained on.
+    pub policy: TaskId,
+    /// Index of the demonstration (0 or 1).
+    pub demo: usize,
+    /// The demo step used (the step at the test progress with this primitive).
+    pub demo_step: usize,
+    /// The demonstrated action a_demo.
+    pub demo_action: Action,
+    /// L_{m,n}: embedding distance of the best match (Eq. 4).
+    pub l: f32,
+    /// F_{m,n}: the matched test action (Eq. 5).
+    pub matched: Action,
+    /// The rematch of F back into the demo scene (Eq. 6).
+    pub rematch: Action,
+    /// Embedding distance of the rematch.
+    pub rematch_l: f32,
+    /// C_{m,n}: cycle consistency distance, pixels (Eq. 7).
+    pub c: f32,
+    /// Match distances over the live scene at the matched rotation, `H x W`
+    /// (row-major; `f32::INFINITY` where masked).
+    pub match_map: Vec<f32>,
+    /// Rematch distances over the demo scene at the demo action's rotation, `H x W`.
+    pub rematch_map: Vec<f32>,
+}
+
+/// One SSR decision.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Decision {
+    pub method: Method,
+    pub primitive: Primitive,
+    /// Test progress p used to pick the demo steps.
+    pub progress: u8,
+    /// Heightmap resolution H = W.
+    pub resolution: usize,
+    /// Every pair, in the fixed order (policy in `TaskId::ALL` order, then demo).
+    pub pairs: Vec<PairExplanation>,
+    /// Index into `pairs` of the pair acted on.
+    pub chosen: usize,
+    /// The action executed: `pairs[chosen].matched`.
+    pub action: Action,
+    /// Milliseconds spent embedding the live scene, and on correspondence.
+    pub embed_ms: f64,
+    pub correspond_ms: f64,
+}

@@ -1,0 +1,7 @@
+//! See-SPOT-Run: repurpose SPOT-Q policies trained on other tasks to do a new
+//! task from two demonstrations (paper Sec. 4.2), and the leave-one-out
+//! evaluation with the metrics of Sec. 5.1.
+
+pub mod explain;
+
+pub use explain::{Decision, Method, PairExplanation};
