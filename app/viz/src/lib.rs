@@ -1,1 +1,22 @@
-//! placeholder
+//! The seespot visual debugger.
+//!
+//! - [`paths`]: the one scheme of rerun entity paths and timelines;
+//! - [`recording`]: logging trials to rerun (`.rrd` files or a live gRPC stream);
+//! - [`decider`]: what picks actions in a viewed trial (SSR, a feature baseline, the oracle);
+//! - [`session`]: a trial stepped phase by phase (embed, match, verify, act);
+//! - [`server`]: the local web server behind `web/` (assets, JSON API, WebSocket);
+//! - [`live`]: `view`, `record` and the latency / size benchmarks the CLI calls.
+
+pub mod b64;
+pub mod decider;
+pub mod live;
+pub mod paths;
+pub mod recording;
+pub mod server;
+pub mod session;
+pub mod ssr;
+
+pub use decider::{Choice, Decider, FeatureDecider, OracleDecider};
+pub use live::{DeciderKind, ViewOptions, ViewUrls, bench_view, record_trials, serve_view};
+pub use recording::Recorder;
+pub use session::{Phase, Session, SessionConfig};

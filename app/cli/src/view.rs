@@ -1,0 +1,196 @@
+//! `seespot view`, `seespot record` and `seespot bench view`: the visual
+//! debugger's commands (the work is in `seespot_viz`).
+
+use std::net::IpAddr;
+use std::path::PathBuf;
+
+use anyhow::Context;
+use seespot_sim::TaskId;
+use seespot_viz::live::{self, DeciderKind, ViewOptions};
+
+const DECIDERS: [&str; 4] = ["auto", "ssr", "features", "oracle"];
+
+fn task(s: &str) -> anyhow::Result<TaskId> {
+    TaskId::parse(s).with_context(|| format!("unknown task `{s}`; expected one of stack, row, unstack, vertical-square"))
+}
+
+fn decider(s: &str) -> anyhow::Result<DeciderKind> {
+    DeciderKind::parse(s).with_context(|| format!("unknown decider `{s}`; expected one of {}", DECIDERS.join(", ")))
+}
+
+/// Where the decider comes from.
+#[derive(clap::Args, Debug, Clone)]
+pub struct DeciderArgs {
+    /// What picks the actions: `auto` (the shipped SSR policy if its models and
+    /// demos exist, else SSR's loop over handcrafted features), `ssr`, `features` or `oracle`.
+    #[arg(long, default_value = "auto", value_parser = DECIDERS)]
+    pub decider: String,
+    /// Folder of the shipped policies (`<task>.safetensors`).
+    #[arg(long, default_value = "models")]
+    pub models: PathBuf,
+    /// Folder of the demonstrations (`<task>/{0,2}`).
+    #[arg(long, default_value = "demos")]
+    pub demos: PathBuf,
+}
+
+impl DeciderArgs {
+    fn factory(&self) -> anyhow::Result<seespot_viz::session::DeciderFactory> {
+        Ok(live::factory(decider(&self.decider)?, self.models.clone(), self.demos.clone()))
+    }
+}
+
+/// `seespot view`: run a live SSR trial and debug it in the browser.
+#[derive(clap::Args, Debug, Clone)]
+pub struct ViewArgs {
+    /// Task to run (stack, row, unstack, vertical-square).
+    #[arg(long, default_value = "stack")]
+    pub task: String,
+    /// Trial seed (test seeds are odd).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Heightmap resolution, pixels per side (224 = the paper's 2 mm/px).
+    #[arg(long, default_value_t = 112)]
+    pub resolution: usize,
+    /// Address to serve on; only loopback unless you ask (e.g. `--bind 0.0.0.0`).
+    #[arg(long, default_value = "127.0.0.1")]
+    pub bind: IpAddr,
+    /// Port of the page (0: any free port).
+    #[arg(long, default_value_t = 8765)]
+    pub port: u16,
+    /// Port of the rerun web viewer (0: any free port).
+    #[arg(long, default_value_t = 0)]
+    pub viewer_port: u16,
+    /// Port of the rerun gRPC stream the viewer connects to (0: any free port).
+    #[arg(long, default_value_t = 0)]
+    pub grpc_port: u16,
+    /// Also write the recording to this `.rrd` file (finished on Ctrl-C).
+    #[arg(long)]
+    pub save: Option<PathBuf>,
+    /// Serve the page only, without the rerun web viewer.
+    #[arg(long)]
+    pub no_viewer: bool,
+    #[command(flatten)]
+    pub decider: DeciderArgs,
+}
+
+/// Runs `seespot view` until Ctrl-C.
+pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
+    let opts = ViewOptions {
+        task: task(&args.task)?,
+        seed: args.seed,
+        resolution: args.resolution,
+        bind: args.bind,
+        port: args.port,
+        viewer_port: args.viewer_port,
+        grpc_port: args.grpc_port,
+        save: args.save.clone(),
+        no_viewer: args.no_viewer,
+    };
+    let factory = args.decider.factory()?;
+    let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
+    rt.block_on(live::serve_view(
+        opts,
+        factory,
+        |urls| {
+            println!("seespot page:       {}", urls.page);
+            if let Some(v) = &urls.viewer {
+                println!("rerun web viewer:   {v}");
+            }
+            if let Some(s) = &args.save {
+                println!("recording to:       {}", s.display());
+            }
+            println!("Press Ctrl-C to stop.");
+        },
+        live::ctrl_c(),
+    ))?;
+    if let Some(s) = &args.save {
+        println!("wrote {}", s.display());
+    }
+    Ok(())
+}
+
+/// `seespot record`: run trials and write one `.rrd` per trial.
+#[derive(clap::Args, Debug, Clone)]
+pub struct RecordArgs {
+    /// Task to run.
+    #[arg(long, default_value = "stack")]
+    pub task: String,
+    /// Number of trials.
+    #[arg(long, default_value_t = 1)]
+    pub trials: usize,
+    /// Seed of the first trial; the next ones are seed + 2, seed + 4, …
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Heightmap resolution, pixels per side.
+    #[arg(long, default_value_t = 112)]
+    pub resolution: usize,
+    /// Output folder (`<task>-<seed>.rrd` files).
+    #[arg(long, default_value = "recordings")]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub decider: DeciderArgs,
+}
+
+/// Runs `seespot record`; Ctrl-C finishes the current file and stops.
+pub fn run_record(args: RecordArgs) -> anyhow::Result<()> {
+    let factory = args.decider.factory()?;
+    let stop = live::ctrl_c_flag();
+    let bar = indicatif::ProgressBar::new(args.trials as u64);
+    let done = live::record_trials(task(&args.task)?, args.trials, args.seed, args.resolution, &args.out, &factory, &stop, |r| {
+        bar.println(format!(
+            "{}: {} actions, {}, max progress {}, {:.2} MB",
+            r.path.display(),
+            r.actions,
+            if r.succeeded { "success" } else { "failure" },
+            r.max_progress,
+            r.bytes as f64 / 1e6
+        ));
+        bar.inc(1);
+    })?;
+    bar.finish_and_clear();
+    let total: u64 = done.iter().map(|r| r.bytes).sum();
+    println!(
+        "wrote {} recordings to {} ({:.2} MB per trial); open one with `rerun FILE.rrd` (pip install rerun-sdk==0.36.3)",
+        done.len(),
+        args.out.display(),
+        total as f64 / 1e6 / done.len().max(1) as f64
+    );
+    Ok(())
+}
+
+/// `seespot bench view`: latency from a "next phase" request to the page's
+/// data being ready, and the recording size of one trial.
+#[derive(clap::Args, Debug, Clone)]
+pub struct BenchViewArgs {
+    #[arg(long, default_value = "stack")]
+    pub task: String,
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Heightmap resolution (224 = the paper's).
+    #[arg(long, default_value_t = 224)]
+    pub resolution: usize,
+    /// Stop after this many actions.
+    #[arg(long, default_value_t = 30)]
+    pub actions: usize,
+    /// Print the full report as JSON.
+    #[arg(long)]
+    pub json: bool,
+    #[command(flatten)]
+    pub decider: DeciderArgs,
+}
+
+/// Runs `seespot bench view`.
+pub fn run_bench_view(args: BenchViewArgs) -> anyhow::Result<()> {
+    let b = live::bench_view(task(&args.task)?, args.seed, args.resolution, args.actions, args.decider.factory()?)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&b)?);
+        return Ok(());
+    }
+    println!("view latency at {} px ({}), {} phase steps:", b.resolution, b.decider, b.phases.len());
+    println!("  next phase -> page data ready: median {:.1} ms, p90 {:.1} ms, max {:.1} ms", b.median_ms, b.p90_ms, b.max_ms);
+    for (phase, ms) in &b.median_by_phase {
+        println!("  {:<7} median {ms:.1} ms", phase.as_str());
+    }
+    println!("  recording of the trial: {:.2} MB", b.recording_bytes as f64 / 1e6);
+    Ok(())
+}

@@ -1,0 +1,57 @@
+//! A minimal `seespot view` without the CLI, for the browser tests:
+//! `view_server [view] [--task T] [--seed S] [--resolution N] [--port P]
+//! [--decider auto|ssr|features|oracle] [--save FILE] [--no-viewer]`.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use seespot_sim::TaskId;
+use seespot_viz::live::{self, DeciderKind, ViewOptions};
+
+fn main() -> anyhow::Result<()> {
+    let mut opts = ViewOptions {
+        task: TaskId::Stack,
+        seed: 1,
+        resolution: 112,
+        bind: "127.0.0.1".parse()?,
+        port: 8765,
+        viewer_port: 0,
+        grpc_port: 0,
+        save: None,
+        no_viewer: false,
+    };
+    let mut kind = DeciderKind::Auto;
+    let mut args = std::env::args().skip(1).peekable();
+    if args.peek().is_some_and(|a| a == "view") {
+        args.next();
+    }
+    while let Some(a) = args.next() {
+        let mut val = || args.next().with_context(|| format!("{a} needs a value"));
+        match a.as_str() {
+            "--task" => opts.task = TaskId::parse(&val()?).context("bad --task")?,
+            "--seed" => opts.seed = val()?.parse()?,
+            "--resolution" => opts.resolution = val()?.parse()?,
+            "--port" => opts.port = val()?.parse()?,
+            "--viewer-port" => opts.viewer_port = val()?.parse()?,
+            "--grpc-port" => opts.grpc_port = val()?.parse()?,
+            "--bind" => opts.bind = val()?.parse()?,
+            "--save" => opts.save = Some(PathBuf::from(val()?)),
+            "--decider" => kind = DeciderKind::parse(&val()?).context("bad --decider")?,
+            "--no-viewer" => opts.no_viewer = true,
+            other => anyhow::bail!("unknown argument {other}"),
+        }
+    }
+    let factory = live::factory(kind, "models".into(), "demos".into());
+    let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
+    rt.block_on(live::serve_view(
+        opts,
+        factory,
+        |urls| {
+            println!("seespot page:       {}", urls.page);
+            if let Some(v) = &urls.viewer {
+                println!("rerun web viewer:   {v}");
+            }
+        },
+        live::ctrl_c(),
+    ))
+}

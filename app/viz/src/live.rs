@@ -1,0 +1,362 @@
+//! The debugger's entry points: `view` (a live trial served to the browser and
+//! the rerun web viewer), `record` (one `.rrd` per trial) and the latency and
+//! size benchmarks.
+
+use std::net::{IpAddr, SocketAddr, TcpListener as StdListener};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use anyhow::Context;
+use serde::Serialize;
+use serde_json::json;
+use seespot_sim::{Grid, TaskId, WorldConfig};
+
+use crate::decider::{Decider, FeatureDecider, OracleDecider, load_demos};
+use crate::recording::Recorder;
+use crate::server::{self, AppState};
+use crate::session::{DeciderFactory, Phase, Session, SessionConfig};
+
+/// Which decider drives the trial.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DeciderKind {
+    /// The shipped SSR policy when its models and demos exist, else the feature baseline.
+    Auto,
+    /// The shipped SSR policy (models/<task>.safetensors + demos); an error if missing.
+    Ssr,
+    /// SSR's loop over handcrafted features (no models needed).
+    Features,
+    /// The scripted oracle (no explanation).
+    Oracle,
+}
+
+impl DeciderKind {
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "auto" => Some(Self::Auto),
+            "ssr" => Some(Self::Ssr),
+            "features" => Some(Self::Features),
+            "oracle" => Some(Self::Oracle),
+            _ => None,
+        }
+    }
+}
+
+/// The decider factory for `kind`, reading models from `models_dir` and
+/// demos from `demos_dir`.
+pub fn factory(kind: DeciderKind, models_dir: PathBuf, demos_dir: PathBuf) -> DeciderFactory {
+    Box::new(move |task: TaskId, world: WorldConfig| -> anyhow::Result<(Box<dyn Decider>, String)> {
+        let model = models_dir.join(format!("{}.safetensors", task.as_str()));
+        match kind {
+            DeciderKind::Oracle => Ok((Box::new(OracleDecider::new(task)), "scripted oracle".to_owned())),
+            DeciderKind::Ssr => crate::ssr::load(task, &models_dir, &demos_dir, world),
+            DeciderKind::Features => {
+                let (demos, note) = load_demos(task, &demos_dir, world);
+                Ok((Box::new(FeatureDecider::new(task, demos)), note))
+            }
+            DeciderKind::Auto => match crate::ssr::load(task, &models_dir, &demos_dir, world) {
+                Ok(d) => Ok(d),
+                Err(e) => {
+                    let (demos, note) = load_demos(task, &demos_dir, world);
+                    let why = format!("SSR unavailable ({e:#}); using the feature baseline. {note}");
+                    let _ = model;
+                    Ok((Box::new(FeatureDecider::new(task, demos)), why))
+                }
+            },
+        }
+    })
+}
+
+/// Options of `seespot view`.
+#[derive(Clone, Debug)]
+pub struct ViewOptions {
+    pub task: TaskId,
+    pub seed: u64,
+    pub resolution: usize,
+    pub bind: IpAddr,
+    /// Page port (0: any free port).
+    pub port: u16,
+    /// rerun web viewer port (0: any free port).
+    pub viewer_port: u16,
+    /// rerun gRPC port (0: any free port).
+    pub grpc_port: u16,
+    /// Also write the recording here.
+    pub save: Option<PathBuf>,
+    /// Serve no rerun viewer (the page alone).
+    pub no_viewer: bool,
+}
+
+/// The URLs a running `view` serves.
+#[derive(Clone, Debug, Serialize)]
+pub struct ViewUrls {
+    pub page: String,
+    pub viewer: Option<String>,
+    pub grpc: Option<String>,
+}
+
+fn free_port(bind: IpAddr) -> anyhow::Result<u16> {
+    let l = StdListener::bind(SocketAddr::new(bind, 0)).with_context(|| format!("cannot bind {bind}"))?;
+    Ok(l.local_addr()?.port())
+}
+
+/// Runs `seespot view`: builds the session, serves the page (and the rerun
+/// viewer with its gRPC stream), calls `ready` with the URLs, and runs until
+/// `shutdown` resolves (Ctrl-C in the CLI). The recording is flushed and
+/// dropped before returning, so a `--save` file gets its footer.
+pub async fn serve_view(
+    opts: ViewOptions,
+    factory: DeciderFactory,
+    ready: impl FnOnce(&ViewUrls) + Send,
+    shutdown: impl std::future::Future<Output = ()> + Send + 'static,
+) -> anyhow::Result<()> {
+    let bind = opts.bind;
+    let world = WorldConfig {
+        grid: Grid::new(opts.resolution),
+        ..WorldConfig::default()
+    };
+    let mut viewer_server = None;
+    let (recorder, grpc_url) = if opts.no_viewer {
+        (opts.save.as_deref().map(|p| Recorder::to_file(opts.task, p)).transpose()?, None)
+    } else {
+        let grpc_port = if opts.grpc_port == 0 { free_port(bind)? } else { opts.grpc_port };
+        let rec = Recorder::serve(opts.task, &bind.to_string(), grpc_port, opts.save.as_deref())?;
+        (Some(rec), Some(format!("rerun+http://{}/proxy", SocketAddr::new(bind, grpc_port))))
+    };
+    let viewer_url = match &grpc_url {
+        None => None,
+        Some(g) => {
+            let cfg = rerun::web_viewer::WebViewerConfig {
+                bind_ip: bind.to_string(),
+                web_port: opts.viewer_port.into(),
+                connect_to: vec![g.clone()],
+                open_browser: false,
+                ..Default::default()
+            };
+            let srv = cfg.host_web_viewer().context("cannot start the rerun web viewer")?;
+            let url = format!("{}/?url={}", srv.server_url(), percent_encode(g));
+            viewer_server = Some(srv);
+            Some(url)
+        }
+    };
+    let config = SessionConfig {
+        task: opts.task,
+        seed: opts.seed,
+        world,
+    };
+    let session = tokio::task::spawn_blocking(move || Session::new(factory, config, recorder)).await??;
+    let info = json!({
+        "viewer_url": viewer_url,
+        "grpc_url": grpc_url,
+        "rerun_version": "0.36.3",
+        "seespot_version": seespot_sim::VERSION,
+        "tasks": TaskId::ALL.iter().map(|t| t.as_str()).collect::<Vec<_>>(),
+    });
+    let state = AppState::new(session, info);
+    let listener = tokio::net::TcpListener::bind(SocketAddr::new(bind, opts.port))
+        .await
+        .with_context(|| format!("cannot bind the page server to {bind}:{}", opts.port))?;
+    let urls = ViewUrls {
+        page: server::url(listener.local_addr()?),
+        viewer: viewer_url,
+        grpc: grpc_url,
+    };
+    ready(&urls);
+    server::serve_page(listener, state.clone(), shutdown).await?;
+    // Finish the recording: stop any run, then drop the stream (writes the footer).
+    let st = state.clone();
+    tokio::task::spawn_blocking(move || {
+        st.session().take_recorder().inspect(Recorder::flush);
+    })
+    .await?;
+    drop(viewer_server);
+    Ok(())
+}
+
+/// `rerun+http://…` as a query-string value.
+fn percent_encode(s: &str) -> String {
+    s.bytes()
+        .map(|b| if b.is_ascii_alphanumeric() || b"-._~".contains(&b) { (b as char).to_string() } else { format!("%{b:02X}") })
+        .collect()
+}
+
+/// One recorded trial.
+#[derive(Clone, Debug, Serialize)]
+pub struct RecordedTrial {
+    pub path: PathBuf,
+    pub seed: u64,
+    pub actions: usize,
+    pub succeeded: bool,
+    pub max_progress: u8,
+    pub bytes: u64,
+}
+
+/// Runs `trials` trials of `task` from seeds `seed0, seed0 + 2, …` (test seeds
+/// are odd: pass an odd `seed0`) and writes `out/<task>-<seed>.rrd` for each.
+/// `stop` is polled between phases: when set, the current file is finished
+/// (the stream dropped, so the footer is written) and recording stops.
+pub fn record_trials(
+    task: TaskId,
+    trials: usize,
+    seed0: u64,
+    resolution: usize,
+    out: &Path,
+    factory: &DeciderFactory,
+    stop: &AtomicBool,
+    mut progress: impl FnMut(&RecordedTrial),
+) -> anyhow::Result<Vec<RecordedTrial>> {
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let world = WorldConfig {
+        grid: Grid::new(resolution),
+        ..WorldConfig::default()
+    };
+    let mut done = Vec::new();
+    for i in 0..trials {
+        if stop.load(Ordering::SeqCst) {
+            break;
+        }
+        let seed = seed0 + 2 * i as u64;
+        let path = out.join(format!("{}-{seed}.rrd", task.as_str()));
+        let recorder = Recorder::to_file(task, &path)?;
+        let config = SessionConfig { task, seed, world };
+        let f: DeciderFactory = {
+            // Each session owns its factory; reuse ours through a reference-counted shim.
+            let shared: &DeciderFactory = factory;
+            let (d, note) = shared(task, world)?;
+            let cell = std::sync::Mutex::new(Some((d, note)));
+            Box::new(move |_, _| cell.lock().map_err(|_| anyhow::anyhow!("poisoned"))?.take().context("decider already used"))
+        };
+        let mut session = Session::new(f, config, Some(recorder))?;
+        while !session.ended() && !stop.load(Ordering::SeqCst) {
+            session.next_phase()?;
+        }
+        let t = session.trial();
+        let (actions, succeeded, max_progress) = (t.actions(), t.succeeded(), t.max_progress());
+        drop(session.take_recorder());
+        let bytes = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
+        let r = RecordedTrial {
+            path,
+            seed,
+            actions,
+            succeeded,
+            max_progress,
+            bytes,
+        };
+        progress(&r);
+        done.push(r);
+    }
+    Ok(done)
+}
+
+/// Latency of one phase step as the page sees it: the `next_phase` request,
+/// the new state and the frame of the chosen pair serialized.
+#[derive(Clone, Debug, Serialize)]
+pub struct PhaseTiming {
+    pub action: usize,
+    pub phase: Phase,
+    pub ms: f64,
+    pub frame_bytes: usize,
+}
+
+/// Summary of [`bench_view`].
+#[derive(Clone, Debug, Serialize)]
+pub struct ViewBench {
+    pub task: TaskId,
+    pub seed: u64,
+    pub resolution: usize,
+    pub decider: String,
+    pub phases: Vec<PhaseTiming>,
+    pub median_ms: f64,
+    pub p90_ms: f64,
+    pub max_ms: f64,
+    /// Median per phase kind.
+    pub median_by_phase: Vec<(Phase, f64)>,
+    /// Bytes of the in-memory recording of the whole trial (a proxy for `.rrd` size).
+    pub recording_bytes: usize,
+}
+
+fn percentile(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return 0.0;
+    }
+    sorted[((sorted.len() - 1) as f64 * q).round() as usize]
+}
+
+/// Steps one trial phase by phase (at most `max_actions` actions), timing from
+/// each "next phase" request to the page's data (state + frame JSON) being
+/// ready, with recording on (in memory).
+pub fn bench_view(task: TaskId, seed: u64, resolution: usize, max_actions: usize, factory: DeciderFactory) -> anyhow::Result<ViewBench> {
+    let world = WorldConfig {
+        grid: Grid::new(resolution),
+        ..WorldConfig::default()
+    };
+    let (recorder, storage) = Recorder::memory(task)?;
+    let mut s = Session::new(factory, SessionConfig { task, seed, world }, Some(recorder))?;
+    let decider = s.state()["decider"].as_str().unwrap_or_default().to_owned();
+    let mut phases = Vec::new();
+    while !s.ended() && s.trial().actions() < max_actions {
+        let t0 = Instant::now();
+        let phase = s.next_phase()?;
+        let state = s.state().to_string();
+        let pair = s.decision().map_or(0, |d| d.chosen);
+        let frame = s.frame(pair).to_string();
+        let ms = t0.elapsed().as_secs_f64() * 1e3;
+        phases.push(PhaseTiming {
+            action: s.trial().actions(),
+            phase,
+            ms,
+            frame_bytes: frame.len() + state.len(),
+        });
+    }
+    drop(s.take_recorder());
+    let recording_bytes = storage.drain_as_bytes().map(|b| b.len()).unwrap_or(0);
+    let mut all: Vec<f64> = phases.iter().map(|p| p.ms).collect();
+    all.sort_by(f64::total_cmp);
+    let median_by_phase = Phase::ALL
+        .iter()
+        .map(|ph| {
+            let mut v: Vec<f64> = phases.iter().filter(|p| p.phase == *ph).map(|p| p.ms).collect();
+            v.sort_by(f64::total_cmp);
+            (*ph, percentile(&v, 0.5))
+        })
+        .collect();
+    Ok(ViewBench {
+        task,
+        seed,
+        resolution,
+        decider,
+        median_ms: percentile(&all, 0.5),
+        p90_ms: percentile(&all, 0.9),
+        max_ms: all.last().copied().unwrap_or(0.0),
+        phases,
+        median_by_phase,
+        recording_bytes,
+    })
+}
+
+/// A future that resolves on Ctrl-C (or never, if the signal cannot be installed).
+pub async fn ctrl_c() {
+    if tokio::signal::ctrl_c().await.is_err() {
+        std::future::pending::<()>().await;
+    }
+}
+
+/// Installs a Ctrl-C handler that sets the returned flag (for blocking loops
+/// such as [`record_trials`]); runs the signal listener on its own thread.
+pub fn ctrl_c_flag() -> Arc<AtomicBool> {
+    let flag = Arc::new(AtomicBool::new(false));
+    let f = flag.clone();
+    let _ = std::thread::Builder::new().name("ctrl-c".into()).spawn(move || {
+        let Ok(rt) = tokio::runtime::Builder::new_current_thread().enable_all().build() else {
+            return;
+        };
+        rt.block_on(async {
+            if tokio::signal::ctrl_c().await.is_ok() {
+                eprintln!("\nCtrl-C: finishing the current recording…");
+                f.store(true, Ordering::SeqCst);
+            }
+        });
+    });
+    flag
+}

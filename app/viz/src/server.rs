@@ -1,0 +1,315 @@
+//! The local web server behind `web/`: the page's assets (embedded in the
+//! binary, so nothing else on disk can be served), a small JSON API and a
+//! WebSocket that steps the trial and answers click-to-query.
+//!
+//! WebSocket protocol (JSON text messages):
+//! - client -> server: `{"type": "next_phase" | "next_action" | "run" | "stop" | "state"}`,
+//!   `{"type": "reset", "task": "stack", "seed": 1}`,
+//!   `{"type": "query", "pair": 0, "policy": 1, "y": 40, "x": 60}`.
+//! - server -> every tab: `{"type": "state", ...}` after each change (see [`Session::state`]).
+//! - server -> the asking tab: `{"type": "query", ...}`, `{"type": "error", "message": ...}`.
+//!
+//! A tab that disconnects changes nothing: stepping runs on blocking tasks that
+//! finish whether or not anyone still listens.
+
+use std::collections::HashMap;
+use std::net::SocketAddr;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
+
+use axum::Router;
+use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
+use axum::extract::{Query, State};
+use axum::http::{StatusCode, Uri, header};
+use axum::response::{IntoResponse, Response};
+use axum::routing::get;
+use futures_util::{SinkExt, StreamExt};
+use serde_json::{Value, json};
+use seespot_sim::TaskId;
+use tokio::sync::{broadcast, mpsc};
+
+use crate::session::Session;
+
+/// The page's files, embedded at compile time: `(url path, content type, body)`.
+pub const ASSETS: &[(&str, &str, &str)] = &[
+    ("/", "text/html; charset=utf-8", include_str!("../../../web/index.html")),
+    ("/index.html", "text/html; charset=utf-8", include_str!("../../../web/index.html")),
+    ("/app.js", "text/javascript; charset=utf-8", include_str!("../../../web/app.js")),
+    ("/render.js", "text/javascript; charset=utf-8", include_str!("../../../web/render.js")),
+    ("/style.css", "text/css; charset=utf-8", include_str!("../../../web/style.css")),
+    ("/favicon.svg", "image/svg+xml", include_str!("../../../web/favicon.svg")),
+];
+
+/// Largest WebSocket message accepted from a tab, bytes.
+pub const MAX_MESSAGE_BYTES: usize = 16 * 1024;
+
+/// Shared by every request.
+pub struct AppState {
+    session: Mutex<Session>,
+    tx: broadcast::Sender<String>,
+    running: AtomicBool,
+    /// Static facts for the page: the rerun viewer's URL, versions.
+    info: Value,
+}
+
+impl std::fmt::Debug for AppState {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("AppState").field("info", &self.info).finish_non_exhaustive()
+    }
+}
+
+impl AppState {
+    pub fn new(session: Session, info: Value) -> Arc<Self> {
+        let (tx, _) = broadcast::channel(64);
+        Arc::new(Self {
+            session: Mutex::new(session),
+            tx,
+            running: AtomicBool::new(false),
+            info,
+        })
+    }
+
+    /// Locks the session; a panic while stepping does not poison the server.
+    pub fn session(&self) -> MutexGuard<'_, Session> {
+        self.session.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    fn broadcast_state(&self) {
+        let s = self.session().state().to_string();
+        // No receivers is fine: nobody is watching.
+        let _ = self.tx.send(s);
+    }
+}
+
+/// The router: assets, `/api/*` and `/ws`.
+pub fn router(state: Arc<AppState>) -> Router {
+    Router::new()
+        .route("/api/info", get(info))
+        .route("/api/state", get(api_state))
+        .route("/api/decision", get(api_decision))
+        .route("/api/frame", get(api_frame))
+        .route("/ws", get(ws))
+        .fallback(asset)
+        .with_state(state)
+}
+
+/// Serves an embedded asset by exact path, else 404. Paths are never mapped to
+/// the file system.
+async fn asset(uri: Uri) -> Response {
+    match ASSETS.iter().find(|(p, _, _)| *p == uri.path()) {
+        Some((_, ty, body)) => ([(header::CONTENT_TYPE, *ty), (header::CACHE_CONTROL, "no-cache")], *body).into_response(),
+        None => (StatusCode::NOT_FOUND, "not found").into_response(),
+    }
+}
+
+async fn info(State(s): State<Arc<AppState>>) -> Response {
+    axum::Json(s.info.clone()).into_response()
+}
+
+async fn api_state(State(s): State<Arc<AppState>>) -> Response {
+    let st = s.clone();
+    blocking(move || st.session().state()).await
+}
+
+async fn api_decision(State(s): State<Arc<AppState>>, Query(q): Query<HashMap<String, String>>) -> Response {
+    let maps = q.get("maps").is_some_and(|v| v == "1" || v == "true");
+    let st = s.clone();
+    blocking(move || st.session().decision_json(maps)).await
+}
+
+async fn api_frame(State(s): State<Arc<AppState>>, Query(q): Query<HashMap<String, String>>) -> Response {
+    let pair = match q.get("pair").map(|p| p.parse::<usize>()) {
+        None => 0,
+        Some(Ok(p)) => p,
+        Some(Err(_)) => return (StatusCode::BAD_REQUEST, axum::Json(json!({"type": "error", "message": "`pair` must be a non-negative integer"}))).into_response(),
+    };
+    let st = s.clone();
+    blocking(move || st.session().frame(pair)).await
+}
+
+async fn blocking(f: impl FnOnce() -> Value + Send + 'static) -> Response {
+    match tokio::task::spawn_blocking(f).await {
+        Ok(v) => axum::Json(v).into_response(),
+        Err(e) => (StatusCode::INTERNAL_SERVER_ERROR, format!("internal error: {e}")).into_response(),
+    }
+}
+
+async fn ws(State(s): State<Arc<AppState>>, upgrade: WebSocketUpgrade) -> Response {
+    upgrade.max_message_size(MAX_MESSAGE_BYTES).on_upgrade(move |socket| client(socket, s))
+}
+
+fn error(message: impl Into<String>, request: Option<&str>) -> String {
+    json!({"type": "error", "message": message.into(), "request": request}).to_string()
+}
+
+/// One tab: forwards broadcasts and direct replies, and handles its requests.
+async fn client(socket: WebSocket, s: Arc<AppState>) {
+    let (mut sink, mut stream) = socket.split();
+    let mut rx = s.tx.subscribe();
+    let (direct_tx, mut direct_rx) = mpsc::channel::<String>(16);
+    let hello = json!({"type": "info", "info": s.info}).to_string();
+    let st = s.clone();
+    let state = tokio::task::spawn_blocking(move || st.session().state().to_string()).await.unwrap_or_default();
+    let writer = tokio::spawn(async move {
+        for m in [hello, state] {
+            if sink.send(Message::Text(m.into())).await.is_err() {
+                return;
+            }
+        }
+        loop {
+            let msg = tokio::select! {
+                m = rx.recv() => match m {
+                    Ok(m) => m,
+                    Err(broadcast::error::RecvError::Lagged(_)) => continue,
+                    Err(broadcast::error::RecvError::Closed) => return,
+                },
+                m = direct_rx.recv() => match m {
+                    Some(m) => m,
+                    None => return,
+                },
+            };
+            if sink.send(Message::Text(msg.into())).await.is_err() {
+                return;
+            }
+        }
+    });
+    while let Some(Ok(msg)) = stream.next().await {
+        let text = match msg {
+            Message::Text(t) => t.as_str().to_owned(),
+            Message::Binary(_) => {
+                let _ = direct_tx.send(error("binary messages are not understood; send JSON text", None)).await;
+                continue;
+            }
+            Message::Close(_) => break,
+            _ => continue,
+        };
+        if let Some(reply) = handle(&s, &text).await {
+            if direct_tx.send(reply).await.is_err() {
+                break;
+            }
+        }
+    }
+    writer.abort();
+}
+
+/// Handles one request; returns the direct reply, if any (state changes are broadcast).
+pub async fn handle(s: &Arc<AppState>, text: &str) -> Option<String> {
+    let v: Value = match serde_json::from_str(text) {
+        Ok(v) => v,
+        Err(e) => return Some(error(format!("malformed message (not JSON): {e}"), None)),
+    };
+    let Some(kind) = v.get("type").and_then(Value::as_str).map(str::to_owned) else {
+        return Some(error("message has no string field `type`", None));
+    };
+    let kind = kind.as_str();
+    if s.running.load(Ordering::SeqCst) && !matches!(kind, "stop" | "state" | "query" | "ping") {
+        return Some(error("a run to the end is in progress; send `stop` first", Some(kind)));
+    }
+    let st = s.clone();
+    let reply = match kind {
+        "ping" => return Some(json!({"type": "pong"}).to_string()),
+        "state" => return Some(st.session().state().to_string()),
+        "next_phase" => step(st, |ses| ses.next_phase().map(|_| ())).await,
+        "next_action" => step(st, Session::next_action).await,
+        "reset" => {
+            let task = match v.get("task").and_then(Value::as_str) {
+                None => None,
+                Some(t) => match TaskId::parse(t) {
+                    Some(t) => Some(t),
+                    None => return Some(error(format!("unknown task `{t}`; expected one of stack, row, unstack, vertical-square"), Some(kind))),
+                },
+            };
+            let seed = match v.get("seed") {
+                None | Some(Value::Null) => None,
+                Some(x) => match x.as_u64() {
+                    Some(x) => Some(x),
+                    None => return Some(error("field `seed` must be a non-negative integer", Some(kind))),
+                },
+            };
+            step(st, move |ses| {
+                let task = task.unwrap_or(ses.trial().task());
+                let seed = seed.unwrap_or(ses.trial().seed());
+                ses.reset(task, seed)
+            })
+            .await
+        }
+        "query" => {
+            let field = |name: &str| v.get(name).and_then(Value::as_u64).map(|x| x as usize);
+            let (Some(pair), Some(policy), Some(y), Some(x)) = (field("pair"), field("policy"), field("y"), field("x")) else {
+                return Some(error("query needs non-negative integers `pair`, `policy`, `y` and `x`", Some(kind)));
+            };
+            let r = tokio::task::spawn_blocking(move || st.session().query(pair, policy, y, x)).await;
+            return Some(match r {
+                Ok(Ok(v)) => v.to_string(),
+                Ok(Err(e)) => error(format!("{e:#}"), Some(kind)),
+                Err(e) => error(format!("internal error: {e}"), Some(kind)),
+            });
+        }
+        "run" => {
+            s.running.store(true, Ordering::SeqCst);
+            s.broadcast_state();
+            tokio::task::spawn_blocking(move || {
+                while st.running.load(Ordering::SeqCst) {
+                    let r = {
+                        let mut ses = st.session();
+                        if ses.ended() {
+                            break;
+                        }
+                        ses.next_action()
+                    };
+                    st.broadcast_state();
+                    if r.is_err() {
+                        break;
+                    }
+                }
+                st.running.store(false, Ordering::SeqCst);
+                if let Some(r) = st.session().recorder() {
+                    r.flush();
+                }
+                st.broadcast_state();
+            });
+            return None;
+        }
+        "stop" => {
+            s.running.store(false, Ordering::SeqCst);
+            return None;
+        }
+        other => return Some(error(format!("unknown message type `{other}`; expected next_phase, next_action, run, stop, reset, query, state or ping"), Some(other))),
+    };
+    match reply {
+        Ok(()) => None,
+        Err(e) => Some(error(e, Some(kind))),
+    }
+}
+
+/// Runs `f` on the session on a blocking thread, then broadcasts the new state.
+async fn step(s: Arc<AppState>, f: impl FnOnce(&mut Session) -> anyhow::Result<()> + Send + 'static) -> Result<(), String> {
+    let st = s.clone();
+    let r = tokio::task::spawn_blocking(move || {
+        let r = f(&mut st.session());
+        st.broadcast_state();
+        r
+    })
+    .await;
+    match r {
+        Ok(Ok(())) => Ok(()),
+        Ok(Err(e)) => Err(format!("{e:#}")),
+        Err(e) => Err(format!("internal error: {e}")),
+    }
+}
+
+/// Whether a run to the end is in progress.
+pub fn running(s: &AppState) -> bool {
+    s.running.load(Ordering::SeqCst)
+}
+
+/// Binds the page server on `addr` and serves until `shutdown` resolves.
+pub async fn serve_page(listener: tokio::net::TcpListener, state: Arc<AppState>, shutdown: impl std::future::Future<Output = ()> + Send + 'static) -> anyhow::Result<()> {
+    axum::serve(listener, router(state)).with_graceful_shutdown(shutdown).await?;
+    Ok(())
+}
+
+/// The address the page server is bound to, as a URL.
+pub fn url(addr: SocketAddr) -> String {
+    format!("http://{addr}/")
+}

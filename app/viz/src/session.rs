@@ -1,0 +1,375 @@
+//! A live, steppable trial: the state machine behind the page and `seespot view`.
+//!
+//! Each action goes through four phases (DESIGN §4): **embed** (the decision
+//! is computed and the live and demo heightmaps are shown), **match** (match
+//! heatmaps, L and F appear), **verify** (rematch heatmaps and C appear) and
+//! **act** (the chosen pair is marked and its F executed).
+
+use std::path::PathBuf;
+
+use anyhow::{Context, bail};
+use serde::Serialize;
+use serde_json::{Value, json};
+use seespot_sim::{Action, Heightmaps, TaskId, Trial, WorldConfig};
+use seespot_ssr::Decision;
+
+use crate::b64;
+use crate::decider::Decider;
+use crate::recording::Recorder;
+
+/// One phase of an SSR decision.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Phase {
+    Embed,
+    Match,
+    Verify,
+    Act,
+}
+
+impl Phase {
+    pub const ALL: [Phase; 4] = [Phase::Embed, Phase::Match, Phase::Verify, Phase::Act];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Phase::Embed => "embed",
+            Phase::Match => "match",
+            Phase::Verify => "verify",
+            Phase::Act => "act",
+        }
+    }
+}
+
+/// Makes the decider for a task at a resolution; returns it and a note on
+/// what was loaded (shown on the page).
+pub type DeciderFactory = Box<dyn Fn(TaskId, WorldConfig) -> anyhow::Result<(Box<dyn Decider>, String)> + Send>;
+
+/// How a session starts.
+#[derive(Clone, Debug)]
+pub struct SessionConfig {
+    pub task: TaskId,
+    pub seed: u64,
+    pub world: WorldConfig,
+}
+
+/// A trial being stepped, its current decision and the recording.
+pub struct Session {
+    factory: DeciderFactory,
+    decider: Box<dyn Decider>,
+    decider_note: String,
+    config: SessionConfig,
+    trial: Trial,
+    trial_index: u64,
+    phase: Option<Phase>,
+    decision: Option<Decision>,
+    /// The scene the current decision was made on.
+    decided_on: Option<Heightmaps>,
+    action: Option<Action>,
+    recorder: Option<Recorder>,
+    version: u64,
+    last_error: Option<String>,
+}
+
+impl std::fmt::Debug for Session {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Session").field("config", &self.config).field("phase", &self.phase).finish_non_exhaustive()
+    }
+}
+
+impl Session {
+    pub fn new(factory: DeciderFactory, config: SessionConfig, recorder: Option<Recorder>) -> anyhow::Result<Self> {
+        let (decider, decider_note) = factory(config.task, config.world)?;
+        let trial = Trial::new(config.world, config.task, config.seed);
+        let mut s = Self {
+            factory,
+            decider,
+            decider_note,
+            config,
+            trial,
+            trial_index: 0,
+            phase: None,
+            decision: None,
+            decided_on: None,
+            action: None,
+            recorder,
+            version: 0,
+            last_error: None,
+        };
+        s.begin();
+        Ok(s)
+    }
+
+    fn begin(&mut self) {
+        let name = self.decider.name();
+        if let Some(r) = &mut self.recorder {
+            r.begin_trial(self.trial_index, &self.trial, &name);
+        }
+    }
+
+    pub fn trial(&self) -> &Trial {
+        &self.trial
+    }
+
+    pub fn phase(&self) -> Option<Phase> {
+        self.phase
+    }
+
+    pub fn decision(&self) -> Option<&Decision> {
+        self.decision.as_ref()
+    }
+
+    pub fn version(&self) -> u64 {
+        self.version
+    }
+
+    pub fn recorder(&self) -> Option<&Recorder> {
+        self.recorder.as_ref()
+    }
+
+    /// Takes the recorder out (dropping it finishes an `.rrd` file).
+    pub fn take_recorder(&mut self) -> Option<Recorder> {
+        self.recorder.take()
+    }
+
+    /// Whether the trial is over.
+    pub fn ended(&self) -> bool {
+        self.trial.end().is_some()
+    }
+
+    /// Starts a new trial of `task` from `seed` (loading that task's decider
+    /// when the task changes). The recording goes on, on the next `trial` index.
+    pub fn reset(&mut self, task: TaskId, seed: u64) -> anyhow::Result<()> {
+        if task != self.config.task {
+            let (decider, note) = (self.factory)(task, self.config.world)?;
+            self.decider = decider;
+            self.decider_note = note;
+        }
+        if let Some(r) = &mut self.recorder
+            && self.trial.actions() > 0
+            && self.trial.end().is_none()
+        {
+            r.end_trial(&self.trial);
+        }
+        self.config.task = task;
+        self.config.seed = seed;
+        self.trial = Trial::new(self.config.world, task, seed);
+        self.trial_index += 1;
+        self.phase = None;
+        self.decision = None;
+        self.decided_on = None;
+        self.action = None;
+        self.last_error = None;
+        self.version += 1;
+        self.begin();
+        Ok(())
+    }
+
+    /// Advances one phase; returns the phase now shown.
+    pub fn next_phase(&mut self) -> anyhow::Result<Phase> {
+        if let Some(end) = self.trial.end() {
+            bail!("the trial has ended ({end:?}); reset to start another");
+        }
+        let next = match self.phase {
+            None | Some(Phase::Act) => Phase::Embed,
+            Some(Phase::Embed) => Phase::Match,
+            Some(Phase::Match) => Phase::Verify,
+            Some(Phase::Verify) => Phase::Act,
+        };
+        let action_index = self.trial.actions();
+        match next {
+            Phase::Embed => {
+                let hm = self.trial.world().render();
+                let choice = match self.decider.decide(&self.trial, &hm) {
+                    Ok(c) => c,
+                    Err(e) => {
+                        self.last_error = Some(format!("{e:#}"));
+                        self.version += 1;
+                        return Err(e);
+                    }
+                };
+                self.action = Some(choice.action);
+                self.decision = choice.decision;
+                self.decided_on = Some(hm);
+            }
+            Phase::Act => {
+                let action = self.action.context("no decided action to execute")?;
+                self.trial.step(action);
+            }
+            Phase::Match | Phase::Verify => {}
+        }
+        self.phase = Some(next);
+        self.version += 1;
+        if let (Some(r), Some(hm)) = (&mut self.recorder, &self.decided_on) {
+            r.log_phase(self.trial_index, &self.trial, action_index, next, hm, self.decision.as_ref(), self.decider.demos());
+            if next == Phase::Act && self.trial.end().is_some() {
+                r.end_trial(&self.trial);
+            }
+        }
+        Ok(next)
+    }
+
+    /// Advances to the end of the current action (its act phase).
+    pub fn next_action(&mut self) -> anyhow::Result<()> {
+        loop {
+            if self.next_phase()? == Phase::Act {
+                return Ok(());
+            }
+        }
+    }
+
+    /// Click-to-query: demo pixel `(y, x)` of pair `pair`'s demo step, under
+    /// policy `policy` (index into the decider's policies), over the live scene
+    /// of the current decision (or the current scene).
+    pub fn query(&mut self, pair: usize, policy: usize, y: usize, x: usize) -> anyhow::Result<Value> {
+        let d = self.decision.as_ref().context("no decision yet: step to the embed phase first")?;
+        let p = d.pairs.get(pair).with_context(|| format!("pair index {pair} is out of range 0..{}", d.pairs.len()))?;
+        let (demo, demo_step) = (p.demo, p.demo_step);
+        let hm = match &self.decided_on {
+            Some(hm) => hm.clone(),
+            None => self.trial.world().render(),
+        };
+        let map = self
+            .decider
+            .query(&hm, policy, demo, demo_step, y, x)?
+            .context("this decider has no embedding to query")?;
+        let best = map
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| v.is_finite())
+            .min_by(|a, b| a.1.total_cmp(b.1))
+            .map(|(i, v)| json!({"y": i / hm.grid.resolution, "x": i % hm.grid.resolution, "distance": v}));
+        Ok(json!({
+            "type": "query",
+            "pair": pair,
+            "policy": policy,
+            "policy_name": self.decider.policies().get(policy).map(|t| t.as_str()),
+            "demo": demo,
+            "demo_step": demo_step,
+            "y": y,
+            "x": x,
+            "resolution": hm.grid.resolution,
+            "best": best,
+            "map": b64::f32s(&map),
+        }))
+    }
+
+    /// The small JSON state every tab gets after each change: the trial, the
+    /// phase and the L / C table revealed so far.
+    pub fn state(&self) -> Value {
+        let phase = self.phase;
+        let shown = |p: Phase| phase.is_some_and(|ph| ph >= p) && self.decision.is_some();
+        let pairs: Vec<Value> = self
+            .decision
+            .iter()
+            .flat_map(|d| d.pairs.iter())
+            .map(|p| {
+                json!({
+                    "policy": p.policy.as_str(),
+                    "demo": p.demo,
+                    "demo_step": p.demo_step,
+                    "demo_action": p.demo_action,
+                    "l": if shown(Phase::Match) { json!(p.l) } else { Value::Null },
+                    "matched": if shown(Phase::Match) { json!(p.matched) } else { Value::Null },
+                    "c": if shown(Phase::Verify) { json!(p.c) } else { Value::Null },
+                    "rematch": if shown(Phase::Verify) { json!(p.rematch) } else { Value::Null },
+                })
+            })
+            .collect();
+        let t = &self.trial;
+        json!({
+            "type": "state",
+            "version": self.version,
+            "task": t.task().as_str(),
+            "seed": t.seed(),
+            "trial_index": self.trial_index,
+            "resolution": self.config.world.grid.resolution,
+            "decider": self.decider.name(),
+            "decider_note": self.decider_note,
+            "policies": self.decider.policies().iter().map(|p| p.as_str()).collect::<Vec<_>>(),
+            "phase": phase.map(Phase::as_str),
+            "action_index": t.actions(),
+            "progress": t.progress(),
+            "max_progress": t.max_progress(),
+            "primitive": t.world().next_primitive(),
+            "holding": t.world().held_block(),
+            "end": t.end(),
+            "succeeded": t.succeeded(),
+            "had_reversal": t.had_reversal(),
+            "method": self.decision.as_ref().map(|d| d.method),
+            "decided_primitive": self.decision.as_ref().map(|d| d.primitive),
+            "decided_progress": self.decision.as_ref().map(|d| d.progress),
+            "pairs": pairs,
+            "chosen": if shown(Phase::Act) { self.decision.as_ref().map(|d| d.chosen) } else { None },
+            "action": if phase.is_some() { self.action.map(|a| json!(a)) } else { None },
+            "timing_ms": self.decision.as_ref().map(|d| json!({"embed": d.embed_ms, "correspond": d.correspond_ms})),
+            "steps": t.steps().iter().map(|s| json!({"action": s.action, "success": s.outcome.success, "progress_before": s.progress_before, "progress_after": s.progress_after, "reversal": s.reversal})).collect::<Vec<_>>(),
+            "recording": self.recorder.as_ref().and_then(|r| r.save_path()).map(|p| p.display().to_string()),
+            "error": self.last_error,
+        })
+    }
+
+    /// The full explanation record of the current decision (maps left out
+    /// unless `maps`), or `null`.
+    pub fn decision_json(&self, maps: bool) -> Value {
+        match &self.decision {
+            None => Value::Null,
+            Some(d) => {
+                let mut d = d.clone();
+                if !maps {
+                    for p in &mut d.pairs {
+                        p.match_map.clear();
+                        p.rematch_map.clear();
+                    }
+                }
+                serde_json::to_value(&d).unwrap_or(Value::Null)
+            }
+        }
+    }
+
+    /// The images of the current phase for pair `pair`: live heightmaps (RGB8,
+    /// heights f32 metres), the pair's demo heightmaps at its step, and the
+    /// match / rematch maps once their phase is reached; all base64, row-major,
+    /// `H x W`.
+    pub fn frame(&self, pair: usize) -> Value {
+        let live = self.decided_on.clone().unwrap_or_else(|| self.trial.world().render());
+        let mut out = json!({
+            "type": "frame",
+            "version": self.version,
+            "resolution": live.grid.resolution,
+            "pair": pair,
+            "phase": self.phase.map(Phase::as_str),
+            "live": {"color": b64::bytes(&live.color), "depth": b64::f32s(&live.depth)},
+            "demo": Value::Null,
+            "match_map": Value::Null,
+            "rematch_map": Value::Null,
+        });
+        let Some(d) = &self.decision else {
+            return out;
+        };
+        let Some(p) = d.pairs.get(pair) else {
+            return out;
+        };
+        if let Some(step) = self.decider.demos().get(p.demo).and_then(|demo| demo.steps.get(p.demo_step)) {
+            out["demo"] = json!({
+                "demo": p.demo,
+                "step": p.demo_step,
+                "action": p.demo_action,
+                "color": b64::bytes(&step.heightmaps.color),
+                "depth": b64::f32s(&step.heightmaps.depth),
+            });
+        }
+        let phase = self.phase.unwrap_or(Phase::Embed);
+        if phase >= Phase::Match {
+            out["match_map"] = json!(b64::f32s(&p.match_map));
+        }
+        if phase >= Phase::Verify {
+            out["rematch_map"] = json!(b64::f32s(&p.rematch_map));
+        }
+        out
+    }
+
+    /// Where a `--save` recording goes, if any.
+    pub fn save_path(&self) -> Option<PathBuf> {
+        self.recorder.as_ref().and_then(|r| r.save_path()).map(PathBuf::from)
+    }
+}

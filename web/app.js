@@ -1,0 +1,254 @@
+// The seespot page: a WebSocket client that steps the trial and draws each
+// (policy, demo) pair's match and rematch. No build step, no dependencies.
+import { b64bytes, b64f32, rgbCanvas, depthCanvas, heatCanvas, compose, pixelAt } from './render.js';
+
+const $ = (id) => document.getElementById(id);
+const PHASES = ['embed', 'match', 'verify', 'act'];
+
+// Exposed for the browser tests and for poking around in the console.
+const app = window.seespot = {
+  info: null, state: null, frame: null, frameVersion: -1, query: null,
+  selectedPair: null, errors: [], ws: null,
+};
+
+let pending = null; // frame request in flight
+let images = { live: null, demo: null, match: null, rematch: null, query: null };
+
+function send(msg) {
+  if (app.ws && app.ws.readyState === WebSocket.OPEN) app.ws.send(JSON.stringify(msg));
+  else showError('not connected to the seespot server');
+}
+
+function connect() {
+  const ws = new WebSocket(`${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/ws`);
+  app.ws = ws;
+  ws.onopen = () => { $('conn').textContent = 'connected'; $('conn').className = 'conn ok'; };
+  ws.onclose = () => {
+    $('conn').textContent = 'disconnected'; $('conn').className = 'conn bad';
+    setTimeout(connect, 1000);
+  };
+  ws.onmessage = (ev) => {
+    let m;
+    try { m = JSON.parse(ev.data); } catch { return; }
+    if (m.type === 'info') onInfo(m.info);
+    else if (m.type === 'state') onState(m);
+    else if (m.type === 'query') onQuery(m);
+    else if (m.type === 'error') showError(m.message);
+  };
+}
+
+function showError(msg) {
+  app.errors.push(msg);
+  const e = $('error');
+  e.textContent = msg; e.hidden = false;
+  clearTimeout(showError.t);
+  showError.t = setTimeout(() => { e.hidden = true; }, 6000);
+}
+
+function onInfo(info) {
+  app.info = info;
+  const sel = $('task');
+  if (!sel.options.length) for (const t of info.tasks) sel.add(new Option(t, t));
+  if (info.viewer_url) { $('viewer-link').href = info.viewer_url; }
+  else { $('viewer-link').hidden = true; $('toggle-viewer').hidden = true; }
+}
+
+function fmt(v, d) { return v === null || v === undefined ? '…' : Number(v).toFixed(d); }
+function act(a) { return a ? `${a.primitive} r${a.rotation} (${a.y}, ${a.x})` : '…'; }
+
+function onState(s) {
+  const prev = app.state;
+  app.state = s;
+  if (!prev || prev.task !== s.task || prev.seed !== s.seed || prev.trial_index !== s.trial_index) {
+    $('task').value = s.task; $('seed').value = s.seed;
+  }
+  if (app.selectedPair !== null && app.selectedPair >= s.pairs.length) app.selectedPair = null;
+  if (prev && prev.version !== s.version && (prev.action_index !== s.action_index || s.phase === 'embed')) clearQuery(false);
+
+  // Pipeline.
+  const k = PHASES.indexOf(s.phase);
+  for (const li of $('pipeline').children) {
+    const i = PHASES.indexOf(li.dataset.phase);
+    li.className = i === k ? 'current' : (i < k ? 'done' : '');
+  }
+  $('action-index').textContent = s.phase ? `#${s.action_index + (s.phase === 'act' ? 0 : 1)}` : `#${s.action_index + 1}`;
+  $('progress').textContent = `${s.progress} / 4`;
+  $('progress-bar').style.width = `${(s.progress / 4) * 100}%`;
+  $('primitive').textContent = s.holding !== null ? `place (holding)` : s.primitive;
+  $('end').textContent = s.end ? (s.succeeded ? 'success ✓' : s.end) : (app.running ? 'running…' : 'in progress');
+  $('method').textContent = s.method ? s.method.toUpperCase() : '';
+  $('decider').textContent = `${s.decider}. ${s.decider_note}` + (s.recording ? ` Recording to ${s.recording}.` : '');
+  const ended = !!s.end;
+  for (const id of ['next-phase', 'next-action', 'run']) $(id).disabled = ended;
+
+  // Query policies.
+  const qp = $('query-policy');
+  if (qp.options.length !== s.policies.length) {
+    qp.innerHTML = '';
+    s.policies.forEach((p, i) => qp.add(new Option(p, String(i))));
+  }
+
+  renderPairs(s);
+  renderHistory(s);
+  if (s.error) showError(s.error);
+  requestFrame();
+}
+
+function shownPair() {
+  const s = app.state;
+  if (!s || !s.pairs.length) return 0;
+  if (app.selectedPair !== null) return app.selectedPair;
+  return s.chosen ?? 0;
+}
+
+function renderPairs(s) {
+  const body = $('pairs-body');
+  body.innerHTML = '';
+  const sel = shownPair();
+  s.pairs.forEach((p, i) => {
+    const tr = document.createElement('tr');
+    tr.dataset.pair = String(i);
+    if (i === s.chosen) tr.classList.add('chosen');
+    if (i === sel) tr.classList.add('selected');
+    const cells = [i === s.chosen ? '★' : '', p.policy, `${p.demo}·${p.demo_step}`, fmt(p.l, 3), fmt(p.c, 1), act(p.matched)];
+    cells.forEach((c, j) => {
+      const td = document.createElement('td');
+      td.textContent = c;
+      if (c === '…') td.className = 'pending';
+      if (j === 3) td.dataset.testid = 'l'; if (j === 4) td.dataset.testid = 'c';
+      tr.appendChild(td);
+    });
+    tr.onclick = () => { app.selectedPair = i; renderPairs(app.state); requestFrame(true); };
+    body.appendChild(tr);
+  });
+  if (!s.pairs.length) {
+    const tr = document.createElement('tr');
+    tr.innerHTML = `<td colspan="6" class="pending">${s.phase ? 'this decider gives no explanation' : 'step to the embed phase'}</td>`;
+    body.appendChild(tr);
+  }
+}
+
+function renderHistory(s) {
+  const ol = $('history');
+  ol.innerHTML = '';
+  for (const st of s.steps) {
+    const li = document.createElement('li');
+    li.className = !st.success ? 'fail' : (st.progress_after > st.progress_before ? 'up' : '');
+    li.innerHTML = `<b>${act(st.action)}</b> ${st.success ? 'ok' : 'failed'} · progress ${st.progress_before} → ${st.progress_after}${st.reversal ? ' · reversal' : ''}`;
+    ol.appendChild(li);
+  }
+}
+
+async function requestFrame(force) {
+  const s = app.state;
+  if (!s) return;
+  const pair = shownPair();
+  const key = `${s.version}:${pair}`;
+  if (!force && pending === key) return;
+  pending = key;
+  let f;
+  try {
+    const r = await fetch(`/api/frame?pair=${pair}`);
+    f = await r.json();
+  } catch (e) { showError(`cannot load the frame: ${e}`); return; }
+  if (pending !== key) return; // a newer request superseded this one
+  const n = f.resolution;
+  images = {
+    live: { color: rgbCanvas(b64bytes(f.live.color), n), depth: depthCanvas(b64f32(f.live.depth), n) },
+    demo: f.demo ? { color: rgbCanvas(b64bytes(f.demo.color), n), depth: depthCanvas(b64f32(f.demo.depth), n) } : null,
+    match: f.match_map ? heatCanvas(b64f32(f.match_map), n) : null,
+    rematch: f.rematch_map ? heatCanvas(b64f32(f.rematch_map), n) : null,
+    query: images.query,
+  };
+  app.frame = f;
+  draw();
+  app.frameVersion = f.version;
+  document.body.dataset.frameVersion = String(f.version);
+}
+
+function draw() {
+  const s = app.state, f = app.frame;
+  if (!s || !f) return;
+  const n = f.resolution;
+  const kind = $('show-depth').checked ? 'depth' : 'color';
+  const op = Number($('opacity').value) / 100;
+  const p = s.pairs[f.pair];
+  const chosen = s.chosen === f.pair;
+
+  // Demo side.
+  const dm = [];
+  if (p) {
+    dm.push({ kind: 'point', at: p.demo_action, color: '#ffffff', label: `demo ${act(p.demo_action)}`, ring: true });
+    if (p.matched && p.rematch) dm.push({ kind: 'arrow', from: p.matched, to: p.rematch, color: '#ffaa00', label: `C = ${fmt(p.c, 1)}` });
+    if (p.rematch) dm.push({ kind: 'point', at: p.rematch, color: '#ffaa00' });
+  }
+  if (app.query) dm.push({ kind: 'point', at: app.query, color: '#ff4fd8', label: 'query', ring: true });
+  compose($('demo-canvas'), n, images.demo ? images.demo[kind] : null, images.rematch ? images.rematch.canvas : null, op, dm);
+  $('demo-title').textContent = f.demo ? `Demo ${f.demo.demo} · step ${f.demo.step}${p ? ` · policy ${p.policy}` : ''}` : 'Demo (none)';
+
+  // Live side.
+  const lm = [];
+  let heat = images.match;
+  let label = images.match ? `match distance, ${p ? p.policy : ''} (r${p && p.matched ? p.matched.rotation : ''})` : 'no overlay';
+  if (images.query) { heat = images.query; label = `query: demo pixel (${app.query.y}, ${app.query.x}) · ${app.queryPolicy}`; }
+  if (p && p.matched) lm.push({ kind: 'arrow', from: p.demo_action, to: p.matched, color: chosen ? '#00e676' : '#ffffff', label: `L = ${fmt(p.l, 3)}` });
+  if (p && p.matched) lm.push({ kind: 'point', at: p.matched, color: chosen ? '#00e676' : '#ffffff', label: chosen ? 'F (executed)' : 'F', ring: chosen });
+  if (images.query && app.queryBest) lm.push({ kind: 'point', at: app.queryBest, color: '#ff4fd8', label: 'best', ring: true });
+  compose($('live-canvas'), n, images.live[kind], heat ? heat.canvas : null, op, lm);
+  $('overlay-label').textContent = label;
+  $('live-title').textContent = s.phase === 'act' ? 'Live scene (before the action)' : 'Live scene';
+}
+
+function onQuery(m) {
+  const n = m.resolution;
+  app.query = { y: m.y, x: m.x };
+  app.queryPolicy = m.policy_name;
+  app.queryBest = m.best ? { y: m.best.y, x: m.best.x } : null;
+  app.lastQuery = m;
+  images.query = heatCanvas(b64f32(m.map), n);
+  $('query-result').textContent = m.best
+    ? `Demo pixel (${m.y}, ${m.x}) under ${m.policy_name}: nearest live pixel (${m.best.y}, ${m.best.x}), distance ${m.best.distance.toFixed(3)}.`
+    : 'No finite distance.';
+  $('query-result').dataset.best = m.best ? `${m.best.y},${m.best.x}` : '';
+  draw();
+}
+
+function clearQuery(redraw = true) {
+  app.query = null; app.queryBest = null; images.query = null;
+  $('query-result').textContent = 'Click the demo heightmap.';
+  if (redraw) draw();
+}
+
+// Controls.
+$('next-phase').onclick = () => send({ type: 'next_phase' });
+$('next-action').onclick = () => send({ type: 'next_action' });
+$('run').onclick = () => { app.running = true; send({ type: 'run' }); };
+$('stop').onclick = () => { app.running = false; send({ type: 'stop' }); };
+$('reset-form').onsubmit = (ev) => {
+  ev.preventDefault();
+  app.selectedPair = null; clearQuery(false);
+  send({ type: 'reset', task: $('task').value, seed: Number($('seed').value) });
+};
+$('show-depth').onchange = draw;
+$('opacity').oninput = draw;
+$('clear-query').onclick = () => clearQuery();
+$('demo-canvas').onclick = (ev) => {
+  const s = app.state, f = app.frame;
+  if (!s || !f || !f.demo) { showError('no demo shown yet: step to the embed phase'); return; }
+  const { y, x } = pixelAt($('demo-canvas'), f.resolution, ev);
+  send({ type: 'query', pair: f.pair, policy: Number($('query-policy').value || 0), y, x });
+};
+$('toggle-viewer').onclick = () => {
+  const box = $('viewer-box');
+  box.hidden = !box.hidden;
+  if (!box.hidden && !$('viewer').src) $('viewer').src = app.info.viewer_url;
+  $('toggle-viewer').textContent = box.hidden ? 'Show here' : 'Hide';
+};
+document.addEventListener('keydown', (ev) => {
+  if (ev.target.closest('input, select')) return;
+  if (ev.key === 'n') $('next-phase').click();
+  else if (ev.key === 'a') $('next-action').click();
+  else if (ev.key === 'r') $('run').click();
+});
+
+connect();

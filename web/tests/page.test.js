@@ -1,0 +1,242 @@
+// Drives the seespot page in headless Chromium (playwright-core, Debian's
+// /usr/bin/chromium): steps through the phases, checks the L / C table against
+// the backend's explanation record, makes a click-to-query, checks bad input,
+// two tabs, a tab closed mid-run, and saves screenshots into ../screenshots.
+//
+// Server: $SEESPOT_BIN (default ../target/release/seespot) run as
+// `$SEESPOT_BIN view --port 0 ...`.
+import { test, before, after } from 'node:test';
+import assert from 'node:assert/strict';
+import { spawn } from 'node:child_process';
+import { mkdtempSync, mkdirSync, rmSync, statSync, existsSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { join, dirname, resolve } from 'node:path';
+import { fileURLToPath } from 'node:url';
+import net from 'node:net';
+import { chromium } from 'playwright-core';
+
+const here = dirname(fileURLToPath(import.meta.url));
+const root = resolve(here, '..', '..');
+const shots = join(root, 'screenshots');
+const BIN = process.env.SEESPOT_BIN || join(root, 'target', 'release', 'seespot');
+const CHROMIUM = process.env.CHROMIUM || '/usr/bin/chromium';
+const RES = Number(process.env.SEESPOT_TEST_RESOLUTION || 112);
+const FLAGS = ['--headless', '--no-sandbox', '--disable-gpu', '--enable-unsafe-swiftshader', '--no-first-run',
+  '--disable-background-networking', '--disable-component-update', '--disable-sync'];
+
+let server, urls = {}, context, page, profile, tmp, rrd;
+
+function startServer() {
+  return new Promise((ok, fail) => {
+    const args = ['view', '--port', '0', '--task', 'stack', '--seed', '1', '--resolution', String(RES), '--save', rrd];
+    if (process.env.SEESPOT_DECIDER) args.push('--decider', process.env.SEESPOT_DECIDER);
+    server = spawn(BIN, args, { cwd: root, stdio: ['ignore', 'pipe', 'pipe'] });
+    let out = '';
+    const timer = setTimeout(() => fail(new Error(`server did not print its URLs in 120 s:\n${out}`)), 120_000);
+    const onData = (d) => {
+      out += d.toString();
+      const page = out.match(/seespot page:\s+(\S+)/);
+      const viewer = out.match(/rerun web viewer:\s+(\S+)/);
+      if (page && viewer) { clearTimeout(timer); urls = { page: page[1], viewer: viewer[1] }; ok(); }
+    };
+    server.stdout.on('data', onData);
+    server.stderr.on('data', (d) => { out += d.toString(); });
+    server.on('exit', (code) => { clearTimeout(timer); fail(new Error(`server exited with ${code}:\n${out}`)); });
+  });
+}
+
+before(async () => {
+  assert.ok(existsSync(BIN), `no server binary at ${BIN}; build it with cargo build --release`);
+  mkdirSync(shots, { recursive: true });
+  tmp = mkdtempSync(join(tmpdir(), 'seespot-web-'));
+  rrd = join(tmp, 'trial.rrd');
+  profile = join(tmp, 'profile');
+  await startServer();
+  context = await chromium.launchPersistentContext(profile, {
+    executablePath: CHROMIUM, headless: true, args: FLAGS, viewport: { width: 1500, height: 1150 },
+  });
+  page = await context.newPage();
+  page.on('pageerror', (e) => { throw e; });
+  await page.goto(urls.page);
+  await page.waitForFunction(() => window.seespot && window.seespot.state && window.seespot.frameVersion >= 0);
+});
+
+after(async () => {
+  if (context) await context.close();
+  if (server && server.exitCode === null) {
+    const exited = new Promise((r) => server.once('exit', r));
+    server.kill('SIGINT');
+    await exited;
+  }
+  if (tmp) rmSync(tmp, { recursive: true, force: true });
+});
+
+const api = async (path) => (await fetch(new URL(path, urls.page))).json();
+
+/** Clicks a control and waits until the page has drawn the resulting state. */
+async function stepAndWait(testid) {
+  const v0 = await page.evaluate(() => window.seespot.state.version);
+  await page.getByTestId(testid).click();
+  await page.waitForFunction((v) => window.seespot.state.version > v && window.seespot.frameVersion === window.seespot.state.version, v0, { timeout: 120_000 });
+}
+
+async function tableRows() {
+  return page.$$eval('[data-testid=pairs] tbody tr', (trs) => trs.map((tr) => ({
+    cells: [...tr.children].map((td) => td.textContent), chosen: tr.classList.contains('chosen'),
+  })));
+}
+
+test('the page loads and shows the trial the backend runs', async () => {
+  const s = await api('/api/state');
+  assert.equal(await page.getByTestId('progress').textContent(), `${s.progress} / 4`);
+  assert.equal(await page.getByTestId('task').inputValue(), s.task);
+  assert.match(await page.getByTestId('conn').textContent(), /connected/);
+  await page.screenshot({ path: join(shots, 'page-start.png') });
+});
+
+test('stepping phase by phase reveals L, then C, then the chosen pair, as in the explanation record', async () => {
+  await stepAndWait('next-phase');
+  let s = await api('/api/state');
+  assert.equal(s.phase, 'embed');
+  const d = await api('/api/decision');
+  assert.ok(d && d.pairs.length > 0, 'the decider gave no explanation record');
+  let rows = await tableRows();
+  assert.equal(rows.length, d.pairs.length);
+  rows.forEach((r, i) => {
+    assert.equal(r.cells[1], d.pairs[i].policy);
+    assert.equal(r.cells[3], '…');
+  });
+  await page.screenshot({ path: join(shots, 'phase-1-embed.png') });
+
+  await stepAndWait('next-phase');
+  assert.equal((await api('/api/state')).phase, 'match');
+  rows = await tableRows();
+  rows.forEach((r, i) => {
+    assert.equal(r.cells[3], d.pairs[i].l.toFixed(3), `L of pair ${i}`);
+    assert.equal(r.cells[4], '…');
+  });
+  assert.match(await page.getByTestId('overlay-label').textContent(), /match distance/);
+  await page.screenshot({ path: join(shots, 'phase-2-match.png') });
+
+  await stepAndWait('next-phase');
+  rows = await tableRows();
+  rows.forEach((r, i) => assert.equal(r.cells[4], d.pairs[i].c.toFixed(1), `C of pair ${i}`));
+  assert.ok(rows.every((r) => !r.chosen));
+  await page.screenshot({ path: join(shots, 'phase-3-verify.png') });
+
+  await stepAndWait('next-phase');
+  s = await api('/api/state');
+  assert.equal(s.phase, 'act');
+  rows = await tableRows();
+  assert.deepEqual(rows.map((r) => r.chosen), d.pairs.map((_, i) => i === d.chosen));
+  assert.equal(s.steps.length, 1);
+  assert.deepEqual(s.steps[0].action, d.action);
+  await page.screenshot({ path: join(shots, 'phase-4-act.png') });
+});
+
+test('click-to-query draws the ASE distance map the backend computes', async () => {
+  await stepAndWait('next-phase'); // embed of the next action: a fresh decision
+  const f = await page.evaluate(() => window.seespot.frame);
+  const a = f.demo.action;
+  await page.getByTestId('query-policy').selectOption('1');
+  const box = await page.getByTestId('demo-canvas').boundingBox();
+  const n = f.resolution;
+  await page.mouse.click(box.x + (a.x + 0.5) * box.width / n, box.y + (a.y + 0.5) * box.height / n);
+  await page.waitForFunction(() => window.seespot.lastQuery);
+  const q = await page.evaluate(() => window.seespot.lastQuery);
+  assert.deepEqual([q.y, q.x, q.policy, q.pair], [a.y, a.x, 1, f.pair]);
+  // The same query from a second socket (a second client) gives the same map.
+  const again = await page.evaluate(({ pair, y, x }) => new Promise((ok) => {
+    const ws = new WebSocket(`ws://${location.host}/ws`);
+    ws.onopen = () => ws.send(JSON.stringify({ type: 'query', pair, policy: 1, y, x }));
+    ws.onmessage = (ev) => { const m = JSON.parse(ev.data); if (m.type === 'query') { ws.close(); ok(m); } };
+  }), { pair: f.pair, y: a.y, x: a.x });
+  assert.equal(again.map, q.map);
+  assert.deepEqual(again.best, q.best);
+  assert.match(await page.getByTestId('query-result').textContent(), new RegExp(`nearest live pixel \\(${q.best.y}, ${q.best.x}\\)`));
+  assert.match(await page.getByTestId('overlay-label').textContent(), /query/);
+  await page.screenshot({ path: join(shots, 'click-to-query.png') });
+});
+
+test('choosing another pair shows that pair', async () => {
+  await stepAndWait('next-phase'); // match
+  const rows = await page.$$('[data-testid=pairs] tbody tr');
+  await rows[rows.length - 1].click();
+  await page.waitForFunction((i) => window.seespot.frame && window.seespot.frame.pair === i, rows.length - 1);
+  const f = await page.evaluate(() => window.seespot.frame);
+  const d = await api('/api/decision');
+  assert.equal(f.demo.demo, d.pairs[rows.length - 1].demo);
+  assert.equal(f.demo.step, d.pairs[rows.length - 1].demo_step);
+});
+
+test('a malformed message gets an error and the server keeps serving', async () => {
+  const replies = await page.evaluate(() => new Promise((ok) => {
+    const ws = new WebSocket(`ws://${location.host}/ws`);
+    const got = [];
+    ws.onopen = () => { ws.send('{oops'); ws.send(JSON.stringify({ type: 'teleport' })); ws.send(JSON.stringify({ type: 'ping' })); };
+    ws.onmessage = (ev) => { const m = JSON.parse(ev.data); if (m.type !== 'state' && m.type !== 'info') got.push(m.type); if (m.type === 'pong') { ws.close(); ok(got); } };
+  }));
+  assert.deepEqual(replies, ['error', 'error', 'pong']);
+  assert.equal((await fetch(new URL('/api/state', urls.page))).status, 200);
+});
+
+test('only the page\'s own files are served', async () => {
+  for (const target of ['/../Cargo.toml', '/%2e%2e/Cargo.toml', '/%2e%2e%2f%2e%2e%2fetc%2fpasswd', '/tests/page.test.js']) {
+    const status = await new Promise((ok, fail) => {
+      const u = new URL(urls.page);
+      const s = net.connect(Number(u.port), u.hostname, () => s.write(`GET ${target} HTTP/1.1\r\nHost: ${u.host}\r\nConnection: close\r\n\r\n`));
+      let buf = '';
+      s.on('data', (d) => { buf += d; });
+      s.on('end', () => ok(Number(buf.split(' ')[1])));
+      s.on('error', fail);
+    });
+    assert.equal(status, 404, target);
+  }
+});
+
+test('a tab closed mid-run stops nothing; the run finishes and every tab sees it', async () => {
+  const other = await context.newPage();
+  await other.goto(urls.page);
+  await other.waitForFunction(() => window.seespot && window.seespot.state);
+  await other.getByTestId('run').click();
+  await other.close();
+  await page.waitForFunction(() => window.seespot.state.end !== null, null, { timeout: 300_000 });
+  await page.waitForFunction(() => window.seespot.frameVersion === window.seespot.state.version);
+  const s = await api('/api/state');
+  assert.ok(s.end);
+  assert.equal((await tableRows()).length > 0 || s.pairs.length === 0, true);
+  assert.equal(await page.locator('[data-testid=history] li').count(), s.steps.length);
+  await page.screenshot({ path: join(shots, 'trial-end.png'), fullPage: true });
+});
+
+test('reset starts a new trial with the chosen task and seed', async () => {
+  await page.getByTestId('task').selectOption('row');
+  await page.getByTestId('seed').fill('3');
+  await page.getByTestId('reset').click();
+  await page.waitForFunction(() => window.seespot.state.task === 'row' && window.seespot.state.seed === 3 && window.seespot.state.steps.length === 0, null, { timeout: 120_000 });
+  await stepAndWait('next-action');
+  const s = await api('/api/state');
+  assert.equal(s.steps.length, 1);
+  assert.equal(s.task, 'row');
+});
+
+test('the rerun web viewer loads and shows the recording', async () => {
+  const viewer = await context.newPage();
+  await viewer.goto(urls.viewer);
+  // The viewer's wasm takes several seconds to compile: wait for its canvas, then let it draw.
+  await viewer.waitForSelector('canvas', { timeout: 120_000 });
+  await viewer.waitForTimeout(Number(process.env.SEESPOT_VIEWER_WAIT_MS || 20_000));
+  await viewer.screenshot({ path: join(shots, 'rerun-viewer.png') });
+  await viewer.close();
+  // And the page's own embed.
+  await page.getByTestId('toggle-viewer').click();
+  assert.equal(await page.getByTestId('viewer').getAttribute('src'), urls.viewer);
+});
+
+test('Ctrl-C finishes the --save recording', async () => {
+  const exited = new Promise((r) => server.once('exit', r));
+  server.kill('SIGINT');
+  const code = await exited;
+  assert.equal(code, 0);
+  assert.ok(statSync(rrd).size > 10_000, 'the .rrd is (nearly) empty');
+});
