@@ -2,6 +2,11 @@
 //! task from two demonstrations (paper Sec. 4.2), and the leave-one-out
 //! evaluation with the metrics of Sec. 5.1.
 
+pub mod correspond;
 pub mod explain;
 
+pub use correspond::{
+    CorrespondOptions, Match, bench_correspond, ccd, distance_map, match_queries,
+    match_queries_with, rematch, rematch_with, smooth,
+};
 pub use explain::{Decision, Method, PairExplanation};

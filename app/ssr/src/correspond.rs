@@ -1,0 +1,900 @@
+//! Correspond: Match (paper Eq. 4-5) and Verify (Eq. 6-7).
+//!
+//! *Match* finds, for a demonstrated action's 64-d action-state embedding (ASE),
+//! the nearest action in the live scene's ASE map over all `R x H x W` actions
+//! ([`match_queries`]). *Verify* maps that match back into the demo scene
+//! ([`rematch`]) and measures how far it lands from the demonstrated action: the
+//! cycle consistency distance C ([`ccd`]).
+//!
+//! # Speed
+//!
+//! At the paper's scale one ASE map is `16 x 224 x 224 x 64` f32 = 205 MB, so the
+//! scan is memory-bound. [`match_queries`] streams the map once for all queries
+//! (both demos), with squared distances in the `||a||^2 - 2 a.b + ||b||^2` form
+//! over the map's precomputed `norms_sq`, on every rayon thread. Masked actions
+//! carry `norms_sq = +inf` and are skipped without reading their row.
+//! [`bench_correspond`] measures the whole Correspond step of one decision.
+//!
+//! # Ties
+//!
+//! Among actions with exactly equal computed distance the smallest flat index
+//! `(r * H + y) * W + x` wins, independent of how the scan was split over threads.
+
+use std::ops::Range;
+use std::time::Instant;
+
+use rayon::prelude::*;
+use seespot_policy::AseMap;
+use seespot_sim::{Action, Primitive};
+
+/// Actions per parallel work item: 4096 rows of 64 f32 = 1 MiB.
+const CHUNK_ACTIONS: usize = 4096;
+
+/// A nearest action: its flat index and its embedding distance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Match {
+    /// Flat index `(r * H + y) * W + x` into the `R x H x W` action map.
+    pub index: usize,
+    /// L2 distance between the embeddings (not squared). `f32::INFINITY` when
+    /// every searched action was masked (then `index` is the first searched index).
+    pub distance: f32,
+}
+
+impl Match {
+    /// The matched action of `primitive` in a map of side `resolution`.
+    pub fn action(&self, primitive: Primitive, resolution: usize) -> Action {
+        Action::from_flat_index(primitive, self.index, resolution)
+    }
+}
+
+/// Options of the Correspond step.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CorrespondOptions {
+    /// Gaussian smoothing of each per-rotation `H x W` distance map before the
+    /// argmin, sigma in pixels (the reference code used 3 px). `None` = off.
+    ///
+    /// Cost: smoothing needs the full distance maps instead of a running minimum,
+    /// plus a separable normalized convolution of `2 * (2 * ceil(3 sigma) + 1)`
+    /// taps per pixel for each query; at 16 x 224 x 224 with 2 queries and
+    /// sigma 3 that adds roughly the time of one extra scan (see
+    /// [`bench_correspond`], `correspond_smoothed_ms`).
+    pub smooth_sigma: Option<f32>,
+}
+
+/// Running best (squared distance, index); smaller distance wins, then smaller index.
+#[derive(Clone, Copy, Debug)]
+struct Best {
+    d2: f32,
+    index: usize,
+}
+
+impl Best {
+    const NONE: Best = Best {
+        d2: f32::INFINITY,
+        index: usize::MAX,
+    };
+
+    /// The better of two candidates; deterministic (total order on (d2, index)).
+    fn min(self, other: Best) -> Best {
+        if other.d2 < self.d2 || (other.d2 == self.d2 && other.index < self.index) {
+            other
+        } else {
+            self
+        }
+    }
+
+    /// The match, its distance recomputed exactly as `sqrt(sum (a - b)^2)` (the
+    /// norm form loses ~1e-3 absolute near 0 to cancellation; only the winner
+    /// needs the exact value).
+    fn into_match(self, map: &AseMap, query: &[f32], fallback_index: usize) -> Match {
+        if self.index == usize::MAX {
+            Match {
+                index: fallback_index,
+                distance: f32::INFINITY,
+            }
+        } else {
+            Match {
+                index: self.index,
+                distance: l2(map.feature(self.index), query),
+            }
+        }
+    }
+}
+
+/// Dot product with 8 independent accumulators so LLVM vectorizes it.
+#[inline(always)]
+fn dot(a: &[f32], b: &[f32]) -> f32 {
+    let mut acc = [0.0f32; 8];
+    let (ac, ar) = (a.chunks_exact(8), a.chunks_exact(8).remainder());
+    let (bc, br) = (b.chunks_exact(8), b.chunks_exact(8).remainder());
+    for (x, y) in ac.zip(bc) {
+        for k in 0..8 {
+            acc[k] += x[k] * y[k];
+        }
+    }
+    let mut s = ((acc[0] + acc[4]) + (acc[1] + acc[5])) + ((acc[2] + acc[6]) + (acc[3] + acc[7]));
+    for (x, y) in ar.iter().zip(br) {
+        s += x * y;
+    }
+    s
+}
+
+/// Exact L2 distance `sqrt(sum (a - b)^2)`.
+#[inline(always)]
+fn l2(a: &[f32], b: &[f32]) -> f32 {
+    let mut acc = [0.0f32; 8];
+    for (x, y) in a.chunks_exact(8).zip(b.chunks_exact(8)) {
+        for k in 0..8 {
+            let d = x[k] - y[k];
+            acc[k] += d * d;
+        }
+    }
+    let mut s = ((acc[0] + acc[4]) + (acc[1] + acc[5])) + ((acc[2] + acc[6]) + (acc[3] + acc[7]));
+    let rem = a.len() - a.len() % 8;
+    for k in rem..a.len() {
+        let d = a[k] - b[k];
+        s += d * d;
+    }
+    s.sqrt()
+}
+
+/// Two dot products of one row, reading the row once.
+#[inline(always)]
+fn dot2(a: &[f32], b0: &[f32], b1: &[f32]) -> (f32, f32) {
+    let mut acc0 = [0.0f32; 8];
+    let mut acc1 = [0.0f32; 8];
+    for ((x, y0), y1) in a
+        .chunks_exact(8)
+        .zip(b0.chunks_exact(8))
+        .zip(b1.chunks_exact(8))
+    {
+        for k in 0..8 {
+            acc0[k] += x[k] * y0[k];
+            acc1[k] += x[k] * y1[k];
+        }
+    }
+    let sum = |acc: [f32; 8]| {
+        ((acc[0] + acc[4]) + (acc[1] + acc[5])) + ((acc[2] + acc[6]) + (acc[3] + acc[7]))
+    };
+    let (mut s0, mut s1) = (sum(acc0), sum(acc1));
+    let rem = a.len() - a.len() % 8;
+    for k in rem..a.len() {
+        s0 += a[k] * b0[k];
+        s1 += a[k] * b1[k];
+    }
+    (s0, s1)
+}
+
+/// Squared distances of row `i` to every query, in the norm form.
+/// Calls `f(q, d2)` for each query; skipped entirely for masked rows.
+#[inline(always)]
+fn row_distances_sq(
+    map: &AseMap,
+    i: usize,
+    queries: &[&[f32]],
+    qnorms: &[f32],
+    mut f: impl FnMut(usize, f32),
+) {
+    let n = map.norms_sq[i];
+    if !(n < f32::INFINITY) {
+        return;
+    }
+    let row = &map.features[i * map.dim..(i + 1) * map.dim];
+    let mut q = 0;
+    while q + 1 < queries.len() {
+        let (d0, d1) = dot2(row, queries[q], queries[q + 1]);
+        f(q, n - 2.0 * d0 + qnorms[q]);
+        f(q + 1, n - 2.0 * d1 + qnorms[q + 1]);
+        q += 2;
+    }
+    if q < queries.len() {
+        f(q, n - 2.0 * dot(row, queries[q]) + qnorms[q]);
+    }
+}
+
+/// Sequential scan of `range`: the best action for each query.
+fn scan_range(map: &AseMap, range: Range<usize>, queries: &[&[f32]], qnorms: &[f32]) -> Vec<Best> {
+    let mut best = vec![Best::NONE; queries.len()];
+    for i in range {
+        row_distances_sq(map, i, queries, qnorms, |q, d2| {
+            // Strict `<` in increasing index order keeps the smallest index on ties;
+            // NaN never wins.
+            if d2 < best[q].d2 {
+                best[q] = Best { d2, index: i };
+            }
+        });
+    }
+    best
+}
+
+/// Parallel scan of `range` (chunked over rayon threads), deterministic result.
+fn scan_parallel(map: &AseMap, range: Range<usize>, queries: &[&[f32]]) -> Vec<Match> {
+    check_queries(map, queries);
+    let qnorms: Vec<f32> = queries.iter().map(|q| dot(q, q)).collect();
+    let start = range.start;
+    let chunks = range.len().div_ceil(CHUNK_ACTIONS);
+    let best = (0..chunks)
+        .into_par_iter()
+        .map(|c| {
+            let lo = start + c * CHUNK_ACTIONS;
+            let hi = (lo + CHUNK_ACTIONS).min(range.end);
+            scan_range(map, lo..hi, queries, &qnorms)
+        })
+        .reduce(
+            || vec![Best::NONE; queries.len()],
+            |a, b| a.into_iter().zip(b).map(|(x, y)| x.min(y)).collect(),
+        );
+    best.into_iter()
+        .zip(queries)
+        .map(|(b, q)| b.into_match(map, q, start))
+        .collect()
+}
+
+fn check_queries(map: &AseMap, queries: &[&[f32]]) {
+    for q in queries {
+        assert_eq!(
+            q.len(),
+            map.dim,
+            "query embedding has {} values, the ASE map has D = {}",
+            q.len(),
+            map.dim
+        );
+    }
+}
+
+/// Match (Eq. 4-5): for each query embedding (a demo action's ASE, `D` values),
+/// the nearest action of `test` over all `R x H x W` actions, masked ones skipped.
+///
+/// One pass over `test` serves every query. Returns one [`Match`] per query, in
+/// order; `distance` is L_{m,n} of Eq. 4 and `index` is F_{m,n} of Eq. 5.
+///
+/// ```
+/// use seespot_policy::AseMap;
+/// use seespot_sim::Primitive;
+/// use seespot_ssr::correspond::match_queries;
+/// // R = 1, H = W = 2, D = 2.
+/// let f = vec![0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 1.0];
+/// let map = AseMap::new(Primitive::Grasp, 2, 1, 2, f, vec![true; 4]);
+/// let m = match_queries(&map, &[&[0.9, 1.1]]);
+/// assert_eq!(m[0].index, 3);
+/// ```
+pub fn match_queries(test: &AseMap, queries: &[&[f32]]) -> Vec<Match> {
+    scan_parallel(test, 0..test.len(), queries)
+}
+
+/// [`match_queries`] with options: with `smooth_sigma` set, the argmin is taken
+/// over the Gaussian-smoothed per-rotation distance maps (see [`smooth`]); the
+/// returned `distance` is still the raw (unsmoothed) L2 distance of the chosen
+/// action, so L stays Eq. 4's embedding distance.
+pub fn match_queries_with(
+    test: &AseMap,
+    queries: &[&[f32]],
+    options: &CorrespondOptions,
+) -> Vec<Match> {
+    match options.smooth_sigma {
+        Some(sigma) if sigma > 0.0 => {
+            scan_smoothed(test, 0..test.rotations, queries, sigma)
+        }
+        _ => match_queries(test, queries),
+    }
+}
+
+/// Alias of [`match_queries_with`] with smoothing at `sigma` pixels.
+pub fn match_queries_smoothed(test: &AseMap, queries: &[&[f32]], sigma: f32) -> Vec<Match> {
+    match_queries_with(
+        test,
+        queries,
+        &CorrespondOptions {
+            smooth_sigma: Some(sigma),
+        },
+    )
+}
+
+/// The searched flat-index range: one rotation plane, or the whole map.
+fn rotation_range(map: &AseMap, rotation: Option<usize>) -> Range<usize> {
+    let plane = map.resolution * map.resolution;
+    match rotation {
+        Some(r) => {
+            assert!(
+                r < map.rotations,
+                "rotation {r} out of range (R = {})",
+                map.rotations
+            );
+            r * plane..(r + 1) * plane
+        }
+        None => 0..map.len(),
+    }
+}
+
+/// Verify, first half (Eq. 6): the nearest action of the demo scene's ASE map to
+/// `query` (the ASE of the matched live action F), restricted to rotation
+/// `rotation` when given. SSR passes `Some(demo_action.rotation)`, as the reference
+/// code searched the demo action's own rotation.
+pub fn rematch(demo: &AseMap, query: &[f32], rotation: Option<usize>) -> Match {
+    let range = rotation_range(demo, rotation);
+    scan_parallel(demo, range, &[query])[0]
+}
+
+/// [`rematch`] with options (smoothing as in [`match_queries_with`]).
+pub fn rematch_with(
+    demo: &AseMap,
+    query: &[f32],
+    rotation: Option<usize>,
+    options: &CorrespondOptions,
+) -> Match {
+    match options.smooth_sigma {
+        Some(sigma) if sigma > 0.0 => {
+            let rots = match rotation {
+                Some(r) => {
+                    rotation_range(demo, Some(r));
+                    r..r + 1
+                }
+                None => 0..demo.rotations,
+            };
+            scan_smoothed(demo, rots, &[query], sigma)[0]
+        }
+        _ => rematch(demo, query, rotation),
+    }
+}
+
+/// Verify, second half (Eq. 7): the cycle consistency distance C between the
+/// demonstrated action and its rematch, the Euclidean distance between their
+/// `(rotation, y, x)` index vectors (rotation steps and pixels, unweighted, the
+/// rotation difference not wrapped, as the reference's `np.linalg.norm` of the
+/// index difference). With the rematch restricted to the demo action's rotation
+/// the rotation term is 0, so C is a distance in heightmap pixels.
+pub fn ccd(demo_action: &Action, rematch: &Action) -> f32 {
+    let d = |a: usize, b: usize| a as f32 - b as f32;
+    let dr = d(demo_action.rotation, rematch.rotation);
+    let dy = d(demo_action.y, rematch.y);
+    let dx = d(demo_action.x, rematch.x);
+    (dr * dr + dy * dy + dx * dx).sqrt()
+}
+
+/// Raw L2 distances of every query to each action of rotation plane `r`:
+/// `queries.len()` maps of `H x W`, row-major, `f32::INFINITY` where masked.
+fn plane_distances(map: &AseMap, r: usize, queries: &[&[f32]], qnorms: &[f32]) -> Vec<Vec<f32>> {
+    let plane = map.resolution * map.resolution;
+    let mut out = vec![vec![f32::INFINITY; plane]; queries.len()];
+    let base = r * plane;
+    for p in 0..plane {
+        row_distances_sq(map, base + p, queries, qnorms, |q, d2| {
+            out[q][p] = d2.max(0.0).sqrt();
+        });
+    }
+    out
+}
+
+/// Argmin over smoothed per-rotation distance maps, rotations in `rots`
+/// (parallel over rotations; ties to the smallest flat index).
+fn scan_smoothed(map: &AseMap, rots: Range<usize>, queries: &[&[f32]], sigma: f32) -> Vec<Match> {
+    check_queries(map, queries);
+    let qnorms: Vec<f32> = queries.iter().map(|q| dot(q, q)).collect();
+    let n = map.resolution;
+    let plane = n * n;
+    let first = rots.start * plane;
+    let best = rots
+        .into_par_iter()
+        .map(|r| {
+            plane_distances(map, r, queries, &qnorms)
+                .into_iter()
+                .map(|mut d| {
+                    smooth(&mut d, n, sigma);
+                    let mut b = Best::NONE;
+                    for (p, &v) in d.iter().enumerate() {
+                        if v < b.d2 {
+                            b = Best {
+                                d2: v,
+                                index: r * plane + p,
+                            };
+                        }
+                    }
+                    b
+                })
+                .collect::<Vec<_>>()
+        })
+        .reduce(
+            || vec![Best::NONE; queries.len()],
+            |a, b| a.into_iter().zip(b).map(|(x, y)| x.min(y)).collect(),
+        );
+    best.into_iter()
+        .zip(queries)
+        .map(|(b, q)| b.into_match(map, q, first))
+        .collect()
+}
+
+/// The `H x W` map of L2 distances from `query` to every action of rotation
+/// `rotation` in `map` (row-major, `f32::INFINITY` where masked), for the
+/// debugger's heatmaps and click-to-query. Computed exactly as
+/// `sqrt(sum (a - b)^2)`, so it agrees with [`Match::distance`].
+pub fn distance_map(map: &AseMap, query: &[f32], rotation: usize) -> Vec<f32> {
+    check_queries(map, &[query]);
+    rotation_range(map, Some(rotation));
+    let n = map.resolution;
+    let base = rotation * n * n;
+    let mut out = vec![f32::INFINITY; n * n];
+    out.par_chunks_mut(n).enumerate().for_each(|(y, row)| {
+        for (x, v) in row.iter_mut().enumerate() {
+            let i = base + y * n + x;
+            if map.norms_sq[i] < f32::INFINITY {
+                *v = l2(map.feature(i), query);
+            }
+        }
+    });
+    out
+}
+
+/// Gaussian smoothing of an `n x n` row-major map in place, `sigma` in pixels.
+///
+/// Normalized convolution: entries that are not finite (masked actions,
+/// `f32::INFINITY`) stay as they are and take no part in their neighbours'
+/// averages, and the kernel is renormalized over the finite entries it covers
+/// (also at the borders), so an infinity never spreads. Separable, kernel radius
+/// `ceil(3 sigma)`: `O(n^2 * sigma)`. `sigma <= 0` or non-finite does nothing.
+pub fn smooth(map: &mut [f32], n: usize, sigma: f32) {
+    assert_eq!(map.len(), n * n, "smooth: map is not {n} x {n}");
+    if !(sigma > 0.0 && sigma.is_finite()) || n == 0 {
+        return;
+    }
+    let radius = (3.0 * sigma).ceil() as usize;
+    let kernel: Vec<f32> = (0..=2 * radius)
+        .map(|i| {
+            let d = i as f32 - radius as f32;
+            (-0.5 * d * d / (sigma * sigma)).exp()
+        })
+        .collect();
+    // Values with masked entries zeroed, and the mask as weights.
+    let val: Vec<f32> = map.iter().map(|&v| if v.is_finite() { v } else { 0.0 }).collect();
+    let wgt: Vec<f32> = map.iter().map(|&v| if v.is_finite() { 1.0 } else { 0.0 }).collect();
+    // Horizontal pass.
+    let mut hv = vec![0.0f32; n * n];
+    let mut hw = vec![0.0f32; n * n];
+    for y in 0..n {
+        let (vr, wr) = (&val[y * n..(y + 1) * n], &wgt[y * n..(y + 1) * n]);
+        let (ov, ow) = (&mut hv[y * n..(y + 1) * n], &mut hw[y * n..(y + 1) * n]);
+        for (k, &g) in kernel.iter().enumerate() {
+            // Output x reads input x + k - radius.
+            let lo = radius.saturating_sub(k);
+            let hi = (n + radius).saturating_sub(k).min(n);
+            for x in lo..hi {
+                let s = x + k - radius;
+                ov[x] += g * vr[s];
+                ow[x] += g * wr[s];
+            }
+        }
+    }
+    // Vertical pass, rows contiguous in the inner loop.
+    let mut sv = vec![0.0f32; n * n];
+    let mut sw = vec![0.0f32; n * n];
+    for y in 0..n {
+        let (ov, ow) = (&mut sv[y * n..(y + 1) * n], &mut sw[y * n..(y + 1) * n]);
+        for (k, &g) in kernel.iter().enumerate() {
+            let s = y + k;
+            if s < radius || s - radius >= n {
+                continue;
+            }
+            let s = s - radius;
+            for ((o, p), (iv, iw)) in ov
+                .iter_mut()
+                .zip(ow.iter_mut())
+                .zip(hv[s * n..(s + 1) * n].iter().zip(&hw[s * n..(s + 1) * n]))
+            {
+                *o += g * iv;
+                *p += g * iw;
+            }
+        }
+    }
+    for ((m, v), w) in map.iter_mut().zip(sv).zip(sw) {
+        if m.is_finite() {
+            *m = v / w;
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Benchmark support.
+
+/// SplitMix64: a tiny seeded generator for benchmark maps.
+fn splitmix(state: &mut u64) -> u64 {
+    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    let mut z = *state;
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// A random ASE map (features uniform in `[0, 1)`, like post-ReLU features; every
+/// action allowed), deterministic in `seed`. Generated on all rayon threads.
+pub fn random_ase_map(
+    primitive: Primitive,
+    resolution: usize,
+    rotations: usize,
+    dim: usize,
+    seed: u64,
+) -> AseMap {
+    let n = rotations * resolution * resolution;
+    let mut features = vec![0.0f32; n * dim];
+    features
+        .par_chunks_mut(dim * 1024)
+        .enumerate()
+        .for_each(|(c, chunk)| {
+            let mut s = seed ^ (c as u64).wrapping_mul(0xD129_0D1C_5A3B_0E5F);
+            for v in chunk {
+                *v = (splitmix(&mut s) >> 40) as f32 / (1u64 << 24) as f32;
+            }
+        });
+    AseMap::new(primitive, resolution, rotations, dim, features, vec![true; n])
+}
+
+/// The input of one Correspond step at benchmark scale: M = 3 live maps, and
+/// N = 2 demo maps and demo actions per policy.
+#[derive(Debug)]
+pub struct CorrespondBenchInput {
+    pub tests: Vec<AseMap>,
+    /// `demos[m][n]`.
+    pub demos: Vec<Vec<AseMap>>,
+    /// `demo_actions[m][n]`, flat indices.
+    pub demo_actions: Vec<Vec<usize>>,
+}
+
+impl CorrespondBenchInput {
+    /// Random maps of `16 x resolution x resolution x 64`, seeded.
+    pub fn random(resolution: usize, seed: u64) -> Self {
+        let (rotations, dim, m, n) = (seespot_sim::NUM_ROTATIONS, 64, 3, 2);
+        let mut s = seed;
+        let mut tests = Vec::new();
+        let mut demos = Vec::new();
+        let mut demo_actions = Vec::new();
+        let actions = rotations * resolution * resolution;
+        for _ in 0..m {
+            tests.push(random_ase_map(Primitive::Grasp, resolution, rotations, dim, splitmix(&mut s)));
+            let mut dm = Vec::new();
+            let mut da = Vec::new();
+            for _ in 0..n {
+                dm.push(random_ase_map(Primitive::Grasp, resolution, rotations, dim, splitmix(&mut s)));
+                da.push((splitmix(&mut s) % actions as u64) as usize);
+            }
+            demos.push(dm);
+            demo_actions.push(da);
+        }
+        Self {
+            tests,
+            demos,
+            demo_actions,
+        }
+    }
+
+    /// Bytes one Correspond step streams: every live map's features once, plus
+    /// one rotation plane of a demo map per rematch.
+    pub fn bytes_per_step(&self) -> usize {
+        let map_bytes: usize = self.tests.iter().map(|t| t.features.len() * 4).sum();
+        let plane_bytes: usize = self
+            .demos
+            .iter()
+            .flatten()
+            .map(|d| d.resolution * d.resolution * d.dim * 4)
+            .sum();
+        map_bytes + plane_bytes
+    }
+}
+
+/// One full Correspond step (Match for 3 policies x 2 demos, then 6 rematches at
+/// the demo rotation and their CCDs). Returns the 6 (L, C) pairs.
+pub fn correspond_step(input: &CorrespondBenchInput, options: &CorrespondOptions) -> Vec<(f32, f32)> {
+    let mut out = Vec::new();
+    for ((test, demos), actions) in input.tests.iter().zip(&input.demos).zip(&input.demo_actions) {
+        let res = test.resolution;
+        let queries: Vec<&[f32]> = demos
+            .iter()
+            .zip(actions)
+            .map(|(d, &a)| d.feature(a))
+            .collect();
+        let matches = match_queries_with(test, &queries, options);
+        for ((demo, &a), m) in demos.iter().zip(actions).zip(matches) {
+            let demo_action = Action::from_flat_index(test.primitive, a, res);
+            let re = rematch_with(demo, test.feature(m.index), Some(demo_action.rotation), options);
+            let c = ccd(&demo_action, &re.action(test.primitive, res));
+            out.push((m.distance, c));
+        }
+    }
+    out
+}
+
+/// The straightforward baseline: single-threaded, `sum (a - b)^2` per action and
+/// query, one pass over each map per query. Same results as [`correspond_step`].
+pub fn correspond_step_naive(input: &CorrespondBenchInput) -> Vec<(f32, f32)> {
+    fn nearest(map: &AseMap, q: &[f32], range: Range<usize>) -> Best {
+        let mut best = Best::NONE;
+        for i in range {
+            if !map.mask[i] {
+                continue;
+            }
+            let d2: f32 = map.feature(i).iter().zip(q).map(|(a, b)| (a - b) * (a - b)).sum();
+            if d2 < best.d2 {
+                best = Best { d2, index: i };
+            }
+        }
+        best
+    }
+    let mut out = Vec::new();
+    for ((test, demos), actions) in input.tests.iter().zip(&input.demos).zip(&input.demo_actions) {
+        let res = test.resolution;
+        let plane = res * res;
+        for (demo, &a) in demos.iter().zip(actions) {
+            let m = nearest(test, demo.feature(a), 0..test.len());
+            let demo_action = Action::from_flat_index(test.primitive, a, res);
+            let r = demo_action.rotation;
+            let re = nearest(demo, test.feature(m.index), r * plane..(r + 1) * plane);
+            let c = ccd(&demo_action, &Action::from_flat_index(test.primitive, re.index, res));
+            out.push((m.d2.sqrt(), c));
+        }
+    }
+    out
+}
+
+/// Memory-bandwidth baseline: sums every live map's features on all rayon
+/// threads; returns GB/s (the ceiling for a memory-bound scan).
+pub fn bandwidth_baseline(input: &CorrespondBenchInput, iterations: usize) -> f64 {
+    let bytes: usize = input.tests.iter().map(|t| t.features.len() * 4).sum();
+    let mut best = f64::INFINITY;
+    for _ in 0..iterations.max(1) {
+        let t = Instant::now();
+        let mut total = 0.0f32;
+        for test in &input.tests {
+            total += test
+                .features
+                .par_chunks(CHUNK_ACTIONS * test.dim)
+                .map(|c| {
+                    let mut acc = [0.0f32; 8];
+                    for x in c.chunks_exact(8) {
+                        for k in 0..8 {
+                            acc[k] += x[k];
+                        }
+                    }
+                    acc.iter().sum::<f32>()
+                })
+                .sum::<f32>();
+        }
+        std::hint::black_box(total);
+        best = best.min(t.elapsed().as_secs_f64());
+    }
+    bytes as f64 / best / 1e9
+}
+
+/// Milliseconds the numpy + scipy implementation of the same Correspond step
+/// took on this machine (measured once, see issue 4).
+pub const NUMPY_CORRESPOND_MS: f64 = 850.0;
+
+fn time_ms(iterations: usize, mut f: impl FnMut()) -> Vec<f64> {
+    let mut t = Vec::new();
+    for _ in 0..iterations.max(1) {
+        let start = Instant::now();
+        f();
+        t.push(start.elapsed().as_secs_f64() * 1e3);
+    }
+    t.sort_by(f64::total_cmp);
+    t
+}
+
+/// Benchmarks the Correspond step at `16 x resolution x resolution x 64`, M = 3,
+/// N = 2, on random seeded maps (`resolution = 224` is the paper's scale: 205 MB
+/// per live map). Reports median / min milliseconds, GB/s, the same-run naive and
+/// memory-bandwidth baselines, the smoothed variant, and the ratio against the
+/// numpy + scipy reference's 0.85 s. Allocates `9 x 16 x res^2 x 256` bytes
+/// (1.85 GB at 224).
+pub fn bench_correspond(resolution: usize, iterations: usize) -> serde_json::Value {
+    let input = CorrespondBenchInput::random(resolution, 0x5EE5_9071);
+    let bytes = input.bytes_per_step();
+    let plain = CorrespondOptions::default();
+    let smoothed = CorrespondOptions {
+        smooth_sigma: Some(3.0),
+    };
+    // Warm-up (page faults, thread pool).
+    let fast = correspond_step(&input, &plain);
+    let t = time_ms(iterations, || {
+        std::hint::black_box(correspond_step(&input, &plain));
+    });
+    let ts = time_ms(iterations.div_ceil(2), || {
+        std::hint::black_box(correspond_step(&input, &smoothed));
+    });
+    let mut naive_out = Vec::new();
+    let tn = time_ms(1, || naive_out = correspond_step_naive(&input));
+    let agree = fast
+        .iter()
+        .zip(&naive_out)
+        .all(|(a, b)| (a.0 - b.0).abs() <= 1e-3 * b.0.max(1.0) && a.1 == b.1);
+    let bw = bandwidth_baseline(&input, 3);
+    let median = t[t.len() / 2];
+    let gbps = bytes as f64 / (median * 1e-3) / 1e9;
+    serde_json::json!({
+        "step": "correspond",
+        "rotations": seespot_sim::NUM_ROTATIONS,
+        "resolution": resolution,
+        "dim": 64,
+        "policies": 3,
+        "demos": 2,
+        "threads": rayon::current_num_threads(),
+        "iterations": t.len(),
+        "bytes_per_step": bytes,
+        "correspond_ms": median,
+        "correspond_min_ms": t[0],
+        "correspond_gbps": gbps,
+        "correspond_smoothed_ms": ts[ts.len() / 2],
+        "naive_single_thread_ms": tn[0],
+        "speedup_vs_naive": tn[0] / median,
+        "bandwidth_baseline_gbps": bw,
+        "fraction_of_bandwidth": gbps / bw,
+        "numpy_reference_ms": NUMPY_CORRESPOND_MS,
+        "speedup_vs_numpy": NUMPY_CORRESPOND_MS / median,
+        "budget_ms": 40.0,
+        "within_budget": median <= 40.0,
+        "naive_agrees": agree,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// R = 1 map of side `n`, D = 2, features given per pixel.
+    fn map(n: usize, rotations: usize, f: &[[f32; 2]], mask: Option<Vec<bool>>) -> AseMap {
+        let features = f.iter().flatten().copied().collect();
+        let mask = mask.unwrap_or(vec![true; f.len()]);
+        AseMap::new(Primitive::Grasp, n, rotations, 2, features, mask)
+    }
+
+    #[test]
+    fn match_finds_nearest_and_distance() {
+        let m = map(2, 1, &[[0.0, 0.0], [3.0, 0.0], [0.0, 1.0], [5.0, 5.0]], None);
+        let r = match_queries(&m, &[&[3.0, 1.0], &[0.0, 0.9]]);
+        assert_eq!(r[0].index, 1);
+        assert!((r[0].distance - 1.0).abs() < 1e-6);
+        assert_eq!(r[1].index, 2);
+        assert!((r[1].distance - 0.1).abs() < 1e-4);
+    }
+
+    #[test]
+    fn masked_actions_never_match() {
+        let f = [[1.0, 1.0], [9.0, 9.0], [1.0, 1.0], [8.0, 8.0]];
+        let m = map(2, 1, &f, Some(vec![false, true, false, true]));
+        let r = match_queries(&m, &[&[1.0, 1.0]]);
+        assert_eq!(r[0].index, 3);
+        let all_masked = map(2, 1, &f, Some(vec![false; 4]));
+        let r = match_queries(&all_masked, &[&[1.0, 1.0]]);
+        assert_eq!(r[0].distance, f32::INFINITY);
+        assert_eq!(distance_map(&m, &[1.0, 1.0], 0)[0], f32::INFINITY);
+    }
+
+    #[test]
+    fn ties_go_to_smallest_flat_index_across_chunks() {
+        // Many identical rows spanning several parallel chunks.
+        let n = 128; // 2 rotations x 128 x 128 = 32768 actions = 8 chunks
+        let f = vec![[0.5f32, 0.25]; 2 * n * n];
+        let mut mask = vec![true; 2 * n * n];
+        mask[..5000].iter_mut().for_each(|m| *m = false);
+        let m = map(n, 2, &f, Some(mask));
+        for _ in 0..5 {
+            let r = match_queries(&m, &[&[0.0, 0.0], &[0.5, 0.25]]);
+            assert_eq!(r[0].index, 5000);
+            assert_eq!(r[1].index, 5000);
+            assert_eq!(r[1].distance, 0.0);
+        }
+        assert_eq!(rematch(&m, &[0.0, 0.0], Some(1)).index, n * n);
+    }
+
+    #[test]
+    fn cycle_back_exactly_gives_zero_ccd() {
+        // Demo and test are the same scene: the match of the demo action's ASE
+        // is itself, and it rematches to the demo action.
+        let f = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]];
+        let demo = map(2, 1, &f, None);
+        let test = map(2, 1, &f, None);
+        let a = Action::new(Primitive::Grasp, 0, 1, 0);
+        let m = match_queries(&test, &[demo.feature(a.flat_index(2))])[0];
+        assert_eq!(m.index, a.flat_index(2));
+        let re = rematch(&demo, test.feature(m.index), Some(0));
+        assert_eq!(ccd(&a, &re.action(Primitive::Grasp, 2)), 0.0);
+    }
+
+    #[test]
+    fn rematch_elsewhere_gives_pixel_distance() {
+        // Demo 3x3, R = 2. Demo action at r=1, (0, 0) with ASE [1, 0]. The test
+        // scene's best match has ASE [5, 5], which in the demo's rotation 1 is
+        // nearest to pixel (2, 1): C = sqrt(2^2 + 1^2).
+        let mut f = vec![[0.0f32, 0.0]; 18];
+        f[9] = [1.0, 0.0]; // r=1, (0,0): demo action
+        f[9 + 7] = [5.0, 5.1]; // r=1, (2,1)
+        f[4] = [5.0, 5.0]; // r=0, (1,1): exact but other rotation, excluded
+        let demo = map(3, 2, &f, None);
+        let mut t = vec![[9.0f32, 9.0]; 18];
+        t[13] = [1.5, 0.5]; // the test scene's nearest action to the demo's [1, 0]
+        let test = map(3, 2, &t, None);
+        let a = Action::from_flat_index(Primitive::Grasp, 9, 3);
+        let m = match_queries(&test, &[demo.feature(9)])[0];
+        assert_eq!(m.index, 13);
+        // F's ASE [1.5, 0.5] cycles back to the demo action: C = 0.
+        let back = rematch(&demo, test.feature(m.index), Some(a.rotation));
+        assert_eq!(ccd(&a, &back.action(Primitive::Grasp, 3)), 0.0);
+        // A match whose ASE is [5, 5] lands on (2, 1) instead.
+        let re = rematch(&demo, &[5.0, 5.0], Some(a.rotation));
+        assert_eq!(re.index, 9 + 7);
+        let c = ccd(&a, &re.action(Primitive::Grasp, 3));
+        assert!((c - 5f32.sqrt()).abs() < 1e-6);
+        // Unrestricted, the exact match at the other rotation wins.
+        let re = rematch(&demo, &[5.0, 5.0], None);
+        assert_eq!(re.index, 4);
+        assert_eq!(re.distance, 0.0);
+        // And the distance counts the rotation step.
+        let c = ccd(&a, &re.action(Primitive::Grasp, 3));
+        assert!((c - (1.0f32 + 1.0 + 1.0).sqrt()).abs() < 1e-6);
+    }
+
+    #[test]
+    fn distance_map_matches_direct_computation() {
+        let m = random_ase_map(Primitive::Place, 9, 3, 64, 7);
+        let q = m.feature(100).to_vec();
+        let dm = distance_map(&m, &q, 1);
+        for (p, &d) in dm.iter().enumerate() {
+            let direct: f32 = m
+                .feature(81 + p)
+                .iter()
+                .zip(&q)
+                .map(|(a, b)| (a - b) * (a - b))
+                .sum::<f32>()
+                .sqrt();
+            assert!((d - direct).abs() < 1e-5, "{d} vs {direct}");
+        }
+        assert_eq!(dm[100 - 81], 0.0);
+        assert_eq!(match_queries(&m, &[q.as_slice()])[0].distance, 0.0);
+    }
+
+    #[test]
+    fn smoothing_keeps_infinities_and_constants() {
+        let n = 8;
+        let mut m = vec![2.0f32; n * n];
+        m[3 * n + 3] = f32::INFINITY;
+        m[0] = f32::INFINITY;
+        smooth(&mut m, n, 3.0);
+        assert_eq!(m[3 * n + 3], f32::INFINITY);
+        assert_eq!(m[0], f32::INFINITY);
+        for (i, v) in m.iter().enumerate() {
+            if i != 0 && i != 3 * n + 3 {
+                assert!((v - 2.0).abs() < 1e-5, "{i}: {v}");
+            }
+        }
+    }
+
+    #[test]
+    fn smoothing_moves_argmin_to_the_broad_basin() {
+        // A single sharp minimum far from a broad low valley: smoothed, the
+        // valley wins.
+        let n = 16;
+        let mut f = vec![[10.0f32, 0.0]; n * n];
+        f[0] = [0.0, 0.0]; // sharp spike at (0, 0), distance 0
+        for y in 8..13 {
+            for x in 8..13 {
+                f[y * n + x] = [1.0, 0.0]; // broad valley, distance 1
+            }
+        }
+        let m = map(n, 1, &f, None);
+        let q: &[f32] = &[0.0, 0.0];
+        assert_eq!(match_queries(&m, &[q])[0].index, 0);
+        let s = match_queries_smoothed(&m, &[q], 1.0)[0];
+        assert_eq!(s.index, 10 * n + 10);
+        assert!((s.distance - 1.0).abs() < 1e-5, "raw distance reported");
+        let r = rematch_with(&m, q, Some(0), &CorrespondOptions { smooth_sigma: Some(1.0) });
+        assert_eq!(r.index, 10 * n + 10);
+    }
+
+    #[test]
+    fn fast_step_agrees_with_naive() {
+        let input = CorrespondBenchInput::random(12, 3);
+        let fast = correspond_step(&input, &CorrespondOptions::default());
+        let naive = correspond_step_naive(&input);
+        assert_eq!(fast.len(), 6);
+        for (a, b) in fast.iter().zip(&naive) {
+            assert!((a.0 - b.0).abs() < 1e-3, "{a:?} {b:?}");
+            assert_eq!(a.1, b.1);
+        }
+    }
+}
