@@ -1,1 +1,59 @@
-fn main() {}
+//! `seespot`: every user command of the See-SPOT-Run toolkit.
+
+mod bench;
+mod demo;
+mod sim;
+
+use clap::{Parser, Subcommand};
+
+/// See-SPOT-Run in Rust: repurpose trained block-world policies for a new task
+/// from two demonstrations, and watch why each action was chosen.
+#[derive(Parser, Debug)]
+#[command(name = "seespot", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Record and inspect demonstrations.
+    #[command(subcommand)]
+    Demo(demo::DemoCommand),
+    /// Run simulated trials with the oracle, a random policy or a trained policy.
+    #[command(subcommand)]
+    Sim(sim::SimCommand),
+    /// Measure speed (`--json` for a machine-readable report).
+    #[command(subcommand)]
+    Bench(bench::BenchCommand),
+}
+
+fn main() -> anyhow::Result<()> {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Demo(c) => demo::run(c),
+        Command::Sim(c) => sim::run(c),
+        Command::Bench(c) => bench::run(c),
+    }
+}
+
+/// Prints `value` as one JSON object on stdout.
+pub fn print_json(value: &serde_json::Value) -> anyhow::Result<()> {
+    println!("{}", serde_json::to_string(value)?);
+    Ok(())
+}
+
+/// A progress bar on stderr for `n` items, hidden when `quiet`.
+pub fn progress_bar(n: u64, quiet: bool) -> indicatif::ProgressBar {
+    if quiet {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new(n);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} {msg} (eta {eta})",
+        )
+        .expect("valid template"),
+    );
+    bar
+}

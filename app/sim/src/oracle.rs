@@ -213,7 +213,7 @@ fn spot_ok(poses: &[BlockPose], skip: &[usize], c: (f32, f32)) -> bool {
         && c.1.abs() <= lim
         && (0..poses.len())
             .filter(|i| !skip.contains(i))
-            .all(|i| dist(c, xy(&poses[i])) >= BLOCK_SIZE * 1.5)
+            .all(|i| dist(c, xy(&poses[i])) >= BLOCK_SIZE * 1.4)
 }
 
 /// Next free position extending the line of `row` (two or more blocks, sorted or
@@ -249,21 +249,35 @@ fn extend_row(poses: &[BlockPose], row: &[usize], moving: usize) -> Option<(f32,
 }
 
 fn plan_row(poses: &[BlockPose; NUM_BLOCKS]) -> (usize, (f32, f32, f32)) {
-    let row = progress::best_row(poses);
-    if row.len() >= 2 {
-        let outside: Vec<usize> = (0..NUM_BLOCKS).filter(|i| !row.contains(i)).collect();
-        for &m in &outside {
+    // Extend the largest row that can be extended, by any block outside it.
+    let mut rows: Vec<Vec<usize>> = (1u32..(1 << NUM_BLOCKS))
+        .map(|mask| (0..NUM_BLOCKS).filter(|i| mask & (1 << i) != 0).collect::<Vec<_>>())
+        .filter(|idx: &Vec<usize>| idx.len() >= 2 && progress::is_row(poses, idx))
+        .collect();
+    rows.sort_by_key(|r| std::cmp::Reverse(r.len()));
+    let best = rows.first().map_or(0, |r| r.len());
+    let in_best = |m: usize| rows.iter().any(|r| r.len() == best && r.contains(&m));
+    for row in &rows {
+        // Never break a longer row to extend a shorter one.
+        for m in (0..NUM_BLOCKS).filter(|&i| !row.contains(&i) && (row.len() == best || !in_best(i))) {
             if is_clear(poses, m)
-                && let Some(t) = extend_row(poses, &row, m)
+                && let Some(t) = extend_row(poses, row, m)
             {
                 return (m, t);
             }
         }
     }
-    // Start a row: next to the anchor nearest the centre, towards the centre.
+    // Start a row beside the block with the most room around it.
+    let room = |i: usize| {
+        (0..NUM_BLOCKS)
+            .filter(|&j| j != i)
+            .map(|j| dist(xy(&poses[i]), xy(&poses[j])))
+            .fold(f32::MAX, f32::min)
+            - dist(xy(&poses[i]), (0.0, 0.0))
+    };
     let anchor = (0..NUM_BLOCKS)
         .filter(|&i| on_table(&poses[i]))
-        .min_by(|&a, &b| dist(xy(&poses[a]), (0.0, 0.0)).total_cmp(&dist(xy(&poses[b]), (0.0, 0.0))))
+        .max_by(|&a, &b| room(a).total_cmp(&room(b)))
         .unwrap_or(0);
     let pick = pick_free_block(poses, &[anchor]);
     (pick, beside(poses, anchor, pick))

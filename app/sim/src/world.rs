@@ -58,6 +58,9 @@ pub const MAX_GRASP_OFFSET: f32 = 0.018;
 pub const MAX_GRASP_TILT: f32 = 0.35;
 /// Gap between the released block's bottom and the action height, metres.
 pub const PLACE_CLEARANCE: f32 = 0.004;
+/// How far a place keeps pressing down after the held block first touches
+/// something, metres (a force-limited descent does not stop dead).
+pub const PLACE_PRESS: f32 = 0.008;
 /// Speed of the kinematic descent and lift, metres per second.
 pub const GRIPPER_SPEED: f32 = 0.4;
 /// Where a held block is parked, out of the camera's view, metres.
@@ -538,9 +541,19 @@ impl World {
                     .contact_pairs_with(c)
                     .any(|pair| pair.has_any_active_contact())
             {
-                let here = self.physics.bodies[handle].translation();
-                self.physics.bodies[handle]
-                    .set_next_kinematic_position(Pose::from_parts(here, Rotation::from_rotation_z(yaw)));
+                // The arm keeps pressing a little past the first touch, as a
+                // force-limited descent would, then stops.
+                let extra = (PLACE_PRESS / step).ceil() as usize;
+                let dir = (to - from).normalize_or(Vector::ZERO);
+                let mut here = self.physics.bodies[handle].translation();
+                for _ in 0..extra.min(n - k) {
+                    here += dir * step;
+                    self.physics.bodies[handle].set_next_kinematic_position(Pose::from_parts(
+                        here,
+                        Rotation::from_rotation_z(yaw),
+                    ));
+                    self.step();
+                }
                 return;
             }
         }

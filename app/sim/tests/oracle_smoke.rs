@@ -14,6 +14,7 @@ fn run(task: TaskId, seed: u64) -> Trial {
 
 #[test]
 fn oracle_completes_every_task() {
+    let mut failures = Vec::new();
     for task in TaskId::ALL {
         let seeds = 20;
         let mut ok = 0;
@@ -31,6 +32,9 @@ fn oracle_completes_every_task() {
             }
         }
         eprintln!("{task}: {ok}/{seeds} succeeded, {:.2} actions per success", actions as f64 / ok.max(1) as f64);
-        assert!(ok * 10 >= seeds * 8, "{task}: oracle succeeded in only {ok}/{seeds} trials");
+        if ok * 10 < seeds * 9 {
+            failures.push(format!("{task}: oracle succeeded in only {ok}/{seeds} trials"));
+        }
     }
+    assert!(failures.is_empty(), "{failures:?}");
 }
