@@ -1,7 +1,34 @@
 //! SPOT-Q policies for seespot: the per-primitive Q-network, rotations, the
 //! action-state embedding function (the network without its last layer), common
 //! sense masks and the SPOT-Q trainer.
+//!
+//! ```no_run
+//! use seespot_policy::{PolicyNet, greedy_action};
+//! use seespot_sim::{Primitive, Trial, TaskId, WorldConfig};
+//! let policy = PolicyNet::load("models/stack.safetensors".as_ref())?;
+//! let trial = Trial::new(WorldConfig::default(), TaskId::Stack, 1);
+//! let hm = trial.world().render();
+//! let ase = policy.embed(&hm, Primitive::Grasp)?; // R x H x W x 64
+//! let action = greedy_action(&policy, &hm, Primitive::Grasp)?;
+//! # Ok::<(), seespot_policy::PolicyError>(())
+//! ```
 
+pub mod bench;
 pub mod embedding;
+pub mod error;
+pub mod input;
+pub mod mask;
+pub mod learner;
+pub mod net;
+pub mod optim;
+pub mod policy;
+pub mod replay;
+pub mod reward;
+pub mod rotation;
+pub mod tensor_file;
+pub mod trainer;
 
-pub use embedding::{AseMap, QMap};
+pub use embedding::{AseMap, EMBEDDING_DIM, QMap};
+pub use error::PolicyError;
+pub use mask::common_sense_mask;
+pub use policy::{PolicyMeta, PolicyNet, greedy_action, masked_argmax};

@@ -1,0 +1,265 @@
+//! The SPOT-Q learner: a [`PolicyNet`], its optimiser and the training step
+//! (Huber loss at the executed action only), plus its checkpoint file.
+//!
+//! Only the executed action needs a forward/backward pass: the stored state is
+//! rendered, rotated by the executed rotation, run through the trunk, the feature
+//! is sampled bilinearly at the executed pixel's location in the rotated feature
+//! map and the 1x1 head gives its Q.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use candle_core::{Device, Tensor, Var};
+use rayon::prelude::*;
+use seespot_sim::Primitive;
+use seespot_sim::action::rotation_angle;
+
+use crate::error::PolicyError;
+use crate::input::{INPUT_CHANNELS, NET_RESOLUTION, NetInput};
+use crate::net::{FEATURE_RESOLUTION, TRUNK_STRIDE, param_shapes};
+use crate::optim::{Adam, AdamConfig};
+use crate::policy::PolicyNet;
+use crate::replay::Experience;
+use crate::rotation::{BackMap, bilinear_taps, rotate_input};
+use crate::tensor_file::{self, F32Tensor};
+
+/// Huber loss threshold.
+pub const HUBER_DELTA: f32 = 1.0;
+
+/// A policy being trained and its optimiser.
+#[derive(Debug)]
+pub struct Learner {
+    pub policy: PolicyNet,
+    pub adam: Adam,
+}
+
+/// What one training step measured (before the update).
+#[derive(Clone, Debug)]
+pub struct StepStats {
+    /// Mean Huber loss over the batch.
+    pub loss: f32,
+    /// Predicted Q of each experience, in batch order.
+    pub predictions: Vec<f32>,
+}
+
+/// An experience made ready for the net: rotated input and bilinear taps.
+struct Prepared {
+    input: Vec<f32>,
+    taps: [usize; 4],
+    weights: [f32; 4],
+}
+
+fn prepare(e: &Experience) -> Prepared {
+    let hm = e.heightmaps();
+    let input = NetInput::from_heightmaps(&hm);
+    let rotated = rotate_input(&input, e.action.rotation);
+    let map = BackMap::new(&input, e.resolution, TRUNK_STRIDE);
+    let (fx, fy) = map.locate(rotation_angle(e.action.rotation).sin_cos(), e.action.y, e.action.x);
+    let (taps, weights) = bilinear_taps(FEATURE_RESOLUTION, fx, fy);
+    Prepared {
+        input: rotated,
+        taps,
+        weights,
+    }
+}
+
+/// Elementwise Huber loss of `d` (differentiable): `0.5 q^2 + delta (|d| - q)`,
+/// `q = min(|d|, delta)`.
+fn huber(d: &Tensor) -> candle_core::Result<Tensor> {
+    let a = d.abs()?;
+    let q = a.minimum(HUBER_DELTA)?;
+    let lin = (&a - &q)?;
+    (q.sqr()? * 0.5)? + (lin * HUBER_DELTA as f64)?
+}
+
+impl Learner {
+    pub fn new(policy: PolicyNet, config: AdamConfig) -> Result<Self, PolicyError> {
+        let adam = {
+            let vars = vars(&policy);
+            Adam::new(&vars, config)?
+        };
+        Ok(Self { policy, adam })
+    }
+
+    /// One step on `batch`: Huber loss between each experience's target and the
+    /// Q of its executed action, averaged, backpropagated, one Adam update.
+    pub fn train_step(&mut self, batch: &[Experience]) -> Result<StepStats, PolicyError> {
+        let prepared: Vec<Prepared> = batch.par_iter().map(prepare).collect();
+        let mut predictions = vec![0.0f32; batch.len()];
+        let mut losses = Vec::new();
+        let n = NET_RESOLUTION;
+        let cells = FEATURE_RESOLUTION * FEATURE_RESOLUTION;
+        let mut groups = Vec::new();
+        for p in Primitive::ALL {
+            let idx: Vec<usize> = (0..batch.len())
+                .filter(|&i| batch[i].action.primitive == p)
+                .collect();
+            if idx.is_empty() {
+                continue;
+            }
+            let b = idx.len();
+            let mut x = Vec::with_capacity(b * INPUT_CHANNELS * n * n);
+            let mut taps = Vec::with_capacity(4 * b);
+            let mut w = Vec::with_capacity(4 * b);
+            let mut t = Vec::with_capacity(b);
+            for (k, &i) in idx.iter().enumerate() {
+                x.extend_from_slice(&prepared[i].input);
+                taps.extend(prepared[i].taps.iter().map(|&c| (k * cells + c) as u32));
+                w.extend_from_slice(&prepared[i].weights);
+                t.push(batch[i].target);
+            }
+            let dev = Device::Cpu;
+            let x = Tensor::from_vec(x, (b, INPUT_CHANNELS, n, n), &dev)?;
+            let taps = Tensor::from_vec(taps, 4 * b, &dev)?;
+            let w = Tensor::from_vec(w, (b, 4), &dev)?;
+            let t = Tensor::from_vec(t, b, &dev)?;
+            let q = self.policy.net(p).q_at(&x, &taps, &w)?;
+            losses.push(huber(&(&q - &t)?)?.sum_all()?);
+            groups.push((idx, q));
+        }
+        if losses.is_empty() {
+            return Ok(StepStats {
+                loss: 0.0,
+                predictions,
+            });
+        }
+        let mut total = losses[0].clone();
+        for l in &losses[1..] {
+            total = (total + l)?;
+        }
+        let total = (total / batch.len() as f64)?;
+        let grads = total.backward()?;
+        let vs = vars(&self.policy);
+        self.adam.step(&vs, &grads)?;
+        for (idx, q) in groups {
+            for (k, v) in q.to_vec1::<f32>()?.into_iter().enumerate() {
+                predictions[idx[k]] = v;
+            }
+        }
+        Ok(StepStats {
+            loss: total.to_scalar::<f32>()?,
+            predictions,
+        })
+    }
+
+    /// Mean Huber loss on `batch` without updating (for tests and logs).
+    pub fn eval_loss(&self, batch: &[Experience]) -> Result<f32, PolicyError> {
+        let prepared: Vec<Prepared> = batch.par_iter().map(prepare).collect();
+        let n = NET_RESOLUTION;
+        let mut sum = 0.0;
+        for (e, p) in batch.iter().zip(&prepared) {
+            let dev = Device::Cpu;
+            let x = Tensor::from_vec(p.input.clone(), (1, INPUT_CHANNELS, n, n), &dev)?;
+            let taps = Tensor::from_vec(p.taps.iter().map(|&c| c as u32).collect::<Vec<_>>(), 4, &dev)?;
+            let w = Tensor::from_vec(p.weights.to_vec(), (1, 4), &dev)?;
+            let q = self.policy.net(e.action.primitive).q_at(&x, &taps, &w)?;
+            let t = Tensor::from_vec(vec![e.target], 1, &dev)?;
+            sum += huber(&(&q - &t)?)?.sum_all()?.to_scalar::<f32>()?;
+        }
+        Ok(sum / batch.len().max(1) as f32)
+    }
+
+    /// Writes weights, Adam moments and step count (safetensors, checksummed).
+    pub fn save_checkpoint(&self, path: &Path) -> Result<(), PolicyError> {
+        let mut tensors = BTreeMap::new();
+        let names = names();
+        let params = vars(&self.policy);
+        for (i, (name, shape)) in names.iter().enumerate() {
+            let vec = |t: &Tensor| t.flatten_all().and_then(|t| t.to_vec1::<f32>());
+            let f = |data| F32Tensor {
+                shape: shape.clone(),
+                data,
+            };
+            tensors.insert(name.clone(), f(vec(params[i].as_tensor())?));
+            tensors.insert(format!("adam.m.{name}"), f(vec(&self.adam.m[i])?));
+            tensors.insert(format!("adam.v.{name}"), f(vec(&self.adam.v[i])?));
+        }
+        let mut meta = BTreeMap::new();
+        meta.insert("format".into(), "seespot-checkpoint".into());
+        meta.insert("adam_t".into(), self.adam.t.to_string());
+        meta.insert(
+            "adam_config".into(),
+            serde_json::to_string(&self.adam.config).unwrap_or_default(),
+        );
+        meta.insert(
+            "policy_meta".into(),
+            serde_json::to_string(&self.policy.meta).unwrap_or_default(),
+        );
+        tensor_file::write(path, &tensors, &meta)
+    }
+
+    /// Reads a checkpoint written by [`Learner::save_checkpoint`].
+    pub fn load_checkpoint(path: &Path) -> Result<Self, PolicyError> {
+        let file = tensor_file::read(path)?;
+        let bad = |reason: String| PolicyError::Checkpoint {
+            path: path.to_path_buf(),
+            reason,
+        };
+        if file.metadata.get("format").map(String::as_str) != Some("seespot-checkpoint") {
+            return Err(bad("not a seespot checkpoint".into()));
+        }
+        let meta = serde_json::from_str(file.metadata.get("policy_meta").map_or("", |s| s))
+            .map_err(|e| bad(format!("policy_meta: {e}")))?;
+        let config: AdamConfig =
+            serde_json::from_str(file.metadata.get("adam_config").map_or("", |s| s))
+                .map_err(|e| bad(format!("adam_config: {e}")))?;
+        let t: u64 = file
+            .metadata
+            .get("adam_t")
+            .and_then(|s| s.parse().ok())
+            .ok_or_else(|| bad("adam_t missing".into()))?;
+        let get = |name: &str, shape: &[usize]| -> Result<Tensor, PolicyError> {
+            let ft = file.tensors.get(name).ok_or_else(|| PolicyError::Tensor {
+                path: path.to_path_buf(),
+                tensor: name.into(),
+                reason: "missing".into(),
+            })?;
+            if ft.shape != shape {
+                return Err(PolicyError::Tensor {
+                    path: path.to_path_buf(),
+                    tensor: name.into(),
+                    reason: format!("shape {:?}, expected {shape:?}", ft.shape),
+                });
+            }
+            Ok(Tensor::from_vec(ft.data.clone(), shape, &Device::Cpu)?)
+        };
+        let names = names();
+        let per = param_shapes().len();
+        let mut params = Vec::new();
+        let (mut m, mut v) = (Vec::new(), Vec::new());
+        for (name, shape) in &names {
+            params.push(get(name, shape)?);
+            m.push(get(&format!("adam.m.{name}"), shape)?);
+            v.push(get(&format!("adam.v.{name}"), shape)?);
+        }
+        let place = params.split_off(per);
+        let policy = PolicyNet {
+            meta,
+            nets: [
+                crate::net::QNet::from_tensors(params)?,
+                crate::net::QNet::from_tensors(place)?,
+            ],
+        };
+        Ok(Self {
+            policy,
+            adam: Adam { config, m, v, t },
+        })
+    }
+}
+
+/// Names and shapes of all parameters: grasp net then place net.
+fn names() -> Vec<(String, Vec<usize>)> {
+    Primitive::ALL
+        .iter()
+        .flat_map(|p| {
+            param_shapes()
+                .into_iter()
+                .map(move |(n, s)| (format!("{}.{n}", p.as_str()), s))
+        })
+        .collect()
+}
+
+/// All parameters of both nets, grasp then place.
+fn vars(policy: &PolicyNet) -> Vec<&Var> {
+    policy.nets.iter().flat_map(|n| n.params.iter()).collect()
+}

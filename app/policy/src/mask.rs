@@ -1,0 +1,73 @@
+//! "Common sense" action masks (DESIGN §3), applied to exploration, to the
+//! greedy argmax and to the ASE maps.
+//!
+//! - **grasp**: only where there is an object, i.e. the depth heightmap is above
+//!   [`OBJECT_HEIGHT`] (1 cm).
+//! - **place**: only on or next to an object: within [`PLACE_REACH`] (4 cm,
+//!   Chebyshev distance, i.e. a square window) of an object pixel.
+//!
+//! The mask is the same for all rotations.
+
+use seespot_sim::{Heightmaps, Primitive};
+
+/// A pixel higher than this holds an object, metres.
+pub const OBJECT_HEIGHT: f32 = 0.01;
+/// A place is allowed within this distance of an object pixel, metres.
+pub const PLACE_REACH: f32 = 0.04;
+
+/// Pixels holding an object, `H x W`.
+pub fn object_mask(hm: &Heightmaps) -> Vec<bool> {
+    hm.depth.iter().map(|&d| d > OBJECT_HEIGHT).collect()
+}
+
+/// Square dilation of an `n x n` mask by `k` pixels (separable max).
+fn dilate(mask: &[bool], n: usize, k: usize) -> Vec<bool> {
+    let mut rows = vec![false; n * n];
+    for y in 0..n {
+        for x in 0..n {
+            let lo = x.saturating_sub(k);
+            let hi = (x + k).min(n - 1);
+            rows[y * n + x] = mask[y * n + lo..=y * n + hi].iter().any(|&b| b);
+        }
+    }
+    let mut out = vec![false; n * n];
+    for y in 0..n {
+        let lo = y.saturating_sub(k);
+        let hi = (y + k).min(n - 1);
+        for x in 0..n {
+            out[y * n + x] = (lo..=hi).any(|yy| rows[yy * n + x]);
+        }
+    }
+    out
+}
+
+/// The common-sense mask of `primitive` in `hm`: `H x W`, true where allowed.
+pub fn common_sense_mask(hm: &Heightmaps, primitive: Primitive) -> Vec<bool> {
+    let objects = object_mask(hm);
+    match primitive {
+        Primitive::Grasp => objects,
+        Primitive::Place => {
+            let k = (PLACE_REACH / hm.grid.pixel_size()).round() as usize;
+            dilate(&objects, hm.resolution(), k)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use seespot_sim::Grid;
+
+    #[test]
+    fn place_mask_reaches_four_cm() {
+        let grid = Grid::new(112);
+        let mut hm = Heightmaps::empty(grid);
+        hm.depth[50 * 112 + 50] = 0.05;
+        let g = common_sense_mask(&hm, Primitive::Grasp);
+        assert_eq!(g.iter().filter(|&&b| b).count(), 1);
+        let p = common_sense_mask(&hm, Primitive::Place);
+        assert!(p[50 * 112 + 60]); // 10 px = 4 cm
+        assert!(!p[50 * 112 + 61]);
+        assert_eq!(p.iter().filter(|&&b| b).count(), 21 * 21);
+    }
+}

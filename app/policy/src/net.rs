@@ -1,0 +1,158 @@
+//! The per-primitive Q-network: a small strided fully convolutional trunk
+//! (the embedding function E_m, DESIGN §3) and a final 1x1 linear layer `w_m`.
+//!
+//! Trunk, on the 4 x 112 x 112 network input (4 mm/px):
+//!
+//! | layer | kernel | stride | dilation | channels | output |
+//! |---|---|---|---|---|---|
+//! | conv1 | 3x3 | 2 | 1 | 4 -> 16 | 56 x 56 (8 mm) |
+//! | conv2 | 3x3 | 2 | 1 | 16 -> 32 | 28 x 28 (16 mm) |
+//! | conv3 | 3x3 | 1 | 1 | 32 -> 64 | 28 x 28 |
+//! | conv4 | 3x3 | 1 | 2 | 64 -> 64 | 28 x 28 |
+//! | conv5 | 3x3 | 1 | 1 | 64 -> 64 | 28 x 28 |
+//!
+//! Every conv is followed by a ReLU; there is no normalisation. The receptive
+//! field is 39 network pixels (15.6 cm). With padding `dilation` every output
+//! cell `k` is centred on input pixel `4k` ([`TRUNK_STRIDE`]).
+
+use candle_core::{DType, Device, Tensor, Var};
+use rand::Rng;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+use crate::embedding::EMBEDDING_DIM;
+use crate::input::{INPUT_CHANNELS, NET_RESOLUTION};
+
+/// Total stride of the trunk: feature cell `k` is centred on input pixel `4k`.
+pub const TRUNK_STRIDE: usize = 4;
+/// Side of the trunk's output map, cells.
+pub const FEATURE_RESOLUTION: usize = NET_RESOLUTION / TRUNK_STRIDE;
+
+/// One convolution of the trunk.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ConvSpec {
+    pub name: &'static str,
+    pub in_channels: usize,
+    pub out_channels: usize,
+    pub stride: usize,
+    pub dilation: usize,
+}
+
+/// The trunk, in order.
+pub const TRUNK: [ConvSpec; 5] = [
+    ConvSpec { name: "conv1", in_channels: INPUT_CHANNELS, out_channels: 16, stride: 2, dilation: 1 },
+    ConvSpec { name: "conv2", in_channels: 16, out_channels: 32, stride: 2, dilation: 1 },
+    ConvSpec { name: "conv3", in_channels: 32, out_channels: 32, stride: 1, dilation: 1 },
+    ConvSpec { name: "conv4", in_channels: 32, out_channels: 32, stride: 1, dilation: 2 },
+    ConvSpec { name: "conv5", in_channels: 32, out_channels: EMBEDDING_DIM, stride: 1, dilation: 1 },
+];
+
+/// Kernel side of every trunk conv.
+pub const KERNEL: usize = 3;
+
+/// A named parameter: its tensor name inside a primitive's net and its shape.
+pub fn param_shapes() -> Vec<(String, Vec<usize>)> {
+    let mut v = Vec::new();
+    for c in TRUNK {
+        v.push((format!("{}.weight", c.name), vec![c.out_channels, c.in_channels, KERNEL, KERNEL]));
+        v.push((format!("{}.bias", c.name), vec![c.out_channels]));
+    }
+    v.push(("head.weight".into(), vec![1, EMBEDDING_DIM]));
+    v.push(("head.bias".into(), vec![1]));
+    v
+}
+
+/// One primitive's Q-network. Parameters are candle [`Var`]s, in the order of
+/// [`param_shapes`].
+#[derive(Clone, Debug)]
+pub struct QNet {
+    pub params: Vec<Var>,
+}
+
+impl QNet {
+    /// A freshly initialised network (Kaiming-uniform weights, zero biases),
+    /// deterministic in `seed`.
+    pub fn new(seed: u64) -> candle_core::Result<Self> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut params = Vec::new();
+        for (name, shape) in param_shapes() {
+            let n: usize = shape.iter().product();
+            let data: Vec<f32> = if name.ends_with(".bias") {
+                vec![0.0; n]
+            } else {
+                let fan_in: usize = shape[1..].iter().product();
+                let bound = (6.0 / fan_in as f32).sqrt()
+                    * if name.starts_with("head") { 0.1 } else { 1.0 };
+                (0..n).map(|_| rng.random_range(-bound..bound)).collect()
+            };
+            params.push(Var::from_tensor(&Tensor::from_vec(data, shape, &Device::Cpu)?)?);
+        }
+        Ok(Self { params })
+    }
+
+    /// Builds a net from tensors in [`param_shapes`] order (shapes not checked here).
+    pub fn from_tensors(tensors: Vec<Tensor>) -> candle_core::Result<Self> {
+        Ok(Self {
+            params: tensors.iter().map(Var::from_tensor).collect::<Result<_, _>>()?,
+        })
+    }
+
+    /// The trunk E_m: `(B, 4, 112, 112)` network inputs to `(B, 64, 28, 28)` features.
+    pub fn trunk(&self, x: &Tensor) -> candle_core::Result<Tensor> {
+        let mut h = x.clone();
+        for (i, c) in TRUNK.iter().enumerate() {
+            let w = self.params[2 * i].as_tensor();
+            let b = self.params[2 * i + 1].as_tensor();
+            h = h.conv2d(w, c.dilation, c.stride, c.dilation, 1)?;
+            h = h.broadcast_add(&b.reshape((1, c.out_channels, 1, 1))?)?.relu()?;
+        }
+        Ok(h)
+    }
+
+    /// The 1x1 head `w` (64 values) and bias `b`, as plain floats.
+    pub fn head(&self) -> candle_core::Result<(Vec<f32>, f32)> {
+        let n = self.params.len();
+        let w = self.params[n - 2].as_tensor().flatten_all()?.to_vec1::<f32>()?;
+        let b = self.params[n - 1].as_tensor().flatten_all()?.to_vec1::<f32>()?;
+        Ok((w, b[0]))
+    }
+
+    /// Q at given feature-map locations, differentiably.
+    ///
+    /// `x`: `(B, 4, 112, 112)` rotated inputs; `taps`: `4 B` flat cell indices
+    /// (u32, `b * 28 * 28 + cell`); `weights`: `(B, 4)` bilinear weights. Returns `(B,)`.
+    pub fn q_at(&self, x: &Tensor, taps: &Tensor, weights: &Tensor) -> candle_core::Result<Tensor> {
+        let b = x.dim(0)?;
+        let f = self.trunk(x)?; // (B, D, n, n)
+        let n = f.dim(2)?;
+        let rows = f
+            .permute((0, 2, 3, 1))?
+            .reshape((b * n * n, EMBEDDING_DIM))?
+            .index_select(taps, 0)?
+            .reshape((b, 4, EMBEDDING_DIM))?;
+        let feat = rows.broadcast_mul(&weights.unsqueeze(2)?)?.sum(1)?; // (B, D)
+        let np = self.params.len();
+        let w = self.params[np - 2].as_tensor(); // (1, D)
+        let bias = self.params[np - 1].as_tensor(); // (1,)
+        feat.matmul(&w.t()?)?.broadcast_add(bias)?.squeeze(1)
+    }
+
+    /// Deep copy (new Vars).
+    pub fn deep_clone(&self) -> candle_core::Result<Self> {
+        Ok(Self {
+            params: self
+                .params
+                .iter()
+                .map(|v| Var::from_tensor(&v.as_tensor().copy()?))
+                .collect::<Result<_, _>>()?,
+        })
+    }
+
+    /// All parameters as flat f32 vectors (for checkpoints and comparisons).
+    pub fn to_vecs(&self) -> candle_core::Result<Vec<Vec<f32>>> {
+        self.params
+            .iter()
+            .map(|v| v.as_tensor().flatten_all()?.to_dtype(DType::F32)?.to_vec1::<f32>())
+            .collect()
+    }
+}

@@ -1,0 +1,72 @@
+//! Adam with decoupled weight decay, with its state exposed so checkpoints can
+//! save and restore it bit for bit (candle-nn's `AdamW` keeps its moments private).
+
+use candle_core::{Tensor, Var, backprop::GradStore};
+
+/// Adam hyper-parameters.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct AdamConfig {
+    pub lr: f64,
+    pub beta1: f64,
+    pub beta2: f64,
+    pub eps: f64,
+    pub weight_decay: f64,
+}
+
+impl Default for AdamConfig {
+    fn default() -> Self {
+        Self {
+            lr: 5e-4,
+            beta1: 0.9,
+            beta2: 0.999,
+            eps: 1e-8,
+            weight_decay: 1e-5,
+        }
+    }
+}
+
+/// Adam state: first and second moments per parameter, and the step count.
+#[derive(Clone, Debug)]
+pub struct Adam {
+    pub config: AdamConfig,
+    pub m: Vec<Tensor>,
+    pub v: Vec<Tensor>,
+    pub t: u64,
+}
+
+impl Adam {
+    pub fn new(vars: &[&Var], config: AdamConfig) -> candle_core::Result<Self> {
+        let zeros = |v: &&Var| v.as_tensor().zeros_like();
+        Ok(Self {
+            config,
+            m: vars.iter().map(zeros).collect::<Result<_, _>>()?,
+            v: vars.iter().map(zeros).collect::<Result<_, _>>()?,
+            t: 0,
+        })
+    }
+
+    /// One update of `vars` (same order as at construction) from `grads`;
+    /// parameters without a gradient are left alone.
+    pub fn step(&mut self, vars: &[&Var], grads: &GradStore) -> candle_core::Result<()> {
+        self.t += 1;
+        let c = self.config;
+        let bc1 = 1.0 - c.beta1.powi(self.t as i32);
+        let bc2 = 1.0 - c.beta2.powi(self.t as i32);
+        for (i, var) in vars.iter().enumerate() {
+            let Some(g) = grads.get(var.as_tensor()) else {
+                continue;
+            };
+            let m = ((&self.m[i] * c.beta1)? + (g * (1.0 - c.beta1))?)?;
+            let v = ((&self.v[i] * c.beta2)? + (g.sqr()? * (1.0 - c.beta2))?)?;
+            let mhat = (&m / bc1)?;
+            let vhat = (&v / bc2)?;
+            let update = mhat.div(&(vhat.sqrt()? + c.eps)?)?;
+            let p = var.as_tensor();
+            let next = ((p * (1.0 - c.lr * c.weight_decay))? - (update * c.lr)?)?;
+            var.set(&next)?;
+            self.m[i] = m;
+            self.v[i] = v;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,280 @@
+//! [`PolicyNet`]: the grasp and place Q-networks of one task, the embedding
+//! function E_m (DESIGN §3) and the weights file.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use candle_core::{Device, Tensor};
+use rayon::prelude::*;
+use seespot_sim::{Action, Heightmaps, NUM_ROTATIONS, Primitive, TaskId};
+
+use crate::embedding::{AseMap, EMBEDDING_DIM, QMap};
+use crate::error::PolicyError;
+use crate::input::{INPUT_CHANNELS, NET_RESOLUTION, NetInput};
+use crate::mask::common_sense_mask;
+use crate::net::{FEATURE_RESOLUTION, QNet, TRUNK_STRIDE, param_shapes};
+use crate::rotation::{BackMap, rotate_input_batch, sample_back};
+use crate::tensor_file::{self, F32Tensor};
+
+/// `format` metadata value of a policy file.
+pub const FORMAT: &str = "seespot-policy";
+/// `architecture` metadata value: the network of [`crate::net`].
+pub const ARCHITECTURE: &str = "spotq-fcn-s4-c64";
+/// Version of the weights file layout; bumped when it changes.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// What a weights file says about its policy.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PolicyMeta {
+    /// The task it was trained on (kebab-case id).
+    pub task: String,
+    /// Heightmap resolution it was trained at, pixels.
+    pub resolution: usize,
+    /// R.
+    pub rotations: usize,
+    /// D.
+    pub embedding_dim: usize,
+    /// seespot version that wrote it.
+    pub seespot_version: String,
+    /// Free-form training facts (actions, train steps, seed, ...).
+    pub extra: BTreeMap<String, String>,
+}
+
+/// The two Q-networks (grasp, place) of one task's SPOT-Q policy.
+#[derive(Clone, Debug)]
+pub struct PolicyNet {
+    pub meta: PolicyMeta,
+    /// Indexed by [`Primitive::index`].
+    pub nets: [QNet; 2],
+}
+
+/// Low-resolution rotated features of all rotations, channels last:
+/// `R x 28 x 28 x D`, and the input geometry they came from.
+#[derive(Clone, Debug)]
+pub struct RotatedFeatures {
+    pub features: Vec<f32>,
+    pub input: NetInput,
+}
+
+impl PolicyNet {
+    /// A freshly initialised policy for `task`, deterministic in `seed`.
+    pub fn new(task: TaskId, resolution: usize, seed: u64) -> Result<Self, PolicyError> {
+        Ok(Self {
+            meta: PolicyMeta {
+                task: task.as_str().to_string(),
+                resolution,
+                rotations: NUM_ROTATIONS,
+                embedding_dim: EMBEDDING_DIM,
+                seespot_version: seespot_sim::VERSION.to_string(),
+                extra: BTreeMap::new(),
+            },
+            nets: [QNet::new(seed)?, QNet::new(seed ^ 0x9e37_79b9_7f4a_7c15)?],
+        })
+    }
+
+    pub fn net(&self, primitive: Primitive) -> &QNet {
+        &self.nets[primitive.index()]
+    }
+
+    /// Runs the trunk of `primitive` on all R rotations of `hm`.
+    pub fn rotated_features(&self, hm: &Heightmaps, primitive: Primitive) -> Result<RotatedFeatures, PolicyError> {
+        let input = NetInput::from_heightmaps(hm);
+        let rotations: Vec<usize> = (0..NUM_ROTATIONS).collect();
+        let batch = rotate_input_batch(&input, &rotations);
+        let n = NET_RESOLUTION;
+        let x = Tensor::from_vec(batch, (NUM_ROTATIONS, INPUT_CHANNELS, n, n), &Device::Cpu)?;
+        let f = self.net(primitive).trunk(&x)?.permute((0, 2, 3, 1))?.contiguous()?;
+        let features = f.flatten_all()?.to_vec1::<f32>()?;
+        Ok(RotatedFeatures { features, input })
+    }
+
+    /// Q-values of the low-resolution rotated cells (`R x 28 x 28`).
+    fn low_res_q(&self, rf: &RotatedFeatures, primitive: Primitive) -> Result<Vec<f32>, PolicyError> {
+        let (w, b) = self.net(primitive).head()?;
+        Ok(rf
+            .features
+            .par_chunks_exact(EMBEDDING_DIM)
+            .map(|f| f.iter().zip(&w).map(|(a, b)| a * b).sum::<f32>() + b)
+            .collect())
+    }
+
+    fn q_from(&self, rf: &RotatedFeatures, hm: &Heightmaps, primitive: Primitive) -> Result<QMap, PolicyError> {
+        let h = hm.resolution();
+        let low = self.low_res_q(rf, primitive)?;
+        let map = BackMap::new(&rf.input, h, TRUNK_STRIDE);
+        let rotations: Vec<usize> = (0..NUM_ROTATIONS).collect();
+        // The 1x1 head commutes with bilinear sampling, so Q is sampled from the
+        // low-resolution Q map (weights sum to one, the bias passes through).
+        let q = sample_back(&low, FEATURE_RESOLUTION, 1, &rotations, &map, h);
+        Ok(QMap {
+            primitive,
+            resolution: h,
+            rotations: NUM_ROTATIONS,
+            q,
+        })
+    }
+
+    fn ase_from(&self, rf: &RotatedFeatures, hm: &Heightmaps, primitive: Primitive) -> AseMap {
+        let h = hm.resolution();
+        let map = BackMap::new(&rf.input, h, TRUNK_STRIDE);
+        let rotations: Vec<usize> = (0..NUM_ROTATIONS).collect();
+        let features = sample_back(&rf.features, FEATURE_RESOLUTION, EMBEDDING_DIM, &rotations, &map, h);
+        let pixel_mask = common_sense_mask(hm, primitive);
+        let mut mask = Vec::with_capacity(NUM_ROTATIONS * h * h);
+        for _ in 0..NUM_ROTATIONS {
+            mask.extend_from_slice(&pixel_mask);
+        }
+        AseMap::new(primitive, h, NUM_ROTATIONS, EMBEDDING_DIM, features, mask)
+    }
+
+    /// The embedding function E_m (DESIGN §3): the `R x H x W x 64` action-state
+    /// embeddings of `primitive` in `hm` (H = `hm`'s resolution), masked by the
+    /// common-sense mask.
+    pub fn embed(&self, hm: &Heightmaps, primitive: Primitive) -> Result<AseMap, PolicyError> {
+        let rf = self.rotated_features(hm, primitive)?;
+        Ok(self.ase_from(&rf, hm, primitive))
+    }
+
+    /// Q-values `R x H x W` of `primitive` in `hm` (unmasked).
+    pub fn q_values(&self, hm: &Heightmaps, primitive: Primitive) -> Result<QMap, PolicyError> {
+        let rf = self.rotated_features(hm, primitive)?;
+        self.q_from(&rf, hm, primitive)
+    }
+
+    /// Both from one trunk run.
+    pub fn embed_with_q(&self, hm: &Heightmaps, primitive: Primitive) -> Result<(AseMap, QMap), PolicyError> {
+        let rf = self.rotated_features(hm, primitive)?;
+        Ok((self.ase_from(&rf, hm, primitive), self.q_from(&rf, hm, primitive)?))
+    }
+
+    /// Writes the weights and metadata as safetensors (tensor names
+    /// `grasp.conv1.weight`, ..., `place.head.bias`).
+    pub fn save(&self, path: &Path) -> Result<(), PolicyError> {
+        let mut tensors = BTreeMap::new();
+        for p in Primitive::ALL {
+            let vecs = self.net(p).to_vecs()?;
+            for ((name, shape), data) in param_shapes().into_iter().zip(vecs) {
+                tensors.insert(format!("{}.{name}", p.as_str()), F32Tensor { shape, data });
+            }
+        }
+        let mut meta = BTreeMap::new();
+        meta.insert("format".into(), FORMAT.into());
+        meta.insert("architecture".into(), ARCHITECTURE.into());
+        meta.insert("format_version".into(), FORMAT_VERSION.to_string());
+        meta.insert("seespot_version".into(), self.meta.seespot_version.clone());
+        meta.insert("task".into(), self.meta.task.clone());
+        meta.insert("resolution".into(), self.meta.resolution.to_string());
+        meta.insert("rotations".into(), self.meta.rotations.to_string());
+        meta.insert("embedding_dim".into(), self.meta.embedding_dim.to_string());
+        for (k, v) in &self.meta.extra {
+            meta.insert(format!("extra.{k}"), v.clone());
+        }
+        tensor_file::write(path, &tensors, &meta)
+    }
+
+    /// Loads a policy written by [`PolicyNet::save`], checking the format,
+    /// architecture, version, and every tensor's presence, dtype, shape and
+    /// checksum. Errors name the file and, where one is at fault, the tensor.
+    pub fn load(path: &Path) -> Result<Self, PolicyError> {
+        let file = tensor_file::read(path)?;
+        let format = |reason: String| PolicyError::Format {
+            path: path.to_path_buf(),
+            reason,
+        };
+        let get = |k: &str| -> Result<&String, PolicyError> {
+            file.metadata
+                .get(k)
+                .ok_or_else(|| format(format!("metadata field `{k}` is missing")))
+        };
+        let expect = |k: &str, want: &str| -> Result<(), PolicyError> {
+            let got = get(k)?;
+            if got != want {
+                return Err(format(format!("metadata field `{k}` is `{got}`, expected `{want}`")));
+            }
+            Ok(())
+        };
+        expect("format", FORMAT)?;
+        expect("architecture", ARCHITECTURE)?;
+        expect("format_version", &FORMAT_VERSION.to_string())?;
+        expect("rotations", &NUM_ROTATIONS.to_string())?;
+        expect("embedding_dim", &EMBEDDING_DIM.to_string())?;
+        let task = get("task")?.clone();
+        if TaskId::parse(&task).is_none() {
+            return Err(format(format!("metadata field `task` is `{task}`, not a known task")));
+        }
+        let resolution: usize = get("resolution")?
+            .parse()
+            .map_err(|_| format("metadata field `resolution` is not a number".into()))?;
+        let mut nets = Vec::new();
+        let mut expected = std::collections::BTreeSet::new();
+        for p in Primitive::ALL {
+            let mut ts = Vec::new();
+            for (name, shape) in param_shapes() {
+                let full = format!("{}.{name}", p.as_str());
+                let t = file.tensors.get(&full).ok_or_else(|| PolicyError::Tensor {
+                    path: path.to_path_buf(),
+                    tensor: full.clone(),
+                    reason: "missing".into(),
+                })?;
+                if t.shape != shape {
+                    return Err(PolicyError::Tensor {
+                        path: path.to_path_buf(),
+                        tensor: full,
+                        reason: format!("shape {:?}, expected {shape:?}", t.shape),
+                    });
+                }
+                ts.push(Tensor::from_vec(t.data.clone(), shape, &Device::Cpu)?);
+                expected.insert(full);
+            }
+            nets.push(QNet::from_tensors(ts)?);
+        }
+        if let Some(extra) = file.tensors.keys().find(|k| !expected.contains(*k)) {
+            return Err(PolicyError::Tensor {
+                path: path.to_path_buf(),
+                tensor: extra.clone(),
+                reason: "unexpected tensor for this architecture".into(),
+            });
+        }
+        let place = nets.pop().expect("two nets");
+        let grasp = nets.pop().expect("two nets");
+        let extra = file
+            .metadata
+            .iter()
+            .filter_map(|(k, v)| k.strip_prefix("extra.").map(|k| (k.to_string(), v.clone())))
+            .collect();
+        Ok(Self {
+            meta: PolicyMeta {
+                task,
+                resolution,
+                rotations: NUM_ROTATIONS,
+                embedding_dim: EMBEDDING_DIM,
+                seespot_version: get("seespot_version")?.clone(),
+                extra,
+            },
+            nets: [grasp, place],
+        })
+    }
+}
+
+/// Index of the largest `q` where `mask[i % plane]` holds (`plane` = H x W), or
+/// of the largest overall when nothing is allowed. Ties go to the lowest index.
+pub fn masked_argmax(q: &[f32], mask: &[bool]) -> usize {
+    let plane = mask.len();
+    let any = mask.iter().any(|&b| b);
+    let mut best = (f32::NEG_INFINITY, 0usize);
+    for (i, &v) in q.iter().enumerate() {
+        if (!any || mask[i % plane]) && v > best.0 {
+            best = (v, i);
+        }
+    }
+    best.1
+}
+
+/// The greedy SPOT-Q action: argmax of Q over all rotations and pixels of
+/// `primitive`, under the common-sense mask (the whole map if the mask is empty).
+pub fn greedy_action(policy: &PolicyNet, hm: &Heightmaps, primitive: Primitive) -> Result<Action, PolicyError> {
+    let q = policy.q_values(hm, primitive)?;
+    let mask = common_sense_mask(hm, primitive);
+    let i = masked_argmax(&q.q, &mask);
+    Ok(Action::from_flat_index(primitive, i, hm.resolution()))
+}

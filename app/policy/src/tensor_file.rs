@@ -1,0 +1,179 @@
+//! Safetensors files with a per-tensor checksum in the metadata, so damage to any
+//! tensor's bytes is caught and reported with the tensor's name.
+//!
+//! Writing uses the `safetensors` crate; reading parses the header itself so that
+//! a truncated or damaged file still names the tensor at fault.
+
+use std::collections::{BTreeMap, HashMap};
+use std::path::Path;
+
+use safetensors::tensor::{Dtype, TensorView};
+
+use crate::error::PolicyError;
+
+/// Metadata key prefix of a tensor's checksum (FNV-1a 64 of its bytes, hex).
+const CHECKSUM_PREFIX: &str = "checksum:";
+
+/// FNV-1a 64 of `bytes`.
+pub fn fnv1a(bytes: &[u8]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in bytes {
+        h ^= b as u64;
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h
+}
+
+/// One f32 tensor: shape and row-major values.
+#[derive(Clone, Debug, PartialEq)]
+pub struct F32Tensor {
+    pub shape: Vec<usize>,
+    pub data: Vec<f32>,
+}
+
+fn to_bytes(v: &[f32]) -> Vec<u8> {
+    v.iter().flat_map(|x| x.to_le_bytes()).collect()
+}
+
+/// Writes `tensors` (name -> tensor) and `metadata` to `path` (atomically: a
+/// temporary file renamed into place).
+pub fn write(
+    path: &Path,
+    tensors: &BTreeMap<String, F32Tensor>,
+    metadata: &BTreeMap<String, String>,
+) -> Result<(), PolicyError> {
+    let bytes: Vec<(String, Vec<usize>, Vec<u8>)> = tensors
+        .iter()
+        .map(|(k, t)| (k.clone(), t.shape.clone(), to_bytes(&t.data)))
+        .collect();
+    let mut meta: HashMap<String, String> = metadata.clone().into_iter().collect();
+    for (k, _, b) in &bytes {
+        meta.insert(format!("{CHECKSUM_PREFIX}{k}"), format!("{:016x}", fnv1a(b)));
+    }
+    let views = bytes
+        .iter()
+        .map(|(k, s, b)| {
+            TensorView::new(Dtype::F32, s.clone(), b)
+                .map(|v| (k.clone(), v))
+                .map_err(|e| PolicyError::Tensor {
+                    path: path.to_path_buf(),
+                    tensor: k.clone(),
+                    reason: e.to_string(),
+                })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    if let Some(dir) = path.parent()
+        && !dir.as_os_str().is_empty()
+    {
+        std::fs::create_dir_all(dir).map_err(|e| PolicyError::io(dir, e))?;
+    }
+    let tmp = path.with_extension("tmp");
+    safetensors::serialize_to_file(views, Some(meta), &tmp).map_err(|e| PolicyError::Format {
+        path: path.to_path_buf(),
+        reason: format!("cannot write safetensors: {e}"),
+    })?;
+    std::fs::rename(&tmp, path).map_err(|e| PolicyError::io(path, e))
+}
+
+/// A file read back: its metadata (checksums removed) and tensors.
+#[derive(Clone, Debug)]
+pub struct TensorFile {
+    pub metadata: BTreeMap<String, String>,
+    pub tensors: BTreeMap<String, F32Tensor>,
+}
+
+/// Reads and verifies a file written by [`write`]: header, dtypes (F32 only),
+/// offsets, checksums and finiteness of every tensor.
+pub fn read(path: &Path) -> Result<TensorFile, PolicyError> {
+    let buf = std::fs::read(path).map_err(|e| PolicyError::io(path, e))?;
+    let format = |reason: String| PolicyError::Format {
+        path: path.to_path_buf(),
+        reason,
+    };
+    let tensor_err = |tensor: &str, reason: String| PolicyError::Tensor {
+        path: path.to_path_buf(),
+        tensor: tensor.to_string(),
+        reason,
+    };
+    if buf.len() < 8 {
+        return Err(format(format!("damaged: only {} bytes, no safetensors header", buf.len())));
+    }
+    let mut len8 = [0u8; 8];
+    len8.copy_from_slice(&buf[..8]);
+    let n = u64::from_le_bytes(len8) as usize;
+    if n > buf.len() - 8 {
+        return Err(format(format!(
+            "damaged: header length {n} exceeds the file ({} bytes)",
+            buf.len()
+        )));
+    }
+    let header: BTreeMap<String, serde_json::Value> = serde_json::from_slice(&buf[8..8 + n])
+        .map_err(|e| format(format!("damaged safetensors header: {e}")))?;
+    let data = &buf[8 + n..];
+    let mut metadata = BTreeMap::new();
+    let mut checksums = BTreeMap::new();
+    if let Some(m) = header.get("__metadata__").and_then(|m| m.as_object()) {
+        for (k, v) in m {
+            let v = v.as_str().unwrap_or_default().to_string();
+            if let Some(t) = k.strip_prefix(CHECKSUM_PREFIX) {
+                checksums.insert(t.to_string(), v);
+            } else {
+                metadata.insert(k.clone(), v);
+            }
+        }
+    }
+    let mut tensors = BTreeMap::new();
+    for (name, info) in &header {
+        if name == "__metadata__" {
+            continue;
+        }
+        let dtype = info.get("dtype").and_then(|d| d.as_str()).unwrap_or("?");
+        if dtype != "F32" {
+            return Err(tensor_err(name, format!("dtype {dtype}, expected F32")));
+        }
+        let shape: Vec<usize> = info
+            .get("shape")
+            .and_then(|s| s.as_array())
+            .map(|a| a.iter().filter_map(|v| v.as_u64().map(|u| u as usize)).collect())
+            .ok_or_else(|| tensor_err(name, "no shape in the header".into()))?;
+        let offs: Vec<usize> = info
+            .get("data_offsets")
+            .and_then(|s| s.as_array())
+            .map(|a| a.iter().filter_map(|v| v.as_u64().map(|u| u as usize)).collect())
+            .unwrap_or_default();
+        let [a, b] = offs[..] else {
+            return Err(tensor_err(name, "no data offsets in the header".into()));
+        };
+        let numel: usize = shape.iter().product();
+        if b < a || b - a != numel * 4 {
+            return Err(tensor_err(
+                name,
+                format!("data offsets {a}..{b} do not fit shape {shape:?}"),
+            ));
+        }
+        if b > data.len() {
+            return Err(tensor_err(
+                name,
+                format!(
+                    "damaged: data truncated (needs bytes {a}..{b}, the file has {})",
+                    data.len()
+                ),
+            ));
+        }
+        let bytes = &data[a..b];
+        match checksums.get(name) {
+            Some(c) if *c == format!("{:016x}", fnv1a(bytes)) => {}
+            Some(_) => return Err(tensor_err(name, "damaged: checksum mismatch".into())),
+            None => return Err(tensor_err(name, "no checksum in the metadata".into())),
+        }
+        let values: Vec<f32> = bytes
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect();
+        if values.iter().any(|v| !v.is_finite()) {
+            return Err(tensor_err(name, "damaged: non-finite values".into()));
+        }
+        tensors.insert(name.clone(), F32Tensor { shape, data: values });
+    }
+    Ok(TensorFile { metadata, tensors })
+}
