@@ -4,9 +4,11 @@
 
 pub mod correspond;
 pub mod explain;
+pub mod metrics;
 
 pub use correspond::{
     CorrespondOptions, Match, bench_correspond, ccd, distance_map, match_queries,
     match_queries_with, rematch, rematch_with, smooth,
 };
 pub use explain::{Decision, Method, PairExplanation};
+pub use metrics::{ActionLog, Summary, TrialRecord, summarize};

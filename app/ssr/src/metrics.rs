@@ -1,0 +1,462 @@
+//! The paper's evaluation metrics (Sec. 5.1, DESIGN.md §5) over per-trial records.
+//!
+//! One [`TrialRecord`] is one JSON line of an evaluation's `trials.jsonl`;
+//! [`summarize`] turns the records of one (method, task) into a [`Summary`], and
+//! [`mean_over_tasks`] averages the four leave-one-out folds into the "mean" row.
+
+use std::collections::BTreeMap;
+use std::io::{BufRead, Write};
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+use seespot_sim::task::MAX_PROGRESS;
+use seespot_sim::{Action, TaskId};
+
+/// One executed action of a trial.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ActionLog {
+    pub action: Action,
+    /// Task progress P (1..=4) before and after the action.
+    pub progress_before: u8,
+    pub progress_after: u8,
+    /// The (policy, demo) pair SSR acted on; `None` for methods without pairs.
+    pub chosen_policy: Option<TaskId>,
+    pub chosen_demo: Option<usize>,
+    /// L (embedding distance, Eq. 4) and C (cycle consistency distance, pixels,
+    /// Eq. 7) of the chosen pair.
+    pub l: Option<f32>,
+    pub c: Option<f32>,
+    /// Wall-clock milliseconds spent deciding the action.
+    pub decide_ms: f64,
+    /// Whether the primitive itself succeeded (block held after a grasp, block
+    /// released after a place); `None` when not recorded.
+    #[serde(default)]
+    pub primitive_success: Option<bool>,
+}
+
+/// One test trial: a JSON line of `trials.jsonl`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TrialRecord {
+    /// Method id, e.g. `ssr-ccd`, `ssr-l2cd`, `spot-q`, `oracle`, `random`.
+    pub method: String,
+    /// The test task (the fold: its own policy is left out).
+    pub task: TaskId,
+    /// The trial's world seed (test seeds are odd).
+    pub seed: u64,
+    /// Trial number within the (method, task) run, from 0.
+    pub trial: usize,
+    /// Progress reached 4.
+    pub success: bool,
+    /// Actions executed.
+    pub actions: usize,
+    /// Highest, first and last progress P of the trial (1..=4).
+    pub max_progress: u8,
+    pub start_progress: u8,
+    pub final_progress: u8,
+    /// Progress dropped below a value it had earlier in the trial.
+    pub reversal: bool,
+    /// Why the trial ended: `success`, `action-limit`, `out-of-workspace`, ...
+    pub end: String,
+    pub actions_log: Vec<ActionLog>,
+}
+
+impl TrialRecord {
+    /// The record as one JSON line (no trailing newline).
+    pub fn to_json_line(&self) -> Result<String, serde_json::Error> {
+        serde_json::to_string(self)
+    }
+}
+
+/// A problem reading or writing trial records.
+#[derive(Debug, thiserror::Error)]
+pub enum MetricsError {
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("{path}, line {line}: not a trial record: {source}")]
+    Parse {
+        path: String,
+        line: usize,
+        source: serde_json::Error,
+    },
+}
+
+/// Reads a `trials.jsonl` file. A missing file is no records. A malformed *last*
+/// line (a write cut short when the evaluation was killed) is dropped, so a
+/// resumed run re-does that trial; a malformed line elsewhere is an error naming
+/// the file and line.
+pub fn read_records(path: &Path) -> Result<Vec<TrialRecord>, MetricsError> {
+    let io = |source| MetricsError::Io {
+        path: path.display().to_string(),
+        source,
+    };
+    let file = match std::fs::File::open(path) {
+        Ok(f) => f,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e) => return Err(io(e)),
+    };
+    let lines: Vec<String> = std::io::BufReader::new(file)
+        .lines()
+        .collect::<Result<_, _>>()
+        .map_err(io)?;
+    let last = lines.iter().rposition(|l| !l.trim().is_empty());
+    let mut out = Vec::new();
+    for (i, line) in lines.iter().enumerate() {
+        if line.trim().is_empty() {
+            continue;
+        }
+        match serde_json::from_str(line) {
+            Ok(r) => out.push(r),
+            Err(_) if Some(i) == last => break,
+            Err(source) => {
+                return Err(MetricsError::Parse {
+                    path: path.display().to_string(),
+                    line: i + 1,
+                    source,
+                });
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Appends one record as a line to `path` (created if missing) and syncs it, so
+/// a killed evaluation loses at most the running trial. If the file ends in a
+/// partial line (a write cut short), that fragment is cut off first, as
+/// [`read_records`] would have ignored it.
+pub fn append_record(path: &Path, record: &TrialRecord) -> Result<(), MetricsError> {
+    let io = |source| MetricsError::Io {
+        path: path.display().to_string(),
+        source,
+    };
+    let keep = match std::fs::read(path) {
+        Ok(bytes) if bytes.last().is_some_and(|&b| b != b'\n') => {
+            Some(bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1))
+        }
+        _ => None,
+    };
+    let mut f = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(path)
+        .map_err(io)?;
+    if let Some(len) = keep {
+        f.set_len(len as u64).map_err(io)?;
+    }
+    let mut line = record
+        .to_json_line()
+        .map_err(|e| io(std::io::Error::other(e)))?;
+    line.push('\n');
+    f.write_all(line.as_bytes()).map_err(io)?;
+    f.sync_data().map_err(io)
+}
+
+/// Annotated actions of a demonstration set: `demos x ideal actions` (2 x 6 = 12;
+/// 2 x 4 = 8 for `row`).
+pub fn annotated_actions(task: TaskId, demos: usize) -> usize {
+    demos * task.ideal_actions()
+}
+
+/// The metrics of one (method, task), or of a method's mean over tasks
+/// (`task = None`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Summary {
+    pub method: String,
+    /// The test task; `None` for the mean over tasks.
+    pub task: Option<TaskId>,
+    pub trials: usize,
+    pub successes: usize,
+    /// Trial success rate: successes / trials, in [0, 1].
+    pub success_rate: f64,
+    /// Ideal actions per trial (6; 4 for `row`; the mean for a mean row).
+    pub ideal_actions: f64,
+    /// Mean actions per trial, all trials.
+    pub mean_actions: f64,
+    /// Action efficiency, as the reference code computed it over *successful*
+    /// trials only: `min(1, ideal_actions * successes / actions in successful
+    /// trials)`. `None` when no trial succeeded.
+    pub action_efficiency: Option<f64>,
+    /// Progress: mean over trials of `max P / 4`, in [0.25, 1].
+    pub progress: f64,
+    /// Standard error of `progress`: sample standard deviation / sqrt(trials)
+    /// (0 with fewer than 2 trials).
+    pub progress_se: f64,
+    /// Trials with a progress reversal, and those of them that succeeded.
+    pub reversal_trials: usize,
+    pub recovered_trials: usize,
+    /// Recoveries: recovered / reversal trials; `None` when no trial had a reversal.
+    pub recoveries: Option<f64>,
+    /// Training steps on the test task (0 for SSR).
+    pub train_steps: u64,
+    /// Annotated (demonstrated) actions used (2 x ideal = 12; 8 for `row`).
+    pub annotated_actions: usize,
+    /// Compute efficiency: trials / (train steps + 1).
+    pub compute_efficiency: f64,
+    /// Sample efficiency: trials / annotated actions; `None` with no annotations.
+    pub sample_efficiency: Option<f64>,
+}
+
+/// Summarizes the trials of one (method, task). `ideal_actions` is the task's
+/// ideal trial length, `train_steps` the training on the test task (0 for SSR),
+/// `annotated_actions` see [`annotated_actions`]. `method` and `task` come from the
+/// records (`task = None` if they mix tasks; empty `method` with no records).
+pub fn summarize(
+    records: &[TrialRecord],
+    ideal_actions: usize,
+    train_steps: u64,
+    annotated_actions: usize,
+) -> Summary {
+    let trials = records.len();
+    let n = trials as f64;
+    let successes = records.iter().filter(|r| r.success).count();
+    let success_actions: usize = records.iter().filter(|r| r.success).map(|r| r.actions).sum();
+    let action_efficiency = (successes > 0).then(|| {
+        if success_actions == 0 {
+            1.0
+        } else {
+            (ideal_actions as f64 * successes as f64 / success_actions as f64).min(1.0)
+        }
+    });
+    let prog: Vec<f64> = records
+        .iter()
+        .map(|r| r.max_progress as f64 / MAX_PROGRESS as f64)
+        .collect();
+    let progress = if trials > 0 { prog.iter().sum::<f64>() / n } else { 0.0 };
+    let progress_se = if trials > 1 {
+        let var = prog.iter().map(|p| (p - progress).powi(2)).sum::<f64>() / (n - 1.0);
+        (var / n).sqrt()
+    } else {
+        0.0
+    };
+    let reversal_trials = records.iter().filter(|r| r.reversal).count();
+    let recovered_trials = records.iter().filter(|r| r.reversal && r.success).count();
+    let task = match records.first() {
+        Some(first) if records.iter().all(|r| r.task == first.task) => Some(first.task),
+        _ => None,
+    };
+    Summary {
+        method: records.first().map(|r| r.method.clone()).unwrap_or_default(),
+        task,
+        trials,
+        successes,
+        success_rate: if trials > 0 { successes as f64 / n } else { 0.0 },
+        ideal_actions: ideal_actions as f64,
+        mean_actions: if trials > 0 {
+            records.iter().map(|r| r.actions as f64).sum::<f64>() / n
+        } else {
+            0.0
+        },
+        action_efficiency,
+        progress,
+        progress_se,
+        reversal_trials,
+        recovered_trials,
+        recoveries: (reversal_trials > 0).then(|| recovered_trials as f64 / reversal_trials as f64),
+        train_steps,
+        annotated_actions,
+        compute_efficiency: n / (train_steps as f64 + 1.0),
+        sample_efficiency: (annotated_actions > 0).then(|| n / annotated_actions as f64),
+    }
+}
+
+/// Groups records by (method, task), sorted, and summarizes each group with the
+/// task's ideal length, `train_steps(method, task)` and `2 x ideal` annotated
+/// actions (`demos` demonstrations).
+pub fn summarize_all(
+    records: &[TrialRecord],
+    demos: usize,
+    train_steps: impl Fn(&str, TaskId) -> u64,
+) -> Vec<Summary> {
+    let mut groups: BTreeMap<(String, TaskId), Vec<TrialRecord>> = BTreeMap::new();
+    for r in records {
+        groups
+            .entry((r.method.clone(), r.task))
+            .or_default()
+            .push(r.clone());
+    }
+    groups
+        .into_iter()
+        .map(|((method, task), rs)| {
+            let mut s = summarize(
+                &rs,
+                task.ideal_actions(),
+                train_steps(&method, task),
+                annotated_actions(task, demos),
+            );
+            s.method = method;
+            s
+        })
+        .collect()
+}
+
+/// The mean row of one method over its per-task summaries (the paper's "mean"
+/// column): the unweighted mean over tasks of success rate, progress, action
+/// efficiency (over tasks that have one), ideal and mean actions, train steps,
+/// annotated actions and the two efficiencies; `progress_se` combines the
+/// per-task errors as `sqrt(sum se^2) / tasks`; trial, success, reversal and
+/// recovery counts are summed and recoveries pooled. `None` for no summaries.
+pub fn mean_over_tasks(summaries: &[Summary]) -> Option<Summary> {
+    let first = summaries.first()?;
+    let k = summaries.len() as f64;
+    let mean = |f: &dyn Fn(&Summary) -> f64| summaries.iter().map(f).sum::<f64>() / k;
+    let mean_opt = |f: &dyn Fn(&Summary) -> Option<f64>| {
+        let v: Vec<f64> = summaries.iter().filter_map(f).collect();
+        (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+    };
+    let reversal_trials = summaries.iter().map(|s| s.reversal_trials).sum();
+    let recovered_trials = summaries.iter().map(|s| s.recovered_trials).sum();
+    Some(Summary {
+        method: first.method.clone(),
+        task: None,
+        trials: summaries.iter().map(|s| s.trials).sum(),
+        successes: summaries.iter().map(|s| s.successes).sum(),
+        success_rate: mean(&|s| s.success_rate),
+        ideal_actions: mean(&|s| s.ideal_actions),
+        mean_actions: mean(&|s| s.mean_actions),
+        action_efficiency: mean_opt(&|s| s.action_efficiency),
+        progress: mean(&|s| s.progress),
+        progress_se: summaries.iter().map(|s| s.progress_se.powi(2)).sum::<f64>().sqrt() / k,
+        reversal_trials,
+        recovered_trials,
+        recoveries: (reversal_trials > 0)
+            .then(|| recovered_trials as f64 / reversal_trials as f64),
+        train_steps: (mean(&|s| s.train_steps as f64)).round() as u64,
+        annotated_actions: (mean(&|s| s.annotated_actions as f64)).round() as usize,
+        compute_efficiency: mean(&|s| s.compute_efficiency),
+        sample_efficiency: mean_opt(&|s| s.sample_efficiency),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rec(trial: usize, success: bool, actions: usize, max_p: u8, reversal: bool) -> TrialRecord {
+        TrialRecord {
+            method: "ssr-ccd".into(),
+            task: TaskId::Stack,
+            seed: 2 * trial as u64 + 1,
+            trial,
+            success,
+            actions,
+            max_progress: max_p,
+            start_progress: 1,
+            final_progress: if success { 4 } else { 1 },
+            reversal,
+            end: if success { "success" } else { "action-limit" }.into(),
+            actions_log: Vec::new(),
+        }
+    }
+
+    /// Five trials: successes of 6 and 10 actions (one after a reversal), and
+    /// failures reaching P = 3, 2 (with a reversal) and 1.
+    fn records() -> Vec<TrialRecord> {
+        vec![
+            rec(0, true, 6, 4, false),
+            rec(1, true, 10, 4, true),
+            rec(2, false, 30, 3, false),
+            rec(3, false, 30, 2, true),
+            rec(4, false, 30, 1, false),
+        ]
+    }
+
+    #[test]
+    fn summary_matches_hand_computed_values() {
+        let s = summarize(&records(), 6, 0, 12);
+        assert_eq!(s.method, "ssr-ccd");
+        assert_eq!(s.task, Some(TaskId::Stack));
+        assert_eq!((s.trials, s.successes), (5, 2));
+        assert!((s.success_rate - 0.4).abs() < 1e-12);
+        // 6 * 2 / (6 + 10)
+        assert!((s.action_efficiency.unwrap_or(0.0) - 0.75).abs() < 1e-12);
+        // (1 + 1 + 0.75 + 0.5 + 0.25) / 5 = 0.7
+        assert!((s.progress - 0.7).abs() < 1e-12);
+        // deviations .3 .3 .05 -.2 -.45: sum sq = .09+.09+.0025+.04+.2025 = .425;
+        // var = .425 / 4; se = sqrt(var / 5)
+        assert!((s.progress_se - (0.425f64 / 4.0 / 5.0).sqrt()).abs() < 1e-12);
+        assert_eq!((s.reversal_trials, s.recovered_trials), (2, 1));
+        assert_eq!(s.recoveries, Some(0.5));
+        assert!((s.mean_actions - 21.2).abs() < 1e-12);
+        assert_eq!(s.compute_efficiency, 5.0);
+        assert!((s.sample_efficiency.unwrap_or(0.0) - 5.0 / 12.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn edge_cases() {
+        // No successes: no efficiency; no reversals: no recoveries.
+        let r = vec![rec(0, false, 30, 2, false)];
+        let s = summarize(&r, 6, 999, 0);
+        assert_eq!(s.action_efficiency, None);
+        assert_eq!(s.recoveries, None);
+        assert_eq!(s.progress_se, 0.0);
+        assert_eq!(s.compute_efficiency, 1.0 / 1000.0);
+        assert_eq!(s.sample_efficiency, None);
+        // Faster than ideal (a lucky start) is capped at 1.
+        let r = vec![rec(0, true, 2, 4, false)];
+        assert_eq!(summarize(&r, 6, 0, 12).action_efficiency, Some(1.0));
+        // Nothing at all.
+        let s = summarize(&[], 6, 0, 12);
+        assert_eq!((s.trials, s.success_rate, s.progress), (0, 0.0, 0.0));
+    }
+
+    #[test]
+    fn grouping_and_mean_over_tasks() {
+        let mut all = records();
+        let mut row = rec(0, true, 4, 4, false);
+        row.task = TaskId::Row;
+        all.push(row);
+        let s = summarize_all(&all, 2, |_, _| 0);
+        assert_eq!(s.len(), 2);
+        // BTreeMap order follows TaskId's derive order: Stack before Row.
+        assert_eq!(s[0].task, Some(TaskId::Stack));
+        assert_eq!(s[1].annotated_actions, 8);
+        assert_eq!(s[1].action_efficiency, Some(1.0));
+        let m = mean_over_tasks(&s).expect("two summaries");
+        assert_eq!(m.task, None);
+        assert!((m.success_rate - 0.7).abs() < 1e-12);
+        assert!((m.progress - 0.85).abs() < 1e-12);
+        assert!((m.action_efficiency.unwrap_or(0.0) - 0.875).abs() < 1e-12);
+        assert_eq!(m.trials, 6);
+        assert_eq!(m.recoveries, Some(0.5));
+        assert_eq!(m.annotated_actions, 10);
+    }
+
+    #[test]
+    fn jsonl_round_trip_and_truncated_tail() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let path = dir.path().join("trials.jsonl");
+        assert!(read_records(&path).expect("missing is empty").is_empty());
+        let mut r = records();
+        r[0].actions_log.push(ActionLog {
+            action: Action::new(seespot_sim::Primitive::Grasp, 3, 10, 20),
+            progress_before: 1,
+            progress_after: 1,
+            chosen_policy: Some(TaskId::Row),
+            chosen_demo: Some(1),
+            l: Some(0.5),
+            c: Some(2.0),
+            decide_ms: 12.5,
+            primitive_success: Some(true),
+        });
+        for x in &r[..2] {
+            append_record(&path, x).expect("append");
+        }
+        // A write cut short by a kill.
+        let mut f = std::fs::OpenOptions::new().append(true).open(&path).expect("open");
+        f.write_all(b"{\"method\":\"ssr").expect("write");
+        drop(f);
+        assert_eq!(read_records(&path).expect("read"), r[..2].to_vec());
+        // Appending cuts the fragment off: every record stays readable.
+        append_record(&path, &r[2]).expect("append");
+        assert_eq!(read_records(&path).expect("read"), r[..3].to_vec());
+        // A corrupt line in the middle is an error naming the file and line.
+        let text = std::fs::read_to_string(&path).expect("read");
+        let lines: Vec<&str> = text.lines().collect();
+        let bad = format!("{}\n{{oops\n{}\n", lines[0], lines[1]);
+        std::fs::write(&path, bad).expect("write");
+        let msg = read_records(&path).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(msg.contains("trials.jsonl, line 2"), "{msg}");
+    }
+}
