@@ -85,7 +85,7 @@ fn run_trials(args: RunArgs) -> anyhow::Result<()> {
                     .with_context(|| format!("loading policy {path}"))?,
             )),
         };
-        let trial = run_trial(config, task, seed, &mut policy);
+        let trial = run_trial(config, task, seed, &mut policy)?;
         results.push(TrialResult {
             seed,
             success: trial.succeeded(),
@@ -131,7 +131,7 @@ fn run_trials(args: RunArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn run_trial(config: WorldConfig, task: TaskId, seed: u64, policy: &mut Policy) -> Trial {
+fn run_trial(config: WorldConfig, task: TaskId, seed: u64, policy: &mut Policy) -> anyhow::Result<Trial> {
     let mut trial = Trial::new(config, task, seed);
     let mut oracle = Oracle::new(task);
     while trial.end().is_none() {
@@ -140,12 +140,12 @@ fn run_trial(config: WorldConfig, task: TaskId, seed: u64, policy: &mut Policy) 
             Policy::Random(rng) => random_action(trial.world(), rng),
             Policy::Trained(net) => {
                 let hm = trial.world_mut().observe();
-                seespot_policy::greedy_action(net, &hm, trial.world().next_primitive())
+                seespot_policy::greedy_action(net, &hm, trial.world().next_primitive())?
             }
         };
         trial.step(action);
     }
-    trial
+    Ok(trial)
 }
 
 /// A uniformly random action of the right primitive among those the

@@ -5,6 +5,7 @@
 pub mod correspond;
 pub mod explain;
 pub mod metrics;
+pub mod policy;
 
 pub use correspond::{
     CorrespondOptions, Match, bench_correspond, ccd, distance_map, match_queries,
@@ -12,3 +13,4 @@ pub use correspond::{
 };
 pub use explain::{Decision, Method, PairExplanation};
 pub use metrics::{ActionLog, Summary, TrialRecord, summarize};
+pub use policy::{SsrConfig, SsrError, SsrPolicy};

@@ -1,0 +1,334 @@
+//! The SSR policy (paper Sec. 4.2): Embed, Correspond (Match, Verify), Act.
+//!
+//! For a test state with progress p and next primitive k, and for each of the M
+//! policies (the test task's own left out) and N demonstrations:
+//!
+//! 1. **Embed**: `H_{m,n} = E_m(s_demo)` at the demo step with progress p and
+//!    primitive k (cached for the whole trial), `H_{m,t} = E_m(s_t)`.
+//! 2. **Match** (Eq. 4-5): `F_{m,n} = argmin_a ||H_{m,t}[a] - H_{m,n}[a_demo]||`
+//!    over all R x H x W actions of primitive k, `L_{m,n}` its distance.
+//! 3. **Verify** (Eq. 6-7): rematch `H_{m,t}[F]` into the demo scene at the demo
+//!    action's rotation; `C_{m,n}` = distance from the rematch to `a_demo`.
+//! 4. **Act**: execute `F` of the pair with the smallest C (SSR CCD, Eq. 8) or the
+//!    smallest L (SSR L2CD, Eq. 9).
+//!
+//! Ties are broken in a fixed order: for CCD the smaller L, then the earlier pair;
+//! for L2CD the smaller C, then the earlier pair. Pairs are ordered by policy (in
+//! `TaskId::ALL` order) then demo. Masked actions never match (their norms are
+//! infinite in the [`AseMap`]).
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use seespot_policy::{AseMap, PolicyError, PolicyNet};
+use seespot_sim::{Action, Demo, DemoError, Heightmaps, Primitive, TaskId};
+
+use crate::correspond::{self, CorrespondOptions};
+use crate::explain::{Decision, Method, PairExplanation};
+
+/// Demonstrations SSR uses per task: `demos/<task>/{0,2}` (even seeds).
+pub const DEMO_SEEDS: [u64; 2] = [0, 2];
+
+/// How SSR runs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SsrConfig {
+    pub method: Method,
+    pub correspond: CorrespondOptions,
+}
+
+impl Default for SsrConfig {
+    fn default() -> Self {
+        Self {
+            method: Method::SsrCcd,
+            correspond: CorrespondOptions::default(),
+        }
+    }
+}
+
+/// What stops SSR from running.
+#[derive(Debug, thiserror::Error)]
+pub enum SsrError {
+    #[error(transparent)]
+    Policy(#[from] PolicyError),
+    #[error(transparent)]
+    Demo(#[from] DemoError),
+    #[error("{path}: {message}")]
+    Mismatch { path: PathBuf, message: String },
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// The models directory's file for `task`'s policy.
+pub fn model_path(models_dir: &Path, task: TaskId) -> PathBuf {
+    models_dir.join(format!("{}.safetensors", task.as_str()))
+}
+
+/// The demonstration directories of `task`.
+pub fn demo_dirs(demos_dir: &Path, task: TaskId) -> Vec<PathBuf> {
+    DEMO_SEEDS
+        .iter()
+        .map(|s| demos_dir.join(task.as_str()).join(s.to_string()))
+        .collect()
+}
+
+/// See-SPOT-Run for one test task.
+#[derive(Debug)]
+pub struct SsrPolicy {
+    task: TaskId,
+    config: SsrConfig,
+    policies: Vec<(TaskId, PolicyNet)>,
+    demos: Vec<Demo>,
+    /// Demo ASE maps by (policy, demo, step).
+    demo_cache: HashMap<(usize, usize, usize), AseMap>,
+    /// The live ASE maps of the last decision, one per policy.
+    live: Vec<AseMap>,
+}
+
+impl SsrPolicy {
+    /// Loads the M = 3 policies of the other tasks from `models_dir` and the
+    /// N = 2 demonstrations of `task` from `demos_dir`.
+    pub fn load(task: TaskId, models_dir: &Path, demos_dir: &Path, config: SsrConfig) -> Result<Self, SsrError> {
+        let policies = TaskId::ALL
+            .into_iter()
+            .filter(|t| *t != task)
+            .map(|t| Ok((t, PolicyNet::load(&model_path(models_dir, t))?)))
+            .collect::<Result<Vec<_>, SsrError>>()?;
+        let demos = demo_dirs(demos_dir, task)
+            .iter()
+            .map(|d| Demo::read(d))
+            .collect::<Result<Vec<_>, _>>()?;
+        Self::new(task, policies, demos, config)
+    }
+
+    /// SSR over given policies and demonstrations (they must agree on resolution).
+    pub fn new(task: TaskId, policies: Vec<(TaskId, PolicyNet)>, demos: Vec<Demo>, config: SsrConfig) -> Result<Self, SsrError> {
+        if policies.is_empty() || demos.is_empty() {
+            return Err(SsrError::Invalid("SSR needs at least one policy and one demonstration".into()));
+        }
+        for d in &demos {
+            if d.meta.task != task {
+                return Err(SsrError::Invalid(format!("a demonstration of {} was given for task {task}", d.meta.task)));
+            }
+        }
+        Ok(Self {
+            task,
+            config,
+            policies,
+            demos,
+            demo_cache: HashMap::new(),
+            live: Vec::new(),
+        })
+    }
+
+    pub fn task(&self) -> TaskId {
+        self.task
+    }
+
+    pub fn config(&self) -> &SsrConfig {
+        &self.config
+    }
+
+    pub fn set_method(&mut self, method: Method) {
+        self.config.method = method;
+    }
+
+    pub fn demos(&self) -> &[Demo] {
+        &self.demos
+    }
+
+    /// The tasks of the M policies, in pair order.
+    pub fn policy_tasks(&self) -> Vec<TaskId> {
+        self.policies.iter().map(|(t, _)| *t).collect()
+    }
+
+    pub fn policies(&self) -> &[(TaskId, PolicyNet)] {
+        &self.policies
+    }
+
+    /// Mutable access to the policies (for finetuning before a trial).
+    pub fn policies_mut(&mut self) -> &mut [(TaskId, PolicyNet)] {
+        self.demo_cache.clear();
+        &mut self.policies
+    }
+
+    /// The live ASE maps of the last decision, one per policy.
+    pub fn live_maps(&self) -> &[AseMap] {
+        &self.live
+    }
+
+    /// The demo step each demonstration uses at progress `p` for `primitive`: the
+    /// step with that progress, else the last earlier step of that primitive, else
+    /// its first step of that primitive.
+    pub fn demo_step(&self, demo: usize, progress: u8, primitive: Primitive) -> Option<usize> {
+        let d = &self.demos[demo];
+        if let Some((i, _)) = d.step_at(progress, primitive) {
+            return Some(i);
+        }
+        let same: Vec<usize> = (0..d.steps.len())
+            .filter(|&i| d.steps[i].meta.action.primitive == primitive)
+            .collect();
+        same.iter()
+            .rev()
+            .find(|&&i| d.steps[i].meta.progress_before <= progress)
+            .or(same.first())
+            .copied()
+    }
+
+    /// The demo's ASE map for (policy, demo, step), computed once per trial.
+    pub fn demo_map(&mut self, policy: usize, demo: usize, step: usize) -> Result<&AseMap, SsrError> {
+        let key = (policy, demo, step);
+        if !self.demo_cache.contains_key(&key) {
+            let s = &self.demos[demo].steps[step];
+            let map = self.policies[policy].1.embed(&s.heightmaps, s.meta.action.primitive)?;
+            // Keep memory bounded: a trial needs at most a few progress levels at once.
+            if self.demo_cache.len() >= 4 * self.policies.len() * self.demos.len() {
+                self.demo_cache.clear();
+            }
+            self.demo_cache.insert(key, map);
+        }
+        Ok(&self.demo_cache[&key])
+    }
+
+    /// One SSR decision in the live state `hm` with progress `progress`.
+    pub fn decide(&mut self, hm: &Heightmaps, progress: u8, primitive: Primitive) -> Result<Decision, SsrError> {
+        let n = hm.resolution();
+        for d in &self.demos {
+            if d.meta.resolution != n {
+                return Err(SsrError::Invalid(format!(
+                    "the live heightmaps are {n} px but the {} demonstration (seed {}) is {} px",
+                    d.meta.task, d.meta.seed, d.meta.resolution
+                )));
+            }
+        }
+        // Embed.
+        let t = Instant::now();
+        self.live = self
+            .policies
+            .iter()
+            .map(|(_, p)| p.embed(hm, primitive))
+            .collect::<Result<Vec<_>, _>>()?;
+        let embed_ms = t.elapsed().as_secs_f64() * 1e3;
+        let steps: Vec<usize> = (0..self.demos.len())
+            .map(|d| {
+                self.demo_step(d, progress, primitive).ok_or_else(|| {
+                    SsrError::Invalid(format!("demonstration {d} has no {primitive} step"))
+                })
+            })
+            .collect::<Result<_, _>>()?;
+        for m in 0..self.policies.len() {
+            for (d, &s) in steps.iter().enumerate() {
+                self.demo_map(m, d, s)?;
+            }
+        }
+        // Correspond.
+        let t = Instant::now();
+        let opts = self.config.correspond;
+        let mut pairs = Vec::with_capacity(self.policies.len() * self.demos.len());
+        for m in 0..self.policies.len() {
+            let live = &self.live[m];
+            let demo_actions: Vec<Action> = steps
+                .iter()
+                .enumerate()
+                .map(|(d, &s)| self.demos[d].steps[s].meta.action)
+                .collect();
+            let queries: Vec<&[f32]> = demo_actions
+                .iter()
+                .enumerate()
+                .map(|(d, a)| self.demo_cache[&(m, d, steps[d])].feature(a.flat_index(n)))
+                .collect();
+            let matches = correspond::match_queries_with(live, &queries, &opts);
+            for (d, found) in matches.into_iter().enumerate() {
+                let demo_map = &self.demo_cache[&(m, d, steps[d])];
+                let demo_action = demo_actions[d];
+                let matched = found.action(primitive, n);
+                let f = live.feature(found.index);
+                let re = correspond::rematch_with(demo_map, f, Some(demo_action.rotation), &opts);
+                let rematch = re.action(primitive, n);
+                pairs.push(PairExplanation {
+                    policy: self.policies[m].0,
+                    demo: d,
+                    demo_step: steps[d],
+                    demo_action,
+                    l: found.distance,
+                    matched,
+                    rematch,
+                    rematch_l: re.distance,
+                    c: correspond::ccd(&demo_action, &rematch),
+                    match_map: Vec::new(),
+                    rematch_map: Vec::new(),
+                });
+            }
+        }
+        let correspond_ms = t.elapsed().as_secs_f64() * 1e3;
+        // Act.
+        let chosen = choose(&pairs, self.config.method);
+        // The explanation's heatmaps (not part of the timed Correspond step).
+        for p in &mut pairs {
+            let m = self.policies.iter().position(|(t, _)| *t == p.policy).unwrap_or(0);
+            let live = &self.live[m];
+            let demo_map = &self.demo_cache[&(m, p.demo, p.demo_step)];
+            let query = demo_map.feature(p.demo_action.flat_index(n));
+            p.match_map = correspond::distance_map(live, query, p.matched.rotation);
+            let f = live.feature(p.matched.flat_index(n));
+            p.rematch_map = correspond::distance_map(demo_map, f, p.demo_action.rotation);
+        }
+        Ok(Decision {
+            method: self.config.method,
+            primitive,
+            progress,
+            resolution: n,
+            action: pairs[chosen].matched,
+            chosen,
+            pairs,
+            embed_ms,
+            correspond_ms,
+        })
+    }
+
+    /// Click-to-query: the ASE of demo pixel `(y, x)` (at the demo step's action
+    /// rotation) under policy `policy`, compared with every live action of the
+    /// last decision's primitive. Returns the `H x W` map of distances, the
+    /// minimum over rotations (infinite where masked).
+    pub fn query(&mut self, policy: usize, demo: usize, step: usize, y: usize, x: usize) -> Result<Vec<f32>, SsrError> {
+        if policy >= self.policies.len() || demo >= self.demos.len() || step >= self.demos[demo].steps.len() {
+            return Err(SsrError::Invalid(format!("no policy {policy}, demo {demo}, step {step}")));
+        }
+        let live = self
+            .live
+            .get(policy)
+            .ok_or_else(|| SsrError::Invalid("no decision made yet: nothing to query".into()))?
+            .clone();
+        let n = live.resolution;
+        if y >= n || x >= n {
+            return Err(SsrError::Invalid(format!("pixel ({y}, {x}) is outside the {n} px map")));
+        }
+        let rotation = self.demos[demo].steps[step].meta.action.rotation;
+        let demo_map = self.demo_map(policy, demo, step)?;
+        let q = demo_map.feature((rotation * n + y) * n + x).to_vec();
+        let mut best = vec![f32::INFINITY; n * n];
+        for r in 0..live.rotations {
+            for (b, v) in best.iter_mut().zip(correspond::distance_map(&live, &q, r)) {
+                *b = b.min(v);
+            }
+        }
+        Ok(best)
+    }
+}
+
+/// The pair SSR acts on (Eq. 8 for CCD, Eq. 9 for L2CD), with the fixed tie order.
+pub fn choose(pairs: &[PairExplanation], method: Method) -> usize {
+    let key = |p: &PairExplanation| match method {
+        Method::SsrCcd => (p.c, p.l),
+        Method::SsrL2cd => (p.l, p.c),
+    };
+    let mut best = 0;
+    for (i, p) in pairs.iter().enumerate() {
+        let (a, b) = key(p);
+        let (ba, bb) = key(&pairs[best]);
+        if a.total_cmp(&ba).then(b.total_cmp(&bb)).is_lt() {
+            best = i;
+        }
+    }
+    best
+}
