@@ -7,7 +7,7 @@
 // `$SEESPOT_BIN view --port 0 ...`.
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
-import { spawn } from 'node:child_process';
+import { spawn, spawnSync } from 'node:child_process';
 import { mkdtempSync, mkdirSync, rmSync, statSync, existsSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join, dirname, resolve } from 'node:path';
@@ -25,6 +25,7 @@ const FLAGS = ['--headless', '--no-sandbox', '--disable-gpu', '--enable-unsafe-s
   '--disable-background-networking', '--disable-component-update', '--disable-sync'];
 
 let server, urls = {}, context, page, profile, tmp, rrd;
+const pageErrors = [];
 
 function startServer() {
   return new Promise((ok, fail) => {
@@ -56,7 +57,7 @@ before(async () => {
     executablePath: CHROMIUM, headless: true, args: FLAGS, viewport: { width: 1500, height: 1150 },
   });
   page = await context.newPage();
-  page.on('pageerror', (e) => { throw e; });
+  page.on('pageerror', (e) => pageErrors.push(String(e)));
   await page.goto(urls.page);
   await page.waitForFunction(() => window.seespot && window.seespot.state && window.seespot.frameVersion >= 0);
 });
@@ -233,10 +234,21 @@ test('the rerun web viewer loads and shows the recording', async () => {
   assert.equal(await page.getByTestId('viewer').getAttribute('src'), urls.viewer);
 });
 
+test('the page raised no script errors', () => {
+  assert.deepEqual(pageErrors, []);
+});
+
 test('Ctrl-C finishes the --save recording', async () => {
+  await context.close();
+  context = null;
   const exited = new Promise((r) => server.once('exit', r));
   server.kill('SIGINT');
   const code = await exited;
   assert.equal(code, 0);
   assert.ok(statSync(rrd).size > 10_000, 'the .rrd is (nearly) empty');
+  // With the official viewer installed (pip install rerun-sdk==0.36.3), check the file.
+  if (process.env.RERUN_BIN) {
+    const r = spawnSync(process.env.RERUN_BIN, ['rrd', 'verify', rrd], { encoding: 'utf8' });
+    assert.equal(r.status, 0, `rerun rrd verify failed:\n${r.stdout}\n${r.stderr}`);
+  }
 });

@@ -1,6 +1,7 @@
-//! A minimal `seespot view` without the CLI, for the browser tests:
-//! `view_server [view] [--task T] [--seed S] [--resolution N] [--port P]
-//! [--decider auto|ssr|features|oracle] [--save FILE] [--no-viewer]`.
+//! A minimal `seespot view` / `record` / `bench view` without the CLI (for the
+//! browser tests and measurements while the CLI is being wired):
+//! `view_server [view|record|bench] [--task T] [--seed S] [--resolution N] [--port P]
+//! [--decider auto|ssr|features|oracle] [--save FILE] [--no-viewer] [--trials N] [--out DIR]`.
 
 use std::path::PathBuf;
 
@@ -22,9 +23,12 @@ fn main() -> anyhow::Result<()> {
     };
     let mut kind = DeciderKind::Auto;
     let mut args = std::env::args().skip(1).peekable();
-    if args.peek().is_some_and(|a| a == "view") {
-        args.next();
+    let mut command = "view".to_owned();
+    if args.peek().is_some_and(|a| !a.starts_with("--")) {
+        command = args.next().unwrap_or_default();
     }
+    let mut trials = 1;
+    let mut out = PathBuf::from("recordings");
     while let Some(a) = args.next() {
         let mut val = || args.next().with_context(|| format!("{a} needs a value"));
         match a.as_str() {
@@ -38,10 +42,24 @@ fn main() -> anyhow::Result<()> {
             "--save" => opts.save = Some(PathBuf::from(val()?)),
             "--decider" => kind = DeciderKind::parse(&val()?).context("bad --decider")?,
             "--no-viewer" => opts.no_viewer = true,
+            "--trials" => trials = val()?.parse()?,
+            "--out" => out = PathBuf::from(val()?),
             other => anyhow::bail!("unknown argument {other}"),
         }
     }
     let factory = live::factory(kind, "models".into(), "demos".into());
+    if command == "bench" {
+        let b = live::bench_view(opts.task, opts.seed, opts.resolution, 30, factory)?;
+        println!("{}", serde_json::to_string_pretty(&b)?);
+        return Ok(());
+    }
+    if command == "record" {
+        let stop = live::ctrl_c_flag();
+        for r in live::record_trials(opts.task, trials, opts.seed, opts.resolution, &out, &factory, &stop, |_| {})? {
+            println!("{} {} actions success={} {:.2} MB", r.path.display(), r.actions, r.succeeded, r.bytes as f64 / 1e6);
+        }
+        return Ok(());
+    }
     let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
     rt.block_on(live::serve_view(
         opts,

@@ -54,14 +54,15 @@ pub fn blueprint(task: TaskId) -> Blueprint {
     let mut tabs: Vec<ContainerLike> = Vec::new();
     for p in &policies {
         for n in 0..2 {
+            let matched = Spatial2DView::new(format!("match over live · {} / demo {n}", p.as_str()))
+                .with_origin("/")
+                .with_contents([format!("+ /{}", paths::corr_match(*p, n)), format!("+ /{}", paths::corr_arrows(*p, n))]);
+            let rematch = Spatial2DView::new(format!("rematch over demo {n} · {}", p.as_str()))
+                .with_origin("/")
+                .with_contents([format!("+ /{}", paths::corr_rematch(*p, n)), format!("+ /{}", paths::corr_arrows(*p, n))]);
             tabs.push(
-                Spatial2DView::new(format!("{} / demo {n}", p.as_str()))
-                    .with_origin("/")
-                    .with_contents([
-                        format!("+ /{}", paths::TEST_COLOR),
-                        format!("+ /{}", paths::corr_match(*p, n)),
-                        format!("+ /{}", paths::corr_arrows(*p, n)),
-                    ])
+                Horizontal::new([matched.into(), rematch.into()])
+                    .with_name(format!("{} / demo {n}", p.as_str()))
                     .into(),
             );
         }
@@ -71,10 +72,17 @@ pub fn blueprint(task: TaskId) -> Blueprint {
         TextDocumentView::new("status").with_origin(paths::STATUS).into(),
     ])
     .with_row_shares([3.0, 2.0]);
+    let image_tabs = |name: &str, color: String, depth: String, action: String| -> ContainerLike {
+        Tabs::new([
+            Spatial2DView::new(format!("{name} colour")).with_origin("/").with_contents([format!("+ /{color}"), format!("+ /{action}")]).into(),
+            Spatial2DView::new(format!("{name} depth")).with_origin("/").with_contents([format!("+ /{depth}"), format!("+ /{action}")]).into(),
+        ])
+        .into()
+    };
     let images = Horizontal::new([
-        Spatial2DView::new("live").with_origin(paths::TEST).into(),
-        Spatial2DView::new("demo 0").with_origin(paths::demo(0)).into(),
-        Spatial2DView::new("demo 1").with_origin(paths::demo(1)).into(),
+        image_tabs("live", paths::TEST_COLOR.into(), paths::TEST_DEPTH.into(), paths::TEST_ACTION.into()),
+        image_tabs("demo 0", paths::demo_color(0), paths::demo_depth(0), paths::demo_action(0)),
+        image_tabs("demo 1", paths::demo_color(1), paths::demo_depth(1), paths::demo_action(1)),
     ]);
     let scalars = Horizontal::new([
         TimeSeriesView::new("L and C per pair").with_origin("/corr").into(),
@@ -86,7 +94,7 @@ pub fn blueprint(task: TaskId) -> Blueprint {
 }
 
 fn builder(task: TaskId) -> RecordingStreamBuilder {
-    RecordingStreamBuilder::new(APPLICATION_ID).with_default_blueprint(blueprint(task))
+    RecordingStreamBuilder::new(APPLICATION_ID).with_blueprint(blueprint(task))
 }
 
 impl Recorder {
@@ -135,6 +143,15 @@ impl Recorder {
         };
         recorder.log_static();
         recorder
+    }
+
+    /// Sends `task`'s layout and makes it active (its pair tabs name the task's policies).
+    pub fn send_blueprint(&self, task: TaskId) {
+        let activation = rerun::blueprint::BlueprintActivation {
+            make_active: true,
+            make_default: true,
+        };
+        self.warn(blueprint(task).send(&self.rec, activation));
     }
 
     /// Where the recording is being written, if anywhere.

@@ -143,6 +143,9 @@ impl Session {
             let (decider, note) = (self.factory)(task, self.config.world)?;
             self.decider = decider;
             self.decider_note = note;
+            if let Some(r) = &self.recorder {
+                r.send_blueprint(task);
+            }
         }
         if let Some(r) = &mut self.recorder
             && self.trial.actions() > 0
