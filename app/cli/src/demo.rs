@@ -84,6 +84,7 @@ pub fn record(task: TaskId, seed: u64, resolution: usize) -> anyhow::Result<Demo
     while trial.end().is_none() {
         let mut hm = trial.world().render();
         quantize_depth(&mut hm);
+        let blocks_before = trial.world().table_blocks();
         let action = oracle.act(trial.world());
         let rec = trial.step(action);
         if rec.progress_after < rec.progress_before {
@@ -94,6 +95,7 @@ pub fn record(task: TaskId, seed: u64, resolution: usize) -> anyhow::Result<Demo
             world_pose: rec.outcome.pose,
             progress_before: rec.progress_before,
             progress_after: rec.progress_after,
+            blocks_before,
         };
         meta.steps.push(step_meta.clone());
         steps.push(DemoStep {

@@ -24,11 +24,12 @@ pub struct RunArgs {
     /// run greedily.
     #[arg(long, default_value = "oracle")]
     policy: String,
-    #[arg(long, default_value_t = 20)]
-    trials: u64,
-    /// First seed; trial i uses seed + i.
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
+    /// Number of trials (default 20, or the scene's seed count).
+    #[arg(long)]
+    trials: Option<u64>,
+    /// First seed; trial i uses seed + i (default 1, or the scene's first seed).
+    #[arg(long)]
+    seed: Option<u64>,
     /// A scene file (task, seeds, resolution, noise); flags override it.
     #[arg(long)]
     scene: Option<PathBuf>,
@@ -48,7 +49,7 @@ pub struct TrialResult {
     pub actions: usize,
     pub max_progress: u8,
     pub reversal: bool,
-    pub end: String,
+    pub end: Option<seespot_sim::TrialEnd>,
 }
 
 pub fn run(cmd: SimCommand) -> anyhow::Result<()> {
@@ -73,7 +74,9 @@ fn run_trials(args: RunArgs) -> anyhow::Result<()> {
     if let Some(r) = args.resolution {
         config.grid = Grid::new(r);
     }
-    let seeds: Vec<u64> = (args.seed..args.seed + args.trials).collect();
+    let first = args.seed.or(scene.as_ref().map(|s| s.seed_start)).unwrap_or(1);
+    let trials = args.trials.or(scene.as_ref().map(|s| s.seed_count)).unwrap_or(20);
+    let seeds: Vec<u64> = (first..first + trials).collect();
     let bar = crate::progress_bar(seeds.len() as u64, false);
     let mut results = Vec::new();
     for &seed in &seeds {
@@ -92,7 +95,7 @@ fn run_trials(args: RunArgs) -> anyhow::Result<()> {
             actions: trial.actions(),
             max_progress: trial.max_progress(),
             reversal: trial.had_reversal(),
-            end: format!("{:?}", trial.end()),
+            end: trial.end(),
         });
         let ok = results.iter().filter(|r| r.success).count();
         bar.set_message(format!("success {ok}/{}", results.len()));
@@ -105,7 +108,7 @@ fn run_trials(args: RunArgs) -> anyhow::Result<()> {
         "task": task,
         "policy": args.policy,
         "trials": results.len(),
-        "seed": args.seed,
+        "seed": first,
         "resolution": config.grid.resolution,
         "trial_success": successes as f64 / n,
         "actions_per_trial": results.iter().map(|r| r.actions).sum::<usize>() as f64 / n,

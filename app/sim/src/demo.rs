@@ -50,6 +50,10 @@ pub struct DemoStepMeta {
     pub world_pose: [f32; 4],
     pub progress_before: u8,
     pub progress_after: u8,
+    /// The blocks on the table before the action (block id, pose): lets a learner
+    /// re-render the state exactly (finetuning on demonstrations).
+    #[serde(default)]
+    pub blocks_before: Vec<(usize, crate::world::BlockPose)>,
 }
 
 /// One step: the state before the action, and the action.

@@ -12,9 +12,10 @@ fn record(task: TaskId, seed: u64) -> Demo {
     while trial.end().is_none() {
         let mut hm = trial.world().render();
         quantize_depth(&mut hm);
+        let blocks_before = trial.world().table_blocks();
         let a = oracle.act(trial.world());
         let r = trial.step(a);
-        let m = DemoStepMeta { action: a, world_pose: r.outcome.pose, progress_before: r.progress_before, progress_after: r.progress_after };
+        let m = DemoStepMeta { action: a, world_pose: r.outcome.pose, progress_before: r.progress_before, progress_after: r.progress_after, blocks_before };
         meta.steps.push(m.clone());
         steps.push(DemoStep { heightmaps: hm, meta: m });
     }
