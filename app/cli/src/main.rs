@@ -2,6 +2,7 @@
 
 mod bench;
 mod demo;
+mod eval;
 mod sim;
 
 use clap::{Parser, Subcommand};
@@ -23,6 +24,8 @@ enum Command {
     /// Run simulated trials with the oracle, a random policy or a trained policy.
     #[command(subcommand)]
     Sim(sim::SimCommand),
+    /// Leave-one-out evaluation of SSR and baselines, with the paper's numbers beside.
+    Eval(eval::EvalArgs),
     /// Measure speed (`--json` for a machine-readable report).
     #[command(subcommand)]
     Bench(bench::BenchCommand),
@@ -34,6 +37,7 @@ fn main() -> anyhow::Result<()> {
         Command::Demo(c) => demo::run(c),
         Command::Sim(c) => sim::run(c),
         Command::Bench(c) => bench::run(c),
+        Command::Eval(a) => eval::run(a),
     }
 }
 

@@ -3,9 +3,11 @@
 //! evaluation with the metrics of Sec. 5.1.
 
 pub mod correspond;
+pub mod eval;
 pub mod explain;
 pub mod metrics;
 pub mod policy;
+pub mod report;
 
 pub use correspond::{
     CorrespondOptions, Match, bench_correspond, ccd, distance_map, match_queries,
