@@ -1,0 +1,134 @@
+//! SSR end to end on small inputs: identity scenes, tie order, resumable evaluation.
+
+use seespot_policy::PolicyNet;
+use seespot_sim::{Demo, Primitive, TaskId};
+use seespot_ssr::eval::{EvalConfig, EvalMethod, records_path, run_task, world_config};
+use seespot_ssr::policy::{SsrConfig, SsrPolicy, choose, demo_dirs};
+use seespot_ssr::{CorrespondOptions, Method};
+
+fn demos_dir() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../demos")
+}
+
+fn demos(task: TaskId) -> Vec<Demo> {
+    demo_dirs(&demos_dir(), task)
+        .iter()
+        .map(|d| Demo::read(d).expect("shipped demo"))
+        .collect()
+}
+
+fn untrained_policies(task: TaskId) -> Vec<(TaskId, PolicyNet)> {
+    TaskId::ALL
+        .into_iter()
+        .filter(|t| *t != task)
+        .enumerate()
+        .map(|(i, t)| (t, PolicyNet::new(t, 112, 10 + i as u64).expect("net")))
+        .collect()
+}
+
+#[test]
+fn live_scene_identical_to_the_demo_scene_reproduces_the_demo_action() {
+    let task = TaskId::Stack;
+    let demos = demos(task);
+    for method in [Method::SsrCcd, Method::SsrL2cd] {
+        let config = SsrConfig { method, correspond: CorrespondOptions::default() };
+        let mut ssr = SsrPolicy::new(task, untrained_policies(task), demos.clone(), config).expect("ssr");
+        for step in [0usize, 1, 2] {
+            let s = &demos[0].steps[step];
+            let d = ssr
+                .decide(&s.heightmaps, s.meta.progress_before, s.meta.action.primitive)
+                .expect("decide");
+            let chosen = &d.pairs[d.chosen];
+            assert_eq!(chosen.demo, 0, "{method:?} step {step}: the identical demo should win");
+            assert_eq!(d.action, s.meta.action, "{method:?} step {step}");
+            assert_eq!(chosen.c, 0.0);
+            assert!(chosen.l < 1e-3, "L = {}", chosen.l);
+            // The explanation carries full-size heatmaps.
+            assert_eq!(chosen.match_map.len(), 112 * 112);
+            assert_eq!(d.pairs.len(), 3 * 2);
+        }
+    }
+}
+
+#[test]
+fn click_to_query_at_the_demo_action_is_zero_at_the_same_pixel() {
+    let task = TaskId::Row;
+    let demos = demos(task);
+    let mut ssr = SsrPolicy::new(task, untrained_policies(task), demos.clone(), SsrConfig::default()).expect("ssr");
+    let s = &demos[1].steps[0];
+    ssr.decide(&s.heightmaps, s.meta.progress_before, Primitive::Grasp).expect("decide");
+    let a = s.meta.action;
+    let map = ssr.query(0, 1, 0, a.y, a.x).expect("query");
+    assert_eq!(map.len(), 112 * 112);
+    assert!(map[a.y * 112 + a.x] < 1e-3);
+    assert!(ssr.query(0, 1, 0, 500, 0).is_err());
+}
+
+#[test]
+fn ties_are_broken_in_the_documented_order() {
+    use seespot_sim::Action;
+    use seespot_ssr::PairExplanation;
+    let pair = |l: f32, c: f32| PairExplanation {
+        policy: TaskId::Row,
+        demo: 0,
+        demo_step: 0,
+        demo_action: Action::new(Primitive::Grasp, 0, 0, 0),
+        l,
+        matched: Action::new(Primitive::Grasp, 0, 0, 0),
+        rematch: Action::new(Primitive::Grasp, 0, 0, 0),
+        rematch_l: 0.0,
+        c,
+        match_map: vec![],
+        rematch_map: vec![],
+    };
+    let pairs = vec![pair(3.0, 2.0), pair(1.0, 2.0), pair(1.0, 5.0), pair(1.0, 2.0)];
+    // CCD: smallest C (2.0, pairs 0, 1, 3), then smallest L (pairs 1, 3), then first.
+    assert_eq!(choose(&pairs, Method::SsrCcd), 1);
+    // L2CD: smallest L (1, 2, 3), then smallest C (1, 3), then first.
+    assert_eq!(choose(&pairs, Method::SsrL2cd), 1);
+    let pairs = vec![pair(2.0, 0.0), pair(1.0, 4.0)];
+    assert_eq!(choose(&pairs, Method::SsrCcd), 0);
+    assert_eq!(choose(&pairs, Method::SsrL2cd), 1);
+}
+
+#[test]
+fn evaluation_writes_records_and_resumes_after_interruption() {
+    let out = tempfile::tempdir().expect("tempdir");
+    let config = EvalConfig {
+        method: EvalMethod::Oracle,
+        trials: 3,
+        seed: 1,
+        out_dir: out.path().to_owned(),
+        models_dir: "models".into(),
+        demos_dir: demos_dir(),
+        world: world_config(112),
+        correspond: CorrespondOptions::default(),
+        finetune_steps: 0,
+    };
+    let first = run_task(&config, TaskId::Row, &mut |_| {}).expect("eval");
+    assert_eq!(first.len(), 3);
+    let path = records_path(out.path(), "oracle", TaskId::Row);
+    let text = std::fs::read_to_string(&path).expect("records");
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 3);
+    for (i, line) in lines.iter().enumerate() {
+        let v: serde_json::Value = serde_json::from_str(line).expect("json line");
+        assert_eq!(v["trial"], i);
+        assert_eq!(v["seed"], 1 + 2 * i as u64);
+        assert_eq!(v["actions"].as_u64().expect("actions") as usize, v["actions_log"].as_array().expect("log").len());
+    }
+    // Interrupt: keep one full record and half of the next line.
+    std::fs::write(&path, format!("{}\n{}", lines[0], &lines[1][..lines[1].len() / 2])).expect("truncate");
+    let mut seen_new = 0;
+    let resumed = run_task(&config, TaskId::Row, &mut |_| seen_new += 1).expect("resume");
+    assert_eq!(resumed.len(), 3);
+    // Same seeds, same trials (decision times aside).
+    let untimed = |rs: &[seespot_ssr::TrialRecord]| {
+        let mut rs = rs.to_vec();
+        rs.iter_mut().flat_map(|r| r.actions_log.iter_mut()).for_each(|a| a.decide_ms = 0.0);
+        rs
+    };
+    assert_eq!(untimed(&resumed), untimed(&first));
+    assert_eq!(std::fs::read_to_string(&path).expect("records").lines().count(), 3);
+    assert_eq!(seen_new, 3);
+}
