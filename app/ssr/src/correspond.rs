@@ -165,8 +165,45 @@ fn dot2(a: &[f32], b0: &[f32], b1: &[f32]) -> (f32, f32) {
     (s0, s1)
 }
 
-/// Squared distances of row `i` to every query, in the norm form.
-/// Calls `f(q, d2)` for each query; skipped entirely for masked rows.
+/// Dot products of a 64-d row with two queries, as a vertical multiply then a
+/// fixed halving tree. This shape makes LLVM emit clean 4-wide SSE2 code (full
+/// `movups`/`mulps`/`addps`); the lane-accumulator loops of [`dot2`] were
+/// SLP-vectorized 2-wide with shuffles and ran 2x slower in cache.
+#[inline(always)]
+fn dot2_64(a: &[f32; 64], b: &[f32; 64], c: &[f32; 64]) -> (f32, f32) {
+    let mut p = [0f32; 64];
+    let mut q = [0f32; 64];
+    for k in 0..64 {
+        p[k] = a[k] * b[k];
+        q[k] = a[k] * c[k];
+    }
+    for w in [32, 16, 8, 4] {
+        for k in 0..w {
+            p[k] += p[k + w];
+            q[k] += q[k + w];
+        }
+    }
+    ((p[0] + p[2]) + (p[1] + p[3]), (q[0] + q[2]) + (q[1] + q[3]))
+}
+
+/// One 64-d dot product, same shape as [`dot2_64`].
+#[inline(always)]
+fn dot_64(a: &[f32; 64], b: &[f32; 64]) -> f32 {
+    let mut p = [0f32; 64];
+    for k in 0..64 {
+        p[k] = a[k] * b[k];
+    }
+    for w in [32, 16, 8, 4] {
+        for k in 0..w {
+            p[k] += p[k + w];
+        }
+    }
+    (p[0] + p[2]) + (p[1] + p[3])
+}
+
+/// Squared distances of row `i` to every query, in the norm form
+/// `||a||^2 - 2 a.q + ||q||^2`. Calls `f(q, d2)` for each query; skipped entirely
+/// for masked rows (`norms_sq = +inf`).
 #[inline(always)]
 fn row_distances_sq(
     map: &AseMap,
@@ -180,6 +217,26 @@ fn row_distances_sq(
         return;
     }
     let row = &map.features[i * map.dim..(i + 1) * map.dim];
+    if let Ok(row64) = <&[f32; 64]>::try_from(row) {
+        let mut q = 0;
+        while q + 1 < queries.len() {
+            if let (Ok(b), Ok(c)) = (
+                <&[f32; 64]>::try_from(queries[q]),
+                <&[f32; 64]>::try_from(queries[q + 1]),
+            ) {
+                let (d0, d1) = dot2_64(row64, b, c);
+                f(q, n - 2.0 * d0 + qnorms[q]);
+                f(q + 1, n - 2.0 * d1 + qnorms[q + 1]);
+            }
+            q += 2;
+        }
+        if q < queries.len() {
+            if let Ok(b) = <&[f32; 64]>::try_from(queries[q]) {
+                f(q, n - 2.0 * dot_64(row64, b) + qnorms[q]);
+            }
+        }
+        return;
+    }
     let mut q = 0;
     while q + 1 < queries.len() {
         let (d0, d1) = dot2(row, queries[q], queries[q + 1]);

@@ -1,0 +1,532 @@
+//! Results tables (Markdown, CSV) beside the paper's numbers, and a plot in the
+//! style of the paper's Figure 4 (trial success against compute and sample
+//! efficiency, log x axis).
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use serde::Serialize;
+use seespot_sim::TaskId;
+
+use crate::metrics::{Summary, mean_over_tasks};
+
+/// Trials per task in the paper's evaluation.
+pub const PAPER_TRIALS: usize = 50;
+
+/// One number of the paper's simulation results (Tables 1-2; DESIGN.md §5).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PaperResult {
+    /// Display name, e.g. `SSR CCD`.
+    pub method: &'static str,
+    /// The test task; `None` for the mean column.
+    pub task: Option<TaskId>,
+    /// Trial success rate in [0, 1].
+    pub success: f64,
+    /// Progress in [0, 1].
+    pub progress: f64,
+    /// Training steps on the test task under the paper's protocol.
+    pub train_steps: u64,
+    /// Annotated actions (2 demos x ideal actions); `None` for SPOT-Q, which
+    /// learns from rewards and no demonstration.
+    pub annotated_actions: Option<usize>,
+}
+
+impl PaperResult {
+    /// trials / (train steps + 1), with the paper's 50 trials.
+    pub fn compute_efficiency(&self) -> f64 {
+        PAPER_TRIALS as f64 / (self.train_steps as f64 + 1.0)
+    }
+
+    /// trials / annotated actions; for SPOT-Q (no annotations) its training
+    /// actions count as its samples: trials / train steps.
+    pub fn sample_efficiency(&self) -> f64 {
+        let samples = self.annotated_actions.unwrap_or(self.train_steps as usize).max(1);
+        PAPER_TRIALS as f64 / samples as f64
+    }
+}
+
+/// Training actions per task of the reference SPOT-Q policies (DESIGN.md §3).
+const SPOT_Q_TRAIN_STEPS: u64 = 40_000;
+
+/// The paper's simulation results, DESIGN.md §5 (trial success / progress per
+/// task in `TaskId::ALL` order, then the mean; SPOT-Q has the mean only).
+pub fn paper_results() -> Vec<PaperResult> {
+    // (method, train steps, [(success %, progress %); stack, unstack, row, vsq, mean])
+    type Row = (&'static str, u64, [(f64, f64); 5]);
+    let rows: [Row; 4] = [
+        ("SSR CCD", 0, [(24., 75.), (66., 82.), (30., 81.), (24., 79.), (36., 79.)]),
+        ("SSR L2CD", 0, [(0., 51.), (38., 76.), (6., 73.), (8., 67.), (13., 67.)]),
+        ("TransporterNet", 40_000, [(12., 51.), (86., 94.), (2., 24.), (20., 32.), (30., 50.)]),
+        ("SSR CCD finetuned", 1_000, [(58., 90.), (72., 87.), (40., 84.), (34., 83.), (51., 86.)]),
+    ];
+    let annotated = |task: Option<TaskId>| match task {
+        Some(t) => 2 * t.ideal_actions(),
+        None => TaskId::ALL.iter().map(|t| 2 * t.ideal_actions()).sum::<usize>() / TaskId::ALL.len(),
+    };
+    let mut out = Vec::new();
+    for (method, train_steps, cells) in rows {
+        let tasks = TaskId::ALL.iter().map(|&t| Some(t)).chain([None]);
+        for (task, (s, p)) in tasks.zip(cells) {
+            out.push(PaperResult {
+                method,
+                task,
+                success: s / 100.0,
+                progress: p / 100.0,
+                train_steps,
+                annotated_actions: Some(annotated(task)),
+            });
+        }
+    }
+    out.push(PaperResult {
+        method: "SPOT-Q",
+        task: None,
+        success: 0.91,
+        progress: 0.96,
+        train_steps: SPOT_Q_TRAIN_STEPS,
+        annotated_actions: None,
+    });
+    out
+}
+
+/// The display name of a method id (`ssr-ccd` -> `SSR CCD`); unknown ids as given.
+pub fn display_method(id: &str) -> String {
+    let key: String = id
+        .chars()
+        .filter(|c| c.is_ascii_alphanumeric())
+        .collect::<String>()
+        .to_ascii_lowercase();
+    match key.as_str() {
+        "ssrccd" => "SSR CCD".into(),
+        "ssrl2cd" => "SSR L2CD".into(),
+        "ssrccdfinetuned" => "SSR CCD finetuned".into(),
+        "ssrl2cdfinetuned" => "SSR L2CD finetuned".into(),
+        "spotq" => "SPOT-Q".into(),
+        "goodrobotfinetuned" => "Good Robot finetuned".into(),
+        "transporternet" | "transporter" => "TransporterNet".into(),
+        "oracle" => "Oracle".into(),
+        "random" => "Random".into(),
+        _ => id.to_string(),
+    }
+}
+
+/// The paper's number for a method id and task, if the paper reports one.
+pub fn paper_result(method: &str, task: Option<TaskId>) -> Option<PaperResult> {
+    let name = display_method(method);
+    paper_results()
+        .into_iter()
+        .find(|r| r.method == name && r.task == task)
+}
+
+fn task_rank(task: Option<TaskId>) -> usize {
+    match task {
+        Some(t) => TaskId::ALL.iter().position(|&x| x == t).unwrap_or(TaskId::ALL.len()),
+        None => TaskId::ALL.len() + 1,
+    }
+}
+
+/// The summaries sorted by method (first appearance) then task (`TaskId::ALL`
+/// order, the mean last), with a mean row added for each method that has
+/// per-task rows but no mean row (see [`mean_over_tasks`]).
+pub fn with_means(summaries: &[Summary]) -> Vec<Summary> {
+    let mut methods: Vec<&str> = Vec::new();
+    for s in summaries {
+        if !methods.contains(&s.method.as_str()) {
+            methods.push(&s.method);
+        }
+    }
+    let mut out = Vec::new();
+    for m in methods {
+        let mut rows: Vec<Summary> = summaries.iter().filter(|s| s.method == m).cloned().collect();
+        rows.sort_by_key(|s| task_rank(s.task));
+        if rows.iter().all(|s| s.task.is_some()) {
+            if let Some(mean) = mean_over_tasks(&rows) {
+                rows.push(mean);
+            }
+        }
+        out.extend(rows);
+    }
+    out
+}
+
+fn pct(x: f64) -> String {
+    format!("{:.0}%", 100.0 * x)
+}
+
+fn opt_pct(x: Option<f64>) -> String {
+    x.map_or("—".into(), pct)
+}
+
+fn task_name(task: Option<TaskId>) -> &'static str {
+    task.map_or("mean", TaskId::as_str)
+}
+
+/// Markdown results: a compact "trial success / progress ± SE" table per task and
+/// the mean (the paper's row printed under each seespot method it reports, and
+/// with `include_paper` the paper-only rows too), then every metric per (method,
+/// task).
+pub fn markdown_table(summaries: &[Summary], include_paper: bool) -> String {
+    let rows = with_means(summaries);
+    let mut methods: Vec<String> = Vec::new();
+    for s in &rows {
+        if !methods.contains(&s.method) {
+            methods.push(s.method.clone());
+        }
+    }
+    let columns: Vec<Option<TaskId>> = TaskId::ALL.iter().map(|&t| Some(t)).chain([None]).collect();
+    let mut md = String::new();
+    md.push_str("### Trial success / progress (± standard error)\n\n| method |");
+    for c in &columns {
+        md.push_str(&format!(" {} |", task_name(*c)));
+    }
+    md.push_str("\n|---|");
+    md.push_str(&"---|".repeat(columns.len()));
+    md.push('\n');
+    let mut shown_paper: Vec<&'static str> = Vec::new();
+    for m in &methods {
+        md.push_str(&format!("| {} (seespot) |", display_method(m)));
+        for c in &columns {
+            let cell = rows
+                .iter()
+                .find(|s| &s.method == m && s.task == *c)
+                .map_or("—".into(), |s| {
+                    format!("{} / {} ± {}", pct(s.success_rate), pct(s.progress), pct(s.progress_se))
+                });
+            md.push_str(&format!(" {cell} |"));
+        }
+        md.push('\n');
+        if include_paper {
+            let name = display_method(m);
+            if let Some(first) = paper_results().into_iter().find(|p| p.method == name) {
+                shown_paper.push(first.method);
+                md.push_str(&paper_row(first.method, &columns));
+            }
+        }
+    }
+    if include_paper {
+        let mut rest: Vec<&'static str> = Vec::new();
+        for p in paper_results() {
+            if !shown_paper.contains(&p.method) && !rest.contains(&p.method) {
+                rest.push(p.method);
+            }
+        }
+        for name in rest {
+            md.push_str(&paper_row(name, &columns));
+        }
+    }
+    md.push_str(
+        "\n### All metrics (paper Sec. 5.1)\n\n\
+         | method | task | trials | success | progress ± SE | action eff. | recoveries | \
+         mean actions | train steps | annotated | compute eff. | sample eff. |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for s in &rows {
+        let rec = match s.recoveries {
+            Some(r) => format!("{} ({}/{})", pct(r), s.recovered_trials, s.reversal_trials),
+            None => "—".into(),
+        };
+        md.push_str(&format!(
+            "| {} | {} | {} | {} | {} ± {} | {} | {} | {:.1} | {} | {} | {:.3} | {} |\n",
+            display_method(&s.method),
+            task_name(s.task),
+            s.trials,
+            pct(s.success_rate),
+            pct(s.progress),
+            pct(s.progress_se),
+            opt_pct(s.action_efficiency),
+            rec,
+            s.mean_actions,
+            s.train_steps,
+            s.annotated_actions,
+            s.compute_efficiency,
+            s.sample_efficiency.map_or("—".into(), |e| format!("{e:.2}")),
+        ));
+    }
+    md.push_str(
+        "\nAction efficiency = min(1, ideal actions x successes / actions of the successful \
+         trials); progress = mean of max P / 4; recoveries = successful trials with a \
+         reversal / trials with a reversal; compute eff. = trials / (train steps + 1); \
+         sample eff. = trials / annotated actions. Mean rows average the tasks.\n",
+    );
+    md
+}
+
+fn paper_row(name: &str, columns: &[Option<TaskId>]) -> String {
+    let paper = paper_results();
+    let mut row = format!("| *{name} (paper)* |");
+    for c in columns {
+        let cell = paper
+            .iter()
+            .find(|p| p.method == name && p.task == *c)
+            .map_or("".into(), |p| format!("*{} / {}*", pct(p.success), pct(p.progress)));
+        row.push_str(&format!(" {cell} |"));
+    }
+    row.push('\n');
+    row
+}
+
+/// Every summary (plus mean rows, see [`with_means`]) as CSV with a header; rates
+/// are fractions in [0, 1], empty cells where a metric is undefined.
+pub fn csv(summaries: &[Summary]) -> String {
+    let mut out = String::from(
+        "method,task,trials,successes,success_rate,progress,progress_se,action_efficiency,\
+         recoveries,reversal_trials,recovered_trials,mean_actions,ideal_actions,train_steps,\
+         annotated_actions,compute_efficiency,sample_efficiency\n",
+    );
+    let opt = |x: Option<f64>| x.map_or(String::new(), |v| format!("{v:.6}"));
+    for s in with_means(summaries) {
+        let method = if s.method.contains([',', '"', '\n']) {
+            format!("\"{}\"", s.method.replace('"', "\"\""))
+        } else {
+            s.method.clone()
+        };
+        out.push_str(&format!(
+            "{},{},{},{},{:.6},{:.6},{:.6},{},{},{},{},{:.4},{:.4},{},{},{:.6},{}\n",
+            method,
+            task_name(s.task),
+            s.trials,
+            s.successes,
+            s.success_rate,
+            s.progress,
+            s.progress_se,
+            opt(s.action_efficiency),
+            opt(s.recoveries),
+            s.reversal_trials,
+            s.recovered_trials,
+            s.mean_actions,
+            s.ideal_actions,
+            s.train_steps,
+            s.annotated_actions,
+            s.compute_efficiency,
+            opt(s.sample_efficiency),
+        ));
+    }
+    out
+}
+
+/// A problem drawing the plot.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    #[error("{path}: drawing the plot failed: {message}")]
+    Plot { path: String, message: String },
+}
+
+/// The font file the PNG plot is drawn with.
+pub const FONT_PATH: &str = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
+
+/// Registers the DejaVu font for plotters' `sans-serif` once; false if missing.
+fn register_font() -> bool {
+    static OK: OnceLock<bool> = OnceLock::new();
+    *OK.get_or_init(|| match std::fs::read(FONT_PATH) {
+        Ok(bytes) => {
+            let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+            plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).is_ok()
+        }
+        Err(_) => false,
+    })
+}
+
+/// One marker of the plot.
+struct Point {
+    label: String,
+    success: f64,
+    compute: f64,
+    sample: f64,
+    paper: bool,
+}
+
+fn plot_points(summaries: &[Summary]) -> Vec<Point> {
+    let mut points: Vec<Point> = with_means(summaries)
+        .into_iter()
+        .filter(|s| s.task.is_none())
+        .map(|s| Point {
+            label: display_method(&s.method),
+            success: s.success_rate,
+            compute: s.compute_efficiency,
+            sample: s
+                .sample_efficiency
+                .unwrap_or(s.trials as f64 / (s.train_steps.max(1)) as f64),
+            paper: false,
+        })
+        .collect();
+    // Per method the paper's mean, on its 50-trial protocol.
+    for p in paper_results().into_iter().filter(|p| p.task.is_none()) {
+        points.push(Point {
+            label: format!("{} (paper)", p.method),
+            success: p.success,
+            compute: p.compute_efficiency(),
+            sample: p.sample_efficiency(),
+            paper: true,
+        });
+    }
+    points
+}
+
+const PALETTE: [RGBColor; 6] = [
+    RGBColor(214, 39, 40),
+    RGBColor(31, 119, 180),
+    RGBColor(44, 160, 44),
+    RGBColor(255, 127, 14),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+];
+
+fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, points: &[Point]) -> Result<(), String> {
+    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    root.fill(&WHITE).map_err(err)?;
+    let panels = root.split_evenly((1, 2));
+    let axes: [(&str, fn(&Point) -> f64); 2] = [
+        ("compute efficiency = trials / (train steps + 1)", |p| p.compute),
+        ("sample efficiency = trials / annotated actions", |p| p.sample),
+    ];
+    for (panel, (xdesc, xof)) in panels.iter().zip(axes) {
+        let xs: Vec<f64> = points.iter().map(xof).filter(|x| *x > 0.0 && x.is_finite()).collect();
+        let lo = xs.iter().copied().fold(f64::INFINITY, f64::min).min(1e-3);
+        let hi = xs.iter().copied().fold(0.0, f64::max).max(1.0);
+        // Room on the right for the labels.
+        let (lo, hi) = (lo / 3.0, hi * 30.0);
+        let mut chart = ChartBuilder::on(panel)
+            .caption("trial success vs. efficiency (mean over tasks)", ("sans-serif", 18))
+            .margin(15)
+            .x_label_area_size(45)
+            .y_label_area_size(55)
+            .build_cartesian_2d((lo..hi).log_scale(), 0.0..100.0)
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .x_desc(xdesc)
+            .y_desc("trial success (%)")
+            .x_label_formatter(&|x| format!("{x:.0e}"))
+            .y_label_formatter(&|y| format!("{y:.0}"))
+            .light_line_style(WHITE)
+            .label_style(("sans-serif", 13))
+            .draw()
+            .map_err(err)?;
+        let mut colour = 0;
+        for p in points {
+            let x = xof(p);
+            if !(x > 0.0 && x.is_finite()) {
+                continue;
+            }
+            let y = 100.0 * p.success;
+            let c = if p.paper {
+                RGBColor(150, 150, 150)
+            } else {
+                colour += 1;
+                PALETTE[(colour - 1) % PALETTE.len()]
+            };
+            if p.paper {
+                chart
+                    .draw_series([TriangleMarker::new((x, y), 7, c.filled())])
+                    .map_err(err)?;
+            } else {
+                chart
+                    .draw_series([Circle::new((x, y), 7, c.filled())])
+                    .map_err(err)?;
+            }
+            chart
+                .draw_series([Text::new(p.label.clone(), (x * 1.15, y + 1.5), ("sans-serif", 13).into_font().color(&c))])
+                .map_err(err)?;
+        }
+    }
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+/// Draws the Figure-4-style plot: trial success (mean over tasks) against compute
+/// efficiency and against sample efficiency, log x axes, one marker per method
+/// (the paper's in grey triangles, seespot's in colour). Writes a PNG at `path`
+/// using the DejaVu font at [`FONT_PATH`]; if that font is missing, an SVG beside
+/// it (`path` with extension `svg`). Returns the path written.
+pub fn plot_figure4(summaries: &[Summary], path: &Path) -> Result<PathBuf, ReportError> {
+    let points = plot_points(summaries);
+    let size = (1400, 560);
+    let (out, result) = if register_font() {
+        let out = path.to_path_buf();
+        let r = draw(BitMapBackend::new(&out, size).into_drawing_area(), &points);
+        (out, r)
+    } else {
+        let out = path.with_extension("svg");
+        let r = draw(SVGBackend::new(&out, size).into_drawing_area(), &points);
+        (out, r)
+    };
+    result.map_err(|message| ReportError::Plot {
+        path: out.display().to_string(),
+        message,
+    })?;
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::metrics::{TrialRecord, summarize_all};
+
+    fn records() -> Vec<TrialRecord> {
+        let mut out = Vec::new();
+        for (method, rate) in [("ssr-ccd", 3), ("ssr-l2cd", 1)] {
+            for task in TaskId::ALL {
+                for trial in 0..4 {
+                    let success = trial < rate;
+                    out.push(TrialRecord {
+                        method: method.into(),
+                        task,
+                        seed: 2 * trial as u64 + 1,
+                        trial,
+                        success,
+                        actions: if success { 8 } else { 30 },
+                        max_progress: if success { 4 } else { 2 },
+                        start_progress: 1,
+                        final_progress: if success { 4 } else { 1 },
+                        reversal: trial == 1,
+                        end: "success".into(),
+                        actions_log: Vec::new(),
+                    });
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn paper_numbers_are_complete() {
+        let p = paper_results();
+        assert_eq!(p.len(), 4 * 5 + 1);
+        let ccd = paper_result("ssr-ccd", None).expect("SSR CCD mean");
+        assert_eq!((ccd.success, ccd.progress), (0.36, 0.79));
+        assert_eq!(paper_result("spot-q", None).map(|r| r.success), Some(0.91));
+        assert_eq!(paper_result("ssr-ccd", Some(TaskId::Row)).map(|r| r.annotated_actions), Some(Some(8)));
+        assert_eq!(paper_result("transporternet", Some(TaskId::Unstack)).map(|r| r.success), Some(0.86));
+    }
+
+    #[test]
+    fn tables_have_every_row() {
+        let s = summarize_all(&records(), 2, |_, _| 0);
+        let md = markdown_table(&s, true);
+        assert!(md.contains("| SSR CCD (seespot) | 75% / 88% ± 1"), "{md}");
+        assert!(md.contains("| *SSR CCD (paper)* | *24% / 75%* |"));
+        assert!(md.contains("*SPOT-Q (paper)*"));
+        assert!(md.contains("| SSR L2CD | mean | 16 | 25% |"), "{md}");
+        let c = csv(&s);
+        let lines: Vec<&str> = c.lines().collect();
+        assert_eq!(lines.len(), 1 + 2 * 5);
+        assert!(lines[5].starts_with("ssr-ccd,mean,16,12,0.750000,0.875000,"), "{}", lines[5]);
+        assert!(lines.iter().all(|l| l.split(',').count() == 17));
+    }
+
+    #[test]
+    fn plot_is_written() {
+        let s = summarize_all(&records(), 2, |_, _| 0);
+        let dir = tempfile::tempdir().expect("tempdir");
+        let out = plot_figure4(&s, &dir.path().join("figure4.png")).expect("plot");
+        let len = std::fs::metadata(&out).map(|m| m.len()).unwrap_or(0);
+        assert!(len > 1000, "{} is {len} bytes", out.display());
+        // To look at it: SEESPOT_PLOT_OUT=/tmp/figure4.png cargo test ... plot_is_written
+        if let Some(path) = std::env::var_os("SEESPOT_PLOT_OUT") {
+            plot_figure4(&s, Path::new(&path)).expect("plot");
+            std::fs::write(Path::new(&path).with_extension("md"), markdown_table(&s, true))
+                .expect("write");
+        }
+    }
+}
