@@ -191,6 +191,7 @@ pub fn run_bench_view(args: BenchViewArgs) -> anyhow::Result<()> {
     for (phase, ms) in &b.median_by_phase {
         println!("  {:<7} median {ms:.1} ms", phase.as_str());
     }
-    println!("  recording of the trial: {:.2} MB", b.recording_bytes as f64 / 1e6);
+    println!("  debugger overhead (without the decider's own time): median {:.1} ms, max {:.1} ms", b.overhead_median_ms, b.overhead_max_ms);
+    println!("  recording of the trial (in memory, uncompressed): {:.2} MB", b.recording_bytes as f64 / 1e6);
     Ok(())
 }

@@ -29,6 +29,8 @@ fn main() -> anyhow::Result<()> {
     }
     let mut trials = 1;
     let mut out = PathBuf::from("recordings");
+    let mut models = PathBuf::from("models");
+    let mut demos = PathBuf::from("demos");
     while let Some(a) = args.next() {
         let mut val = || args.next().with_context(|| format!("{a} needs a value"));
         match a.as_str() {
@@ -44,10 +46,12 @@ fn main() -> anyhow::Result<()> {
             "--no-viewer" => opts.no_viewer = true,
             "--trials" => trials = val()?.parse()?,
             "--out" => out = PathBuf::from(val()?),
+            "--models" => models = PathBuf::from(val()?),
+            "--demos" => demos = PathBuf::from(val()?),
             other => anyhow::bail!("unknown argument {other}"),
         }
     }
-    let factory = live::factory(kind, "models".into(), "demos".into());
+    let factory = live::factory(kind, models, demos);
     if command == "bench" {
         let b = live::bench_view(opts.task, opts.seed, opts.resolution, 30, factory)?;
         println!("{}", serde_json::to_string_pretty(&b)?);

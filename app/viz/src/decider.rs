@@ -344,6 +344,7 @@ pub fn record_demo(task: TaskId, seed: u64, config: WorldConfig) -> Option<Demo>
     let mut steps = Vec::new();
     while trial.end().is_none() {
         let hm = trial.world().render();
+        let blocks_before = trial.world().table_blocks();
         let action = oracle.act(trial.world());
         let rec = trial.step(action).clone();
         if rec.progress_after < rec.progress_before {
@@ -354,6 +355,7 @@ pub fn record_demo(task: TaskId, seed: u64, config: WorldConfig) -> Option<Demo>
             world_pose: rec.outcome.pose,
             progress_before: rec.progress_before,
             progress_after: rec.progress_after,
+            blocks_before,
         };
         meta.steps.push(step_meta.clone());
         steps.push(DemoStep { heightmaps: hm, meta: step_meta });

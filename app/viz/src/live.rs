@@ -256,6 +256,9 @@ pub struct PhaseTiming {
     pub action: usize,
     pub phase: Phase,
     pub ms: f64,
+    /// Of `ms`, the decider's own time (embed phase only: the networks and the
+    /// correspondence); the rest is the debugger's overhead.
+    pub decide_ms: f64,
     pub frame_bytes: usize,
 }
 
@@ -272,6 +275,9 @@ pub struct ViewBench {
     pub max_ms: f64,
     /// Median per phase kind.
     pub median_by_phase: Vec<(Phase, f64)>,
+    /// The debugger's overhead (`ms - decide_ms`): median and max over all phases.
+    pub overhead_median_ms: f64,
+    pub overhead_max_ms: f64,
     /// Bytes of the in-memory recording of the whole trial (a proxy for `.rrd` size).
     pub recording_bytes: usize,
 }
@@ -302,10 +308,12 @@ pub fn bench_view(task: TaskId, seed: u64, resolution: usize, max_actions: usize
         let pair = s.decision().map_or(0, |d| d.chosen);
         let frame = s.frame(pair).to_string();
         let ms = t0.elapsed().as_secs_f64() * 1e3;
+        let decide_ms = if phase == Phase::Embed { s.last_decide_ms() } else { 0.0 };
         phases.push(PhaseTiming {
             action: s.trial().actions(),
             phase,
             ms,
+            decide_ms,
             frame_bytes: frame.len() + state.len(),
         });
     }
@@ -313,6 +321,8 @@ pub fn bench_view(task: TaskId, seed: u64, resolution: usize, max_actions: usize
     let recording_bytes = storage.drain_as_bytes().map(|b| b.len()).unwrap_or(0);
     let mut all: Vec<f64> = phases.iter().map(|p| p.ms).collect();
     all.sort_by(f64::total_cmp);
+    let mut overhead: Vec<f64> = phases.iter().map(|p| p.ms - p.decide_ms).collect();
+    overhead.sort_by(f64::total_cmp);
     let median_by_phase = Phase::ALL
         .iter()
         .map(|ph| {
@@ -331,6 +341,8 @@ pub fn bench_view(task: TaskId, seed: u64, resolution: usize, max_actions: usize
         max_ms: all.last().copied().unwrap_or(0.0),
         phases,
         median_by_phase,
+        overhead_median_ms: percentile(&overhead, 0.5),
+        overhead_max_ms: overhead.last().copied().unwrap_or(0.0),
         recording_bytes,
     })
 }

@@ -68,6 +68,8 @@ pub struct Session {
     recorder: Option<Recorder>,
     version: u64,
     last_error: Option<String>,
+    /// Milliseconds the decider took at the last embed phase.
+    last_decide_ms: f64,
 }
 
 impl std::fmt::Debug for Session {
@@ -94,6 +96,7 @@ impl Session {
             recorder,
             version: 0,
             last_error: None,
+            last_decide_ms: 0.0,
         };
         s.begin();
         Ok(s)
@@ -116,6 +119,11 @@ impl Session {
 
     pub fn decision(&self) -> Option<&Decision> {
         self.decision.as_ref()
+    }
+
+    /// Milliseconds the decider took at the last embed phase.
+    pub fn last_decide_ms(&self) -> f64 {
+        self.last_decide_ms
     }
 
     pub fn version(&self) -> u64 {
@@ -182,7 +190,10 @@ impl Session {
         match next {
             Phase::Embed => {
                 let hm = self.trial.world().render();
-                let choice = match self.decider.decide(&self.trial, &hm) {
+                let t0 = std::time::Instant::now();
+                let decided = self.decider.decide(&self.trial, &hm);
+                self.last_decide_ms = t0.elapsed().as_secs_f64() * 1e3;
+                let choice = match decided {
                     Ok(c) => c,
                     Err(e) => {
                         self.last_error = Some(format!("{e:#}"));

@@ -1,0 +1,36 @@
+//! Writes stand-in SSR inputs for measuring the debugger at any resolution:
+//! untrained (randomly initialized) policies `OUT/models/<task>.safetensors` and
+//! oracle demos `OUT/demos/<task>/{0,2}` at `RES` px. Their compute cost is the
+//! real one; their choices are not. `ssr_fixtures OUT RES`.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use seespot_policy::PolicyNet;
+use seespot_sim::{Grid, TaskId, WorldConfig};
+use seespot_viz::decider::record_demo;
+
+fn main() -> anyhow::Result<()> {
+    let mut args = std::env::args().skip(1);
+    let out = PathBuf::from(args.next().context("usage: ssr_fixtures OUT RES")?);
+    let res: usize = args.next().context("usage: ssr_fixtures OUT RES")?.parse()?;
+    let world = WorldConfig {
+        grid: Grid::new(res),
+        ..WorldConfig::default()
+    };
+    std::fs::create_dir_all(out.join("models"))?;
+    for (i, t) in TaskId::ALL.into_iter().enumerate() {
+        PolicyNet::new(t, res, i as u64)?.save(&out.join("models").join(format!("{}.safetensors", t.as_str())))?;
+        let mut seed = 0;
+        let mut written = 0;
+        while written < 2 && seed < 40 {
+            if let Some(d) = record_demo(t, seed, world) {
+                d.write(&out.join("demos").join(t.as_str()).join(["0", "2"][written]))?;
+                written += 1;
+            }
+            seed += 2;
+        }
+    }
+    println!("wrote {}", out.display());
+    Ok(())
+}
