@@ -19,6 +19,29 @@ pub enum BenchCommand {
         #[arg(long)]
         json: bool,
     },
+    /// The Q-networks: forward of 16 rotations (both primitives) at 224 and 112 px,
+    /// one training step.
+    Policy {
+        #[arg(long, default_value_t = 5)]
+        iterations: usize,
+        #[arg(long)]
+        json: bool,
+    },
+    /// See-SPOT-Run at the paper's scale: Correspond alone (R = 16, 224 x 224,
+    /// 64-d, M = 3, N = 2) and one whole decision (embed with 3 policies +
+    /// Correspond).
+    /// The debugger: time from a "next phase" request to the page's data, and
+    /// the .rrd size per trial.
+    #[cfg(feature = "viewer")]
+    View(crate::view::BenchViewArgs),
+    Ssr {
+        #[arg(long, default_value_t = 224)]
+        resolution: usize,
+        #[arg(long, default_value_t = 9)]
+        iterations: usize,
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
@@ -28,6 +51,21 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
             resolution,
             json,
         } => bench_sim(actions, resolution, json),
+        BenchCommand::Policy { iterations, json } => {
+            let report = seespot_policy::bench::bench(&[224, 112], iterations)?;
+            if json {
+                return crate::print_json(&report);
+            }
+            println!("{}", serde_json::to_string_pretty(&report)?);
+            Ok(())
+        }
+        BenchCommand::Ssr {
+            resolution,
+            iterations,
+            json,
+        } => bench_ssr(resolution, iterations, json),
+        #[cfg(feature = "viewer")]
+        BenchCommand::View(args) => crate::view::run_bench_view(args),
     }
 }
 
@@ -81,5 +119,65 @@ fn bench_sim(actions: usize, resolution: usize, json: bool) -> anyhow::Result<()
         report["speedup_vs_pybullet"].as_f64().unwrap_or(0.0),
         report["render_ms"].as_f64().unwrap_or(0.0),
     );
+    Ok(())
+}
+
+/// Correspond alone on random maps, then whole SSR decisions on a live scene
+/// with three (untrained, same architecture) policies and two oracle demos
+/// recorded at `resolution`.
+fn bench_ssr(resolution: usize, iterations: usize, json: bool) -> anyhow::Result<()> {
+    use seespot_sim::{Primitive, TaskId, Trial};
+    use seespot_ssr::{SsrConfig, SsrPolicy};
+    let correspond = seespot_ssr::bench_correspond(resolution, iterations);
+    let task = TaskId::Stack;
+    let demos = [0u64, 2]
+        .iter()
+        .map(|&s| crate::demo::record(task, s, resolution))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let policies = TaskId::ALL
+        .into_iter()
+        .filter(|t| *t != task)
+        .map(|t| Ok((t, seespot_policy::PolicyNet::new(t, resolution, 1)?)))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let mut ssr = SsrPolicy::new(task, policies, demos, SsrConfig::default())?;
+    let config = WorldConfig {
+        grid: Grid::new(resolution),
+        ..Default::default()
+    };
+    let trial = Trial::new(config, task, 1);
+    let hm = trial.world().render();
+    // The first decision embeds the demo scenes (cached for the rest of a trial).
+    let t = Instant::now();
+    ssr.decide(&hm, trial.progress(), Primitive::Grasp)?;
+    let first_ms = t.elapsed().as_secs_f64() * 1e3;
+    let mut total = Vec::new();
+    let mut embed = Vec::new();
+    let mut corr = Vec::new();
+    for _ in 0..iterations.clamp(1, 5) {
+        let t = Instant::now();
+        let d = ssr.decide(&hm, trial.progress(), Primitive::Grasp)?;
+        total.push(t.elapsed().as_secs_f64() * 1e3);
+        embed.push(d.embed_ms);
+        corr.push(d.correspond_ms);
+    }
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let report = serde_json::json!({
+        "resolution": resolution,
+        "correspond": correspond,
+        "decision": {
+            "decision_ms": median(&mut total),
+            "embed_live_ms": median(&mut embed),
+            "correspond_ms": median(&mut corr),
+            "first_decision_ms_with_demo_embedding": first_ms,
+            "budget_ms": 300.0,
+        },
+    });
+    if json {
+        return crate::print_json(&report);
+    }
+    println!("{}", serde_json::to_string_pretty(&report)?);
     Ok(())
 }

@@ -4,6 +4,9 @@ mod bench;
 mod demo;
 mod eval;
 mod sim;
+mod train;
+#[cfg(feature = "viewer")]
+mod view;
 
 use clap::{Parser, Subcommand};
 
@@ -26,6 +29,14 @@ enum Command {
     Sim(sim::SimCommand),
     /// Leave-one-out evaluation of SSR and baselines, with the paper's numbers beside.
     Eval(eval::EvalArgs),
+    /// Train one task's SPOT-Q policy (resumable from its run directory).
+    Train(train::TrainArgs),
+    /// Run a live SSR trial and serve the browser debugger and the rerun web viewer.
+    #[cfg(feature = "viewer")]
+    View(view::ViewArgs),
+    /// Write one rerun recording (.rrd) per trial.
+    #[cfg(feature = "viewer")]
+    Record(view::RecordArgs),
     /// Measure speed (`--json` for a machine-readable report).
     #[command(subcommand)]
     Bench(bench::BenchCommand),
@@ -38,6 +49,11 @@ fn main() -> anyhow::Result<()> {
         Command::Sim(c) => sim::run(c),
         Command::Bench(c) => bench::run(c),
         Command::Eval(a) => eval::run(a),
+        Command::Train(a) => train::run(a),
+        #[cfg(feature = "viewer")]
+        Command::View(a) => view::run_view(a),
+        #[cfg(feature = "viewer")]
+        Command::Record(a) => view::run_record(a),
     }
 }
 
