@@ -76,7 +76,10 @@ pub fn run(args: TrainArgs) -> anyhow::Result<()> {
     let outcome = seespot_policy::train(&config, &run_dir, &mut |p| {
         if !announced {
             if let Some(from) = p.resumed_from {
-                pb.println(format!("resuming {} from its checkpoint at {from} actions", run_dir.display()));
+                pb.println(format!(
+                    "resuming {} from its checkpoint at {from} actions",
+                    run_dir.display()
+                ));
                 pb.set_position(from as u64);
                 pb.reset_eta();
             }
@@ -86,7 +89,10 @@ pub fn run(args: TrainArgs) -> anyhow::Result<()> {
         let rate = p
             .success_rate
             .map_or_else(|| "-".to_string(), |r| format!("{:.0}%", r * 100.0));
-        pb.set_message(format!("trials {} success {rate} loss {:.4}", p.trials, p.loss));
+        pb.set_message(format!(
+            "trials {} success {rate} loss {:.4}",
+            p.trials, p.loss
+        ));
     })
     .with_context(|| format!("training {task} in {}", run_dir.display()))?;
     pb.finish_and_clear();
@@ -117,7 +123,13 @@ pub fn run(args: TrainArgs) -> anyhow::Result<()> {
     }
 
     let report = if args.eval_trials > 0 {
-        Some(own_task_eval(&outcome.policy, task, args.eval_trials, 0, args.quiet)?)
+        Some(own_task_eval(
+            &outcome.policy,
+            task,
+            args.eval_trials,
+            0,
+            args.quiet,
+        )?)
     } else {
         None
     };
@@ -157,22 +169,36 @@ pub fn own_task_eval(
     };
     let mut done = 0usize;
     let mut ok = 0usize;
-    let report = seespot_policy::own_task_eval(policy, task, config, trials, first_seed, &mut |t: &EvalTrial| {
-        done += 1;
-        ok += t.success as usize;
-        pb.inc(1);
-        pb.set_message(format!("success {ok}/{done}"));
-    })
+    let report = seespot_policy::own_task_eval(
+        policy,
+        task,
+        config,
+        trials,
+        first_seed,
+        &mut |t: &EvalTrial| {
+            done += 1;
+            ok += t.success as usize;
+            pb.inc(1);
+            pb.set_message(format!("success {ok}/{done}"));
+        },
+    )
     .with_context(|| format!("evaluating the {task} policy"))?;
     pb.finish_and_clear();
     Ok(report)
 }
 
-fn model_card(outcome: &TrainOutcome, out: &Path, report: Option<&EvalReport>, args: &TrainArgs) -> String {
+fn model_card(
+    outcome: &TrainOutcome,
+    out: &Path,
+    report: Option<&EvalReport>,
+    args: &TrainArgs,
+) -> String {
     let s = &outcome.state;
     let c = &s.config;
     let task = c.task;
-    let file = out.file_name().map_or_else(String::new, |f| f.to_string_lossy().to_string());
+    let file = out
+        .file_name()
+        .map_or_else(String::new, |f| f.to_string_lossy().to_string());
     let mut md = format!(
         "# SPOT-Q policy: {task}\n\n\
          `{file}`: the grasp and place Q-networks of a SPOT-Q policy trained on the \

@@ -32,9 +32,17 @@ fn main() {
             for _ in 0..6 {
                 let t = Instant::now();
                 match what {
-                    "rotated_features" => { policy.rotated_features(&hm, seespot_sim::Primitive::Grasp).unwrap(); }
-                    "q_values" => { policy.q_values(&hm, seespot_sim::Primitive::Grasp).unwrap(); }
-                    _ => { policy.embed(&hm, seespot_sim::Primitive::Grasp).unwrap(); }
+                    "rotated_features" => {
+                        policy
+                            .rotated_features(&hm, seespot_sim::Primitive::Grasp)
+                            .unwrap();
+                    }
+                    "q_values" => {
+                        policy.q_values(&hm, seespot_sim::Primitive::Grasp).unwrap();
+                    }
+                    _ => {
+                        policy.embed(&hm, seespot_sim::Primitive::Grasp).unwrap();
+                    }
                 }
                 best = best.min(t.elapsed().as_secs_f64() * 1e3);
             }

@@ -20,7 +20,10 @@ pub fn scene(resolution: usize, seed: u64) -> (World, Heightmaps) {
     (world, hm)
 }
 
-fn min_ms(mut f: impl FnMut() -> Result<(), PolicyError>, iters: usize) -> Result<f64, PolicyError> {
+fn min_ms(
+    mut f: impl FnMut() -> Result<(), PolicyError>,
+    iters: usize,
+) -> Result<f64, PolicyError> {
     f()?; // warm-up
     let mut t = Vec::with_capacity(iters);
     for _ in 0..iters {
@@ -64,7 +67,10 @@ pub fn bench(resolutions: &[usize], iters: usize) -> Result<serde_json::Value, P
             "embed_with_q_both_primitives_16_rotations_ms": e,
         }));
     }
-    let mut tr = trainer::Learner::new(PolicyNet::new(TaskId::Stack, 112, 0)?, trainer::LearnerConfig::default())?;
+    let mut tr = trainer::Learner::new(
+        PolicyNet::new(TaskId::Stack, 112, 0)?,
+        trainer::LearnerConfig::default(),
+    )?;
     let batch = fixed_batch(trainer::DEFAULT_BATCH);
     let step = min_ms(|| tr.train_step(&batch).map(|_| ()), iters)?;
     Ok(serde_json::json!({

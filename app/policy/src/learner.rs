@@ -54,7 +54,11 @@ fn prepare(e: &Experience) -> Prepared {
     let input = NetInput::from_heightmaps(&hm);
     let rotated = rotate_input(&input, e.action.rotation);
     let map = BackMap::new(&input, e.resolution, TRUNK_STRIDE);
-    let (fx, fy) = map.locate(rotation_angle(e.action.rotation).sin_cos(), e.action.y, e.action.x);
+    let (fx, fy) = map.locate(
+        rotation_angle(e.action.rotation).sin_cos(),
+        e.action.y,
+        e.action.x,
+    );
     let (taps, weights) = bilinear_taps(FEATURE_RESOLUTION, fx, fy);
     Prepared {
         input: rotated,
@@ -150,7 +154,11 @@ impl Learner {
         for (e, p) in batch.iter().zip(&prepared) {
             let dev = Device::Cpu;
             let x = Tensor::from_vec(p.input.clone(), (1, INPUT_CHANNELS, n, n), &dev)?;
-            let taps = Tensor::from_vec(p.taps.iter().map(|&c| c as u32).collect::<Vec<_>>(), 4, &dev)?;
+            let taps = Tensor::from_vec(
+                p.taps.iter().map(|&c| c as u32).collect::<Vec<_>>(),
+                4,
+                &dev,
+            )?;
             let w = Tensor::from_vec(p.weights.to_vec(), (1, 4), &dev)?;
             let q = self.policy.net(e.action.primitive).q_at(&x, &taps, &w)?;
             let t = Tensor::from_vec(vec![e.target], 1, &dev)?;

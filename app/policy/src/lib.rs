@@ -14,11 +14,13 @@
 //! ```
 
 pub mod bench;
+pub mod curve;
 pub mod embedding;
 pub mod error;
+pub mod eval;
 pub mod input;
-pub mod mask;
 pub mod learner;
+pub mod mask;
 pub mod net;
 pub mod optim;
 pub mod policy;
@@ -30,5 +32,7 @@ pub mod trainer;
 
 pub use embedding::{AseMap, EMBEDDING_DIM, QMap};
 pub use error::PolicyError;
+pub use eval::{EvalReport, EvalTrial, own_task_eval};
 pub use mask::common_sense_mask;
 pub use policy::{PolicyMeta, PolicyNet, greedy_action, masked_argmax};
+pub use trainer::{TrainConfig, TrainOutcome, TrainProgress, train};

@@ -40,11 +40,41 @@ pub struct ConvSpec {
 
 /// The trunk, in order.
 pub const TRUNK: [ConvSpec; 5] = [
-    ConvSpec { name: "conv1", in_channels: INPUT_CHANNELS, out_channels: 16, stride: 2, dilation: 1 },
-    ConvSpec { name: "conv2", in_channels: 16, out_channels: 32, stride: 2, dilation: 1 },
-    ConvSpec { name: "conv3", in_channels: 32, out_channels: 32, stride: 1, dilation: 1 },
-    ConvSpec { name: "conv4", in_channels: 32, out_channels: 32, stride: 1, dilation: 2 },
-    ConvSpec { name: "conv5", in_channels: 32, out_channels: EMBEDDING_DIM, stride: 1, dilation: 1 },
+    ConvSpec {
+        name: "conv1",
+        in_channels: INPUT_CHANNELS,
+        out_channels: 16,
+        stride: 2,
+        dilation: 1,
+    },
+    ConvSpec {
+        name: "conv2",
+        in_channels: 16,
+        out_channels: 32,
+        stride: 2,
+        dilation: 1,
+    },
+    ConvSpec {
+        name: "conv3",
+        in_channels: 32,
+        out_channels: 32,
+        stride: 1,
+        dilation: 1,
+    },
+    ConvSpec {
+        name: "conv4",
+        in_channels: 32,
+        out_channels: 32,
+        stride: 1,
+        dilation: 2,
+    },
+    ConvSpec {
+        name: "conv5",
+        in_channels: 32,
+        out_channels: EMBEDDING_DIM,
+        stride: 1,
+        dilation: 1,
+    },
 ];
 
 /// Kernel side of every trunk conv.
@@ -54,7 +84,10 @@ pub const KERNEL: usize = 3;
 pub fn param_shapes() -> Vec<(String, Vec<usize>)> {
     let mut v = Vec::new();
     for c in TRUNK {
-        v.push((format!("{}.weight", c.name), vec![c.out_channels, c.in_channels, KERNEL, KERNEL]));
+        v.push((
+            format!("{}.weight", c.name),
+            vec![c.out_channels, c.in_channels, KERNEL, KERNEL],
+        ));
         v.push((format!("{}.bias", c.name), vec![c.out_channels]));
     }
     v.push(("head.weight".into(), vec![1, EMBEDDING_DIM]));
@@ -81,11 +114,15 @@ impl QNet {
                 vec![0.0; n]
             } else {
                 let fan_in: usize = shape[1..].iter().product();
-                let bound = (6.0 / fan_in as f32).sqrt()
-                    * if name.starts_with("head") { 0.1 } else { 1.0 };
+                let bound =
+                    (6.0 / fan_in as f32).sqrt() * if name.starts_with("head") { 0.1 } else { 1.0 };
                 (0..n).map(|_| rng.random_range(-bound..bound)).collect()
             };
-            params.push(Var::from_tensor(&Tensor::from_vec(data, shape, &Device::Cpu)?)?);
+            params.push(Var::from_tensor(&Tensor::from_vec(
+                data,
+                shape,
+                &Device::Cpu,
+            )?)?);
         }
         Ok(Self { params })
     }
@@ -93,7 +130,10 @@ impl QNet {
     /// Builds a net from tensors in [`param_shapes`] order (shapes not checked here).
     pub fn from_tensors(tensors: Vec<Tensor>) -> candle_core::Result<Self> {
         Ok(Self {
-            params: tensors.iter().map(Var::from_tensor).collect::<Result<_, _>>()?,
+            params: tensors
+                .iter()
+                .map(Var::from_tensor)
+                .collect::<Result<_, _>>()?,
         })
     }
 
@@ -104,7 +144,9 @@ impl QNet {
             let w = self.params[2 * i].as_tensor();
             let b = self.params[2 * i + 1].as_tensor();
             h = h.conv2d(w, c.dilation, c.stride, c.dilation, 1)?;
-            h = h.broadcast_add(&b.reshape((1, c.out_channels, 1, 1))?)?.relu()?;
+            h = h
+                .broadcast_add(&b.reshape((1, c.out_channels, 1, 1))?)?
+                .relu()?;
         }
         Ok(h)
     }
@@ -112,8 +154,14 @@ impl QNet {
     /// The 1x1 head `w` (64 values) and bias `b`, as plain floats.
     pub fn head(&self) -> candle_core::Result<(Vec<f32>, f32)> {
         let n = self.params.len();
-        let w = self.params[n - 2].as_tensor().flatten_all()?.to_vec1::<f32>()?;
-        let b = self.params[n - 1].as_tensor().flatten_all()?.to_vec1::<f32>()?;
+        let w = self.params[n - 2]
+            .as_tensor()
+            .flatten_all()?
+            .to_vec1::<f32>()?;
+        let b = self.params[n - 1]
+            .as_tensor()
+            .flatten_all()?
+            .to_vec1::<f32>()?;
         Ok((w, b[0]))
     }
 
@@ -152,7 +200,12 @@ impl QNet {
     pub fn to_vecs(&self) -> candle_core::Result<Vec<Vec<f32>>> {
         self.params
             .iter()
-            .map(|v| v.as_tensor().flatten_all()?.to_dtype(DType::F32)?.to_vec1::<f32>())
+            .map(|v| {
+                v.as_tensor()
+                    .flatten_all()?
+                    .to_dtype(DType::F32)?
+                    .to_vec1::<f32>()
+            })
             .collect()
     }
 }

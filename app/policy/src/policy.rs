@@ -77,19 +77,31 @@ impl PolicyNet {
     }
 
     /// Runs the trunk of `primitive` on all R rotations of `hm`.
-    pub fn rotated_features(&self, hm: &Heightmaps, primitive: Primitive) -> Result<RotatedFeatures, PolicyError> {
+    pub fn rotated_features(
+        &self,
+        hm: &Heightmaps,
+        primitive: Primitive,
+    ) -> Result<RotatedFeatures, PolicyError> {
         let input = NetInput::from_heightmaps(hm);
         let rotations: Vec<usize> = (0..NUM_ROTATIONS).collect();
         let batch = rotate_input_batch(&input, &rotations);
         let n = NET_RESOLUTION;
         let x = Tensor::from_vec(batch, (NUM_ROTATIONS, INPUT_CHANNELS, n, n), &Device::Cpu)?;
-        let f = self.net(primitive).trunk(&x)?.permute((0, 2, 3, 1))?.contiguous()?;
+        let f = self
+            .net(primitive)
+            .trunk(&x)?
+            .permute((0, 2, 3, 1))?
+            .contiguous()?;
         let features = f.flatten_all()?.to_vec1::<f32>()?;
         Ok(RotatedFeatures { features, input })
     }
 
     /// Q-values of the low-resolution rotated cells (`R x 28 x 28`).
-    fn low_res_q(&self, rf: &RotatedFeatures, primitive: Primitive) -> Result<Vec<f32>, PolicyError> {
+    fn low_res_q(
+        &self,
+        rf: &RotatedFeatures,
+        primitive: Primitive,
+    ) -> Result<Vec<f32>, PolicyError> {
         let (w, b) = self.net(primitive).head()?;
         Ok(rf
             .features
@@ -98,7 +110,12 @@ impl PolicyNet {
             .collect())
     }
 
-    fn q_from(&self, rf: &RotatedFeatures, hm: &Heightmaps, primitive: Primitive) -> Result<QMap, PolicyError> {
+    fn q_from(
+        &self,
+        rf: &RotatedFeatures,
+        hm: &Heightmaps,
+        primitive: Primitive,
+    ) -> Result<QMap, PolicyError> {
         let h = hm.resolution();
         let low = self.low_res_q(rf, primitive)?;
         let map = BackMap::new(&rf.input, h, TRUNK_STRIDE);
@@ -118,7 +135,14 @@ impl PolicyNet {
         let h = hm.resolution();
         let map = BackMap::new(&rf.input, h, TRUNK_STRIDE);
         let rotations: Vec<usize> = (0..NUM_ROTATIONS).collect();
-        let features = sample_back(&rf.features, FEATURE_RESOLUTION, EMBEDDING_DIM, &rotations, &map, h);
+        let features = sample_back(
+            &rf.features,
+            FEATURE_RESOLUTION,
+            EMBEDDING_DIM,
+            &rotations,
+            &map,
+            h,
+        );
         let pixel_mask = common_sense_mask(hm, primitive);
         let mut mask = Vec::with_capacity(NUM_ROTATIONS * h * h);
         for _ in 0..NUM_ROTATIONS {
@@ -142,9 +166,16 @@ impl PolicyNet {
     }
 
     /// Both from one trunk run.
-    pub fn embed_with_q(&self, hm: &Heightmaps, primitive: Primitive) -> Result<(AseMap, QMap), PolicyError> {
+    pub fn embed_with_q(
+        &self,
+        hm: &Heightmaps,
+        primitive: Primitive,
+    ) -> Result<(AseMap, QMap), PolicyError> {
         let rf = self.rotated_features(hm, primitive)?;
-        Ok((self.ase_from(&rf, hm, primitive), self.q_from(&rf, hm, primitive)?))
+        Ok((
+            self.ase_from(&rf, hm, primitive),
+            self.q_from(&rf, hm, primitive)?,
+        ))
     }
 
     /// Writes the weights and metadata as safetensors (tensor names
@@ -189,7 +220,9 @@ impl PolicyNet {
         let expect = |k: &str, want: &str| -> Result<(), PolicyError> {
             let got = get(k)?;
             if got != want {
-                return Err(format(format!("metadata field `{k}` is `{got}`, expected `{want}`")));
+                return Err(format(format!(
+                    "metadata field `{k}` is `{got}`, expected `{want}`"
+                )));
             }
             Ok(())
         };
@@ -200,7 +233,9 @@ impl PolicyNet {
         expect("embedding_dim", &EMBEDDING_DIM.to_string())?;
         let task = get("task")?.clone();
         if TaskId::parse(&task).is_none() {
-            return Err(format(format!("metadata field `task` is `{task}`, not a known task")));
+            return Err(format(format!(
+                "metadata field `task` is `{task}`, not a known task"
+            )));
         }
         let resolution: usize = get("resolution")?
             .parse()
@@ -272,7 +307,11 @@ pub fn masked_argmax(q: &[f32], mask: &[bool]) -> usize {
 
 /// The greedy SPOT-Q action: argmax of Q over all rotations and pixels of
 /// `primitive`, under the common-sense mask (the whole map if the mask is empty).
-pub fn greedy_action(policy: &PolicyNet, hm: &Heightmaps, primitive: Primitive) -> Result<Action, PolicyError> {
+pub fn greedy_action(
+    policy: &PolicyNet,
+    hm: &Heightmaps,
+    primitive: Primitive,
+) -> Result<Action, PolicyError> {
     let q = policy.q_values(hm, primitive)?;
     let mask = common_sense_mask(hm, primitive);
     let i = masked_argmax(&q.q, &mask);

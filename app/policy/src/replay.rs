@@ -29,7 +29,12 @@ pub struct Experience {
 }
 
 impl Experience {
-    pub fn new(blocks: Vec<(usize, BlockPose)>, action: Action, resolution: usize, target: f32) -> Self {
+    pub fn new(
+        blocks: Vec<(usize, BlockPose)>,
+        action: Action,
+        resolution: usize,
+        target: f32,
+    ) -> Self {
         Self {
             blocks,
             action,

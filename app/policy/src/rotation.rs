@@ -44,7 +44,14 @@ fn sample_fill(plane: &[f32], n: usize, fx: f32, fy: f32, fill: f32) -> f32 {
 
 /// Rotates `data` (`C x n x n`) by `theta` radians about pixel `(c, c)`: output
 /// pixel `p` reads the input at `c + R(theta) (p - c)`. Outside reads `fill[ch]`.
-pub fn rotate_image(data: &[f32], channels: usize, n: usize, c: f32, theta: f32, fill: &[f32]) -> Vec<f32> {
+pub fn rotate_image(
+    data: &[f32],
+    channels: usize,
+    n: usize,
+    c: f32,
+    theta: f32,
+    fill: &[f32],
+) -> Vec<f32> {
     let (s, co) = theta.sin_cos();
     let mut out = vec![0.0f32; channels * n * n];
     for v in 0..n {
@@ -281,7 +288,10 @@ mod tests {
                 }
             }
             let (py, px) = ((at / n) as f32, (at % n) as f32);
-            assert!((px - (c0 + d)).abs() <= 1.0 && (py - c0).abs() <= 1.0, "r={r}: ({px},{py})");
+            assert!(
+                (px - (c0 + d)).abs() <= 1.0 && (py - c0).abs() <= 1.0,
+                "r={r}: ({px},{py})"
+            );
         }
     }
 }

@@ -48,7 +48,10 @@ pub fn write(
         .collect();
     let mut meta: HashMap<String, String> = metadata.clone().into_iter().collect();
     for (k, _, b) in &bytes {
-        meta.insert(format!("{CHECKSUM_PREFIX}{k}"), format!("{:016x}", fnv1a(b)));
+        meta.insert(
+            format!("{CHECKSUM_PREFIX}{k}"),
+            format!("{:016x}", fnv1a(b)),
+        );
     }
     let views = bytes
         .iter()
@@ -96,7 +99,10 @@ pub fn read(path: &Path) -> Result<TensorFile, PolicyError> {
         reason,
     };
     if buf.len() < 8 {
-        return Err(format(format!("damaged: only {} bytes, no safetensors header", buf.len())));
+        return Err(format(format!(
+            "damaged: only {} bytes, no safetensors header",
+            buf.len()
+        )));
     }
     let mut len8 = [0u8; 8];
     len8.copy_from_slice(&buf[..8]);
@@ -134,12 +140,20 @@ pub fn read(path: &Path) -> Result<TensorFile, PolicyError> {
         let shape: Vec<usize> = info
             .get("shape")
             .and_then(|s| s.as_array())
-            .map(|a| a.iter().filter_map(|v| v.as_u64().map(|u| u as usize)).collect())
+            .map(|a| {
+                a.iter()
+                    .filter_map(|v| v.as_u64().map(|u| u as usize))
+                    .collect()
+            })
             .ok_or_else(|| tensor_err(name, "no shape in the header".into()))?;
         let offs: Vec<usize> = info
             .get("data_offsets")
             .and_then(|s| s.as_array())
-            .map(|a| a.iter().filter_map(|v| v.as_u64().map(|u| u as usize)).collect())
+            .map(|a| {
+                a.iter()
+                    .filter_map(|v| v.as_u64().map(|u| u as usize))
+                    .collect()
+            })
             .unwrap_or_default();
         let [a, b] = offs[..] else {
             return Err(tensor_err(name, "no data offsets in the header".into()));
@@ -173,7 +187,13 @@ pub fn read(path: &Path) -> Result<TensorFile, PolicyError> {
         if values.iter().any(|v| !v.is_finite()) {
             return Err(tensor_err(name, "damaged: non-finite values".into()));
         }
-        tensors.insert(name.clone(), F32Tensor { shape, data: values });
+        tensors.insert(
+            name.clone(),
+            F32Tensor {
+                shape,
+                data: values,
+            },
+        );
     }
     Ok(TensorFile { metadata, tensors })
 }

@@ -1,0 +1,181 @@
+//! The learning curve: one row per finished training trial, written as CSV and
+//! drawn as a PNG (an SVG without text if the font is missing).
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use plotters::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::error::PolicyError;
+
+/// Font used for the plot's labels.
+pub const FONT_PATH: &str = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
+
+/// One point of the learning curve, written when a training trial ends.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CurveRow {
+    /// Actions executed so far.
+    pub action: usize,
+    /// Trials finished so far.
+    pub trial: usize,
+    /// Whether this trial succeeded.
+    pub success: bool,
+    /// Trial success rate over the last `window` trials.
+    pub success_rate: f32,
+    /// Action efficiency (ideal / actual actions, 0 for a failed trial) over the
+    /// last `window` trials.
+    pub action_efficiency: f32,
+    /// This trial's action efficiency (ideal / actual, 0 when it failed).
+    #[serde(default)]
+    pub trial_efficiency: f32,
+    /// Mean training loss over the actions of this trial (NaN before training).
+    pub loss: f32,
+    pub epsilon: f32,
+    pub oracle_probability: f32,
+}
+
+impl CurveRow {
+    pub fn action_efficiency_trial(&self) -> f32 {
+        self.trial_efficiency
+    }
+}
+
+/// Writes the rows as CSV.
+pub fn write_csv(path: &Path, rows: &[CurveRow]) -> Result<(), PolicyError> {
+    let mut s = String::from(
+        "action,trial,success,success_rate,action_efficiency,loss,epsilon,oracle_probability\n",
+    );
+    for r in rows {
+        s.push_str(&format!(
+            "{},{},{},{:.4},{:.4},{:.5},{:.3},{:.3}\n",
+            r.action,
+            r.trial,
+            r.success as u8,
+            r.success_rate,
+            r.action_efficiency,
+            r.loss,
+            r.epsilon,
+            r.oracle_probability
+        ));
+    }
+    std::fs::write(path, s).map_err(|e| PolicyError::io(path, e))
+}
+
+fn font_loaded() -> bool {
+    static LOADED: OnceLock<bool> = OnceLock::new();
+    *LOADED.get_or_init(|| match std::fs::read(FONT_PATH) {
+        Ok(bytes) => {
+            let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+            plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).is_ok()
+        }
+        Err(_) => false,
+    })
+}
+
+/// Draws success rate, action efficiency and loss against actions. Writes
+/// `<stem>.png`, or `<stem>.svg` without text when the font cannot be loaded.
+/// Returns the file written.
+pub fn plot(stem: &Path, title: &str, rows: &[CurveRow]) -> Result<PathBuf, PolicyError> {
+    let with_text = font_loaded();
+    let path = stem.with_extension(if with_text { "png" } else { "svg" });
+    let err = |e: String| PolicyError::Checkpoint {
+        path: path.clone(),
+        reason: format!("cannot draw the learning curve: {e}"),
+    };
+    let max_x = rows.last().map_or(1, |r| r.action.max(1)) as f32;
+    let max_loss = rows
+        .iter()
+        .map(|r| r.loss)
+        .filter(|l| l.is_finite())
+        .fold(0.0f32, f32::max);
+    let max_y = 1.0f32.max(max_loss * 1.05);
+    let series = |f: &dyn Fn(&CurveRow) -> f32| -> Vec<(f32, f32)> {
+        rows.iter()
+            .filter(|r| f(r).is_finite())
+            .map(|r| (r.action as f32, f(r)))
+            .collect()
+    };
+    let lines = |_: ()| -> [(&'static str, RGBColor, Vec<(f32, f32)>); 3] {
+        [
+            ("trial success (window)", BLUE, series(&|r| r.success_rate)),
+            (
+                "action efficiency (window)",
+                GREEN,
+                series(&|r| r.action_efficiency),
+            ),
+            ("loss", RED, series(&|r| r.loss)),
+        ]
+    };
+    if with_text {
+        draw(
+            BitMapBackend::new(&path, (900, 540)).into_drawing_area(),
+            title,
+            with_text,
+            max_x,
+            max_y,
+            lines(()),
+        )
+        .map_err(err)?;
+    } else {
+        draw(
+            SVGBackend::new(&path, (900, 540)).into_drawing_area(),
+            title,
+            with_text,
+            max_x,
+            max_y,
+            lines(()),
+        )
+        .map_err(err)?;
+    }
+    Ok(path)
+}
+
+fn draw<DB: DrawingBackend>(
+    root: DrawingArea<DB, plotters::coord::Shift>,
+    title: &str,
+    with_text: bool,
+    max_x: f32,
+    max_y: f32,
+    lines: [(&str, RGBColor, Vec<(f32, f32)>); 3],
+) -> Result<(), String> {
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    let mut builder = ChartBuilder::on(&root);
+    builder.margin(15);
+    if with_text {
+        builder
+            .caption(title, ("sans-serif", 22))
+            .x_label_area_size(40)
+            .y_label_area_size(50);
+    }
+    let mut chart = builder
+        .build_cartesian_2d(0f32..max_x, 0f32..max_y)
+        .map_err(|e| e.to_string())?;
+    if with_text {
+        chart
+            .configure_mesh()
+            .x_desc("actions")
+            .y_desc("rate / loss")
+            .draw()
+            .map_err(|e| e.to_string())?;
+    }
+    for (name, color, pts) in lines {
+        let s = chart
+            .draw_series(LineSeries::new(pts, color.stroke_width(2)))
+            .map_err(|e| e.to_string())?;
+        if with_text {
+            s.label(name).legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+            });
+        }
+    }
+    if with_text {
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(|e| e.to_string())?;
+    }
+    root.present().map_err(|e| e.to_string())
+}
