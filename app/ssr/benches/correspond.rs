@@ -23,7 +23,10 @@ fn resolution() -> usize {
 fn main() {
     let res = resolution();
     let summary = bench_correspond(res, 20);
-    println!("{}", serde_json::to_string_pretty(&summary).unwrap_or_default());
+    println!(
+        "{}",
+        serde_json::to_string_pretty(&summary).unwrap_or_default()
+    );
 
     let input = CorrespondBenchInput::random(res, 0x5EE5_9071);
     let mut c = Criterion::default().sample_size(20).configure_from_args();

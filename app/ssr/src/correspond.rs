@@ -213,7 +213,8 @@ fn row_distances_sq(
     mut f: impl FnMut(usize, f32),
 ) {
     let n = map.norms_sq[i];
-    if !(n < f32::INFINITY) {
+    // Masked (+inf) and NaN rows are never read.
+    if !n.is_finite() {
         return;
     }
     let row = &map.features[i * map.dim..(i + 1) * map.dim];
@@ -230,10 +231,10 @@ fn row_distances_sq(
             }
             q += 2;
         }
-        if q < queries.len() {
-            if let Ok(b) = <&[f32; 64]>::try_from(queries[q]) {
-                f(q, n - 2.0 * dot_64(row64, b) + qnorms[q]);
-            }
+        if q < queries.len()
+            && let Ok(b) = <&[f32; 64]>::try_from(queries[q])
+        {
+            f(q, n - 2.0 * dot_64(row64, b) + qnorms[q]);
         }
         return;
     }
@@ -329,9 +330,7 @@ pub fn match_queries_with(
     options: &CorrespondOptions,
 ) -> Vec<Match> {
     match options.smooth_sigma {
-        Some(sigma) if sigma > 0.0 => {
-            scan_smoothed(test, 0..test.rotations, queries, sigma)
-        }
+        Some(sigma) if sigma > 0.0 => scan_smoothed(test, 0..test.rotations, queries, sigma),
         _ => match_queries(test, queries),
     }
 }
@@ -414,6 +413,7 @@ fn plane_distances(map: &AseMap, r: usize, queries: &[&[f32]], qnorms: &[f32]) -
     let plane = map.resolution * map.resolution;
     let mut out = vec![vec![f32::INFINITY; plane]; queries.len()];
     let base = r * plane;
+    #[allow(clippy::needless_range_loop)] // `p` indexes both the map and `out[q]`
     for p in 0..plane {
         row_distances_sq(map, base + p, queries, qnorms, |q, d2| {
             out[q][p] = d2.max(0.0).sqrt();
@@ -501,8 +501,14 @@ pub fn smooth(map: &mut [f32], n: usize, sigma: f32) {
         })
         .collect();
     // Values with masked entries zeroed, and the mask as weights.
-    let val: Vec<f32> = map.iter().map(|&v| if v.is_finite() { v } else { 0.0 }).collect();
-    let wgt: Vec<f32> = map.iter().map(|&v| if v.is_finite() { 1.0 } else { 0.0 }).collect();
+    let val: Vec<f32> = map
+        .iter()
+        .map(|&v| if v.is_finite() { v } else { 0.0 })
+        .collect();
+    let wgt: Vec<f32> = map
+        .iter()
+        .map(|&v| if v.is_finite() { 1.0 } else { 0.0 })
+        .collect();
     // Horizontal pass.
     let mut hv = vec![0.0f32; n * n];
     let mut hw = vec![0.0f32; n * n];
@@ -580,7 +586,14 @@ pub fn random_ase_map(
                 *v = (splitmix(&mut s) >> 40) as f32 / (1u64 << 24) as f32;
             }
         });
-    AseMap::new(primitive, resolution, rotations, dim, features, vec![true; n])
+    AseMap::new(
+        primitive,
+        resolution,
+        rotations,
+        dim,
+        features,
+        vec![true; n],
+    )
 }
 
 /// The input of one Correspond step at benchmark scale: M = 3 live maps, and
@@ -604,11 +617,23 @@ impl CorrespondBenchInput {
         let mut demo_actions = Vec::new();
         let actions = rotations * resolution * resolution;
         for _ in 0..m {
-            tests.push(random_ase_map(Primitive::Grasp, resolution, rotations, dim, splitmix(&mut s)));
+            tests.push(random_ase_map(
+                Primitive::Grasp,
+                resolution,
+                rotations,
+                dim,
+                splitmix(&mut s),
+            ));
             let mut dm = Vec::new();
             let mut da = Vec::new();
             for _ in 0..n {
-                dm.push(random_ase_map(Primitive::Grasp, resolution, rotations, dim, splitmix(&mut s)));
+                dm.push(random_ase_map(
+                    Primitive::Grasp,
+                    resolution,
+                    rotations,
+                    dim,
+                    splitmix(&mut s),
+                ));
                 da.push((splitmix(&mut s) % actions as u64) as usize);
             }
             demos.push(dm);
@@ -637,9 +662,17 @@ impl CorrespondBenchInput {
 
 /// One full Correspond step (Match for 3 policies x 2 demos, then 6 rematches at
 /// the demo rotation and their CCDs). Returns the 6 (L, C) pairs.
-pub fn correspond_step(input: &CorrespondBenchInput, options: &CorrespondOptions) -> Vec<(f32, f32)> {
+pub fn correspond_step(
+    input: &CorrespondBenchInput,
+    options: &CorrespondOptions,
+) -> Vec<(f32, f32)> {
     let mut out = Vec::new();
-    for ((test, demos), actions) in input.tests.iter().zip(&input.demos).zip(&input.demo_actions) {
+    for ((test, demos), actions) in input
+        .tests
+        .iter()
+        .zip(&input.demos)
+        .zip(&input.demo_actions)
+    {
         let res = test.resolution;
         let queries: Vec<&[f32]> = demos
             .iter()
@@ -649,7 +682,12 @@ pub fn correspond_step(input: &CorrespondBenchInput, options: &CorrespondOptions
         let matches = match_queries_with(test, &queries, options);
         for ((demo, &a), m) in demos.iter().zip(actions).zip(matches) {
             let demo_action = Action::from_flat_index(test.primitive, a, res);
-            let re = rematch_with(demo, test.feature(m.index), Some(demo_action.rotation), options);
+            let re = rematch_with(
+                demo,
+                test.feature(m.index),
+                Some(demo_action.rotation),
+                options,
+            );
             let c = ccd(&demo_action, &re.action(test.primitive, res));
             out.push((m.distance, c));
         }
@@ -666,7 +704,12 @@ pub fn correspond_step_naive(input: &CorrespondBenchInput) -> Vec<(f32, f32)> {
             if !map.mask[i] {
                 continue;
             }
-            let d2: f32 = map.feature(i).iter().zip(q).map(|(a, b)| (a - b) * (a - b)).sum();
+            let d2: f32 = map
+                .feature(i)
+                .iter()
+                .zip(q)
+                .map(|(a, b)| (a - b) * (a - b))
+                .sum();
             if d2 < best.d2 {
                 best = Best { d2, index: i };
             }
@@ -674,7 +717,12 @@ pub fn correspond_step_naive(input: &CorrespondBenchInput) -> Vec<(f32, f32)> {
         best
     }
     let mut out = Vec::new();
-    for ((test, demos), actions) in input.tests.iter().zip(&input.demos).zip(&input.demo_actions) {
+    for ((test, demos), actions) in input
+        .tests
+        .iter()
+        .zip(&input.demos)
+        .zip(&input.demo_actions)
+    {
         let res = test.resolution;
         let plane = res * res;
         for (demo, &a) in demos.iter().zip(actions) {
@@ -682,7 +730,10 @@ pub fn correspond_step_naive(input: &CorrespondBenchInput) -> Vec<(f32, f32)> {
             let demo_action = Action::from_flat_index(test.primitive, a, res);
             let r = demo_action.rotation;
             let re = nearest(demo, test.feature(m.index), r * plane..(r + 1) * plane);
-            let c = ccd(&demo_action, &Action::from_flat_index(test.primitive, re.index, res));
+            let c = ccd(
+                &demo_action,
+                &Action::from_flat_index(test.primitive, re.index, res),
+            );
             out.push((m.d2.sqrt(), c));
         }
     }
@@ -802,7 +853,12 @@ mod tests {
 
     #[test]
     fn match_finds_nearest_and_distance() {
-        let m = map(2, 1, &[[0.0, 0.0], [3.0, 0.0], [0.0, 1.0], [5.0, 5.0]], None);
+        let m = map(
+            2,
+            1,
+            &[[0.0, 0.0], [3.0, 0.0], [0.0, 1.0], [5.0, 5.0]],
+            None,
+        );
         let r = match_queries(&m, &[&[3.0, 1.0], &[0.0, 0.9]]);
         assert_eq!(r[0].index, 1);
         assert!((r[0].distance - 1.0).abs() < 1e-6);
@@ -939,7 +995,14 @@ mod tests {
         let s = match_queries_smoothed(&m, &[q], 1.0)[0];
         assert_eq!(s.index, 10 * n + 10);
         assert!((s.distance - 1.0).abs() < 1e-5, "raw distance reported");
-        let r = rematch_with(&m, q, Some(0), &CorrespondOptions { smooth_sigma: Some(1.0) });
+        let r = rematch_with(
+            &m,
+            q,
+            Some(0),
+            &CorrespondOptions {
+                smooth_sigma: Some(1.0),
+            },
+        );
         assert_eq!(r.index, 10 * n + 10);
     }
 

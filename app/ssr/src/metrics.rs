@@ -8,9 +8,9 @@ use std::collections::BTreeMap;
 use std::io::{BufRead, Write};
 use std::path::Path;
 
-use serde::{Deserialize, Serialize};
 use seespot_sim::task::MAX_PROGRESS;
 use seespot_sim::{Action, TaskId};
+use serde::{Deserialize, Serialize};
 
 /// One executed action of a trial.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -211,7 +211,11 @@ pub fn summarize(
     let trials = records.len();
     let n = trials as f64;
     let successes = records.iter().filter(|r| r.success).count();
-    let success_actions: usize = records.iter().filter(|r| r.success).map(|r| r.actions).sum();
+    let success_actions: usize = records
+        .iter()
+        .filter(|r| r.success)
+        .map(|r| r.actions)
+        .sum();
     let action_efficiency = (successes > 0).then(|| {
         if success_actions == 0 {
             1.0
@@ -223,7 +227,11 @@ pub fn summarize(
         .iter()
         .map(|r| r.max_progress as f64 / MAX_PROGRESS as f64)
         .collect();
-    let progress = if trials > 0 { prog.iter().sum::<f64>() / n } else { 0.0 };
+    let progress = if trials > 0 {
+        prog.iter().sum::<f64>() / n
+    } else {
+        0.0
+    };
     let progress_se = if trials > 1 {
         let var = prog.iter().map(|p| (p - progress).powi(2)).sum::<f64>() / (n - 1.0);
         (var / n).sqrt()
@@ -237,11 +245,18 @@ pub fn summarize(
         _ => None,
     };
     Summary {
-        method: records.first().map(|r| r.method.clone()).unwrap_or_default(),
+        method: records
+            .first()
+            .map(|r| r.method.clone())
+            .unwrap_or_default(),
         task,
         trials,
         successes,
-        success_rate: if trials > 0 { successes as f64 / n } else { 0.0 },
+        success_rate: if trials > 0 {
+            successes as f64 / n
+        } else {
+            0.0
+        },
         ideal_actions: ideal_actions as f64,
         mean_actions: if trials > 0 {
             records.iter().map(|r| r.actions as f64).sum::<f64>() / n
@@ -317,11 +332,15 @@ pub fn mean_over_tasks(summaries: &[Summary]) -> Option<Summary> {
         mean_actions: mean(&|s| s.mean_actions),
         action_efficiency: mean_opt(&|s| s.action_efficiency),
         progress: mean(&|s| s.progress),
-        progress_se: summaries.iter().map(|s| s.progress_se.powi(2)).sum::<f64>().sqrt() / k,
+        progress_se: summaries
+            .iter()
+            .map(|s| s.progress_se.powi(2))
+            .sum::<f64>()
+            .sqrt()
+            / k,
         reversal_trials,
         recovered_trials,
-        recoveries: (reversal_trials > 0)
-            .then(|| recovered_trials as f64 / reversal_trials as f64),
+        recoveries: (reversal_trials > 0).then(|| recovered_trials as f64 / reversal_trials as f64),
         train_steps: (mean(&|s| s.train_steps as f64)).round() as u64,
         annotated_actions: (mean(&|s| s.annotated_actions as f64)).round() as usize,
         compute_efficiency: mean(&|s| s.compute_efficiency),
@@ -444,7 +463,10 @@ mod tests {
             append_record(&path, x).expect("append");
         }
         // A write cut short by a kill.
-        let mut f = std::fs::OpenOptions::new().append(true).open(&path).expect("open");
+        let mut f = std::fs::OpenOptions::new()
+            .append(true)
+            .open(&path)
+            .expect("open");
         f.write_all(b"{\"method\":\"ssr").expect("write");
         drop(f);
         assert_eq!(read_records(&path).expect("read"), r[..2].to_vec());
@@ -456,7 +478,10 @@ mod tests {
         let lines: Vec<&str> = text.lines().collect();
         let bad = format!("{}\n{{oops\n{}\n", lines[0], lines[1]);
         std::fs::write(&path, bad).expect("write");
-        let msg = read_records(&path).err().map(|e| e.to_string()).unwrap_or_default();
+        let msg = read_records(&path)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
         assert!(msg.contains("trials.jsonl, line 2"), "{msg}");
     }
 }

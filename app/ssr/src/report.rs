@@ -7,8 +7,8 @@ use std::sync::OnceLock;
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use serde::Serialize;
 use seespot_sim::TaskId;
+use serde::Serialize;
 
 use crate::metrics::{Summary, mean_over_tasks};
 
@@ -42,7 +42,10 @@ impl PaperResult {
     /// trials / annotated actions; for SPOT-Q (no annotations) its training
     /// actions count as its samples: trials / train steps.
     pub fn sample_efficiency(&self) -> f64 {
-        let samples = self.annotated_actions.unwrap_or(self.train_steps as usize).max(1);
+        let samples = self
+            .annotated_actions
+            .unwrap_or(self.train_steps as usize)
+            .max(1);
         PAPER_TRIALS as f64 / samples as f64
     }
 }
@@ -56,14 +59,36 @@ pub fn paper_results() -> Vec<PaperResult> {
     // (method, train steps, [(success %, progress %); stack, unstack, row, vsq, mean])
     type Row = (&'static str, u64, [(f64, f64); 5]);
     let rows: [Row; 4] = [
-        ("SSR CCD", 0, [(24., 75.), (66., 82.), (30., 81.), (24., 79.), (36., 79.)]),
-        ("SSR L2CD", 0, [(0., 51.), (38., 76.), (6., 73.), (8., 67.), (13., 67.)]),
-        ("TransporterNet", 40_000, [(12., 51.), (86., 94.), (2., 24.), (20., 32.), (30., 50.)]),
-        ("SSR CCD finetuned", 1_000, [(58., 90.), (72., 87.), (40., 84.), (34., 83.), (51., 86.)]),
+        (
+            "SSR CCD",
+            0,
+            [(24., 75.), (66., 82.), (30., 81.), (24., 79.), (36., 79.)],
+        ),
+        (
+            "SSR L2CD",
+            0,
+            [(0., 51.), (38., 76.), (6., 73.), (8., 67.), (13., 67.)],
+        ),
+        (
+            "TransporterNet",
+            40_000,
+            [(12., 51.), (86., 94.), (2., 24.), (20., 32.), (30., 50.)],
+        ),
+        (
+            "SSR CCD finetuned",
+            1_000,
+            [(58., 90.), (72., 87.), (40., 84.), (34., 83.), (51., 86.)],
+        ),
     ];
     let annotated = |task: Option<TaskId>| match task {
         Some(t) => 2 * t.ideal_actions(),
-        None => TaskId::ALL.iter().map(|t| 2 * t.ideal_actions()).sum::<usize>() / TaskId::ALL.len(),
+        None => {
+            TaskId::ALL
+                .iter()
+                .map(|t| 2 * t.ideal_actions())
+                .sum::<usize>()
+                / TaskId::ALL.len()
+        }
     };
     let mut out = Vec::new();
     for (method, train_steps, cells) in rows {
@@ -121,7 +146,10 @@ pub fn paper_result(method: &str, task: Option<TaskId>) -> Option<PaperResult> {
 
 fn task_rank(task: Option<TaskId>) -> usize {
     match task {
-        Some(t) => TaskId::ALL.iter().position(|&x| x == t).unwrap_or(TaskId::ALL.len()),
+        Some(t) => TaskId::ALL
+            .iter()
+            .position(|&x| x == t)
+            .unwrap_or(TaskId::ALL.len()),
         None => TaskId::ALL.len() + 1,
     }
 }
@@ -138,12 +166,16 @@ pub fn with_means(summaries: &[Summary]) -> Vec<Summary> {
     }
     let mut out = Vec::new();
     for m in methods {
-        let mut rows: Vec<Summary> = summaries.iter().filter(|s| s.method == m).cloned().collect();
+        let mut rows: Vec<Summary> = summaries
+            .iter()
+            .filter(|s| s.method == m)
+            .cloned()
+            .collect();
         rows.sort_by_key(|s| task_rank(s.task));
-        if rows.iter().all(|s| s.task.is_some()) {
-            if let Some(mean) = mean_over_tasks(&rows) {
-                rows.push(mean);
-            }
+        if rows.iter().all(|s| s.task.is_some())
+            && let Some(mean) = mean_over_tasks(&rows)
+        {
+            rows.push(mean);
         }
         out.extend(rows);
     }
@@ -187,12 +219,17 @@ pub fn markdown_table(summaries: &[Summary], include_paper: bool) -> String {
     for m in &methods {
         md.push_str(&format!("| {} (seespot) |", display_method(m)));
         for c in &columns {
-            let cell = rows
-                .iter()
-                .find(|s| &s.method == m && s.task == *c)
-                .map_or("—".into(), |s| {
-                    format!("{} / {} ± {}", pct(s.success_rate), pct(s.progress), pct(s.progress_se))
-                });
+            let cell =
+                rows.iter()
+                    .find(|s| &s.method == m && s.task == *c)
+                    .map_or("—".into(), |s| {
+                        format!(
+                            "{} / {} ± {}",
+                            pct(s.success_rate),
+                            pct(s.progress),
+                            pct(s.progress_se)
+                        )
+                    });
             md.push_str(&format!(" {cell} |"));
         }
         md.push('\n');
@@ -240,7 +277,8 @@ pub fn markdown_table(summaries: &[Summary], include_paper: bool) -> String {
             s.train_steps,
             s.annotated_actions,
             s.compute_efficiency,
-            s.sample_efficiency.map_or("—".into(), |e| format!("{e:.2}")),
+            s.sample_efficiency
+                .map_or("—".into(), |e| format!("{e:.2}")),
         ));
     }
     md.push_str(
@@ -259,7 +297,9 @@ fn paper_row(name: &str, columns: &[Option<TaskId>]) -> String {
         let cell = paper
             .iter()
             .find(|p| p.method == name && p.task == *c)
-            .map_or("".into(), |p| format!("*{} / {}*", pct(p.success), pct(p.progress)));
+            .map_or("".into(), |p| {
+                format!("*{} / {}*", pct(p.success), pct(p.progress))
+            });
         row.push_str(&format!(" {cell} |"));
     }
     row.push('\n');
@@ -376,18 +416,30 @@ fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, points: &[Point]) -> R
     let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     root.fill(&WHITE).map_err(err)?;
     let panels = root.split_evenly((1, 2));
-    let axes: [(&str, fn(&Point) -> f64); 2] = [
-        ("compute efficiency = trials / (train steps + 1)", |p| p.compute),
-        ("sample efficiency = trials / annotated actions", |p| p.sample),
+    type Axis = (&'static str, fn(&Point) -> f64);
+    let axes: [Axis; 2] = [
+        ("compute efficiency = trials / (train steps + 1)", |p| {
+            p.compute
+        }),
+        ("sample efficiency = trials / annotated actions", |p| {
+            p.sample
+        }),
     ];
     for (panel, (xdesc, xof)) in panels.iter().zip(axes) {
-        let xs: Vec<f64> = points.iter().map(xof).filter(|x| *x > 0.0 && x.is_finite()).collect();
+        let xs: Vec<f64> = points
+            .iter()
+            .map(xof)
+            .filter(|x| *x > 0.0 && x.is_finite())
+            .collect();
         let lo = xs.iter().copied().fold(f64::INFINITY, f64::min).min(1e-3);
         let hi = xs.iter().copied().fold(0.0, f64::max).max(1.0);
         // Room on the right for the labels.
         let (lo, hi) = (lo / 3.0, hi * 30.0);
         let mut chart = ChartBuilder::on(panel)
-            .caption("trial success vs. efficiency (mean over tasks)", ("sans-serif", 18))
+            .caption(
+                "trial success vs. efficiency (mean over tasks)",
+                ("sans-serif", 18),
+            )
             .margin(15)
             .x_label_area_size(45)
             .y_label_area_size(55)
@@ -426,7 +478,11 @@ fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, points: &[Point]) -> R
                     .map_err(err)?;
             }
             chart
-                .draw_series([Text::new(p.label.clone(), (x * 1.15, y + 1.5), ("sans-serif", 13).into_font().color(&c))])
+                .draw_series([Text::new(
+                    p.label.clone(),
+                    (x * 1.15, y + 1.5),
+                    ("sans-serif", 13).into_font().color(&c),
+                )])
                 .map_err(err)?;
         }
     }
@@ -496,8 +552,14 @@ mod tests {
         let ccd = paper_result("ssr-ccd", None).expect("SSR CCD mean");
         assert_eq!((ccd.success, ccd.progress), (0.36, 0.79));
         assert_eq!(paper_result("spot-q", None).map(|r| r.success), Some(0.91));
-        assert_eq!(paper_result("ssr-ccd", Some(TaskId::Row)).map(|r| r.annotated_actions), Some(Some(8)));
-        assert_eq!(paper_result("transporternet", Some(TaskId::Unstack)).map(|r| r.success), Some(0.86));
+        assert_eq!(
+            paper_result("ssr-ccd", Some(TaskId::Row)).map(|r| r.annotated_actions),
+            Some(Some(8))
+        );
+        assert_eq!(
+            paper_result("transporternet", Some(TaskId::Unstack)).map(|r| r.success),
+            Some(0.86)
+        );
     }
 
     #[test]
@@ -511,7 +573,11 @@ mod tests {
         let c = csv(&s);
         let lines: Vec<&str> = c.lines().collect();
         assert_eq!(lines.len(), 1 + 2 * 5);
-        assert!(lines[5].starts_with("ssr-ccd,mean,16,12,0.750000,0.875000,"), "{}", lines[5]);
+        assert!(
+            lines[5].starts_with("ssr-ccd,mean,16,12,0.750000,0.875000,"),
+            "{}",
+            lines[5]
+        );
         assert!(lines.iter().all(|l| l.split(',').count() == 17));
     }
 
@@ -525,8 +591,11 @@ mod tests {
         // To look at it: SEESPOT_PLOT_OUT=/tmp/figure4.png cargo test ... plot_is_written
         if let Some(path) = std::env::var_os("SEESPOT_PLOT_OUT") {
             plot_figure4(&s, Path::new(&path)).expect("plot");
-            std::fs::write(Path::new(&path).with_extension("md"), markdown_table(&s, true))
-                .expect("write");
+            std::fs::write(
+                Path::new(&path).with_extension("md"),
+                markdown_table(&s, true),
+            )
+            .expect("write");
         }
     }
 }
