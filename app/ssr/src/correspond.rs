@@ -306,6 +306,10 @@ fn check_queries(map: &AseMap, queries: &[&[f32]]) {
 /// One pass over `test` serves every query. Returns one [`Match`] per query, in
 /// order; `distance` is L_{m,n} of Eq. 4 and `index` is F_{m,n} of Eq. 5.
 ///
+/// # Panics
+///
+/// If a query's length is not the map's `D`.
+///
 /// ```
 /// use seespot_policy::AseMap;
 /// use seespot_sim::Primitive;
@@ -366,6 +370,10 @@ fn rotation_range(map: &AseMap, rotation: Option<usize>) -> Range<usize> {
 /// `query` (the ASE of the matched live action F), restricted to rotation
 /// `rotation` when given. SSR passes `Some(demo_action.rotation)`, as the reference
 /// code searched the demo action's own rotation.
+///
+/// # Panics
+///
+/// If `rotation >= R` or `query.len() != D` (validate demo actions on load).
 pub fn rematch(demo: &AseMap, query: &[f32], rotation: Option<usize>) -> Match {
     let range = rotation_range(demo, rotation);
     scan_parallel(demo, range, &[query])[0]
