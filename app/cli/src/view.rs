@@ -11,11 +11,18 @@ use seespot_viz::live::{self, DeciderKind, ViewOptions};
 const DECIDERS: [&str; 4] = ["auto", "ssr", "features", "oracle"];
 
 fn task(s: &str) -> anyhow::Result<TaskId> {
-    TaskId::parse(s).with_context(|| format!("unknown task `{s}`; expected one of stack, row, unstack, vertical-square"))
+    TaskId::parse(s).with_context(|| {
+        format!("unknown task `{s}`; expected one of stack, row, unstack, vertical-square")
+    })
 }
 
 fn decider(s: &str) -> anyhow::Result<DeciderKind> {
-    DeciderKind::parse(s).with_context(|| format!("unknown decider `{s}`; expected one of {}", DECIDERS.join(", ")))
+    DeciderKind::parse(s).with_context(|| {
+        format!(
+            "unknown decider `{s}`; expected one of {}",
+            DECIDERS.join(", ")
+        )
+    })
 }
 
 /// Where the decider comes from.
@@ -35,7 +42,11 @@ pub struct DeciderArgs {
 
 impl DeciderArgs {
     fn factory(&self) -> anyhow::Result<seespot_viz::session::DeciderFactory> {
-        Ok(live::factory(decider(&self.decider)?, self.models.clone(), self.demos.clone()))
+        Ok(live::factory(
+            decider(&self.decider)?,
+            self.models.clone(),
+            self.demos.clone(),
+        ))
     }
 }
 
@@ -87,7 +98,9 @@ pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
         no_viewer: args.no_viewer,
     };
     let factory = args.decider.factory()?;
-    let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()?;
     rt.block_on(live::serve_view(
         opts,
         factory,
@@ -136,7 +149,14 @@ pub fn run_record(args: RecordArgs) -> anyhow::Result<()> {
     let factory = args.decider.factory()?;
     let stop = live::ctrl_c_flag();
     let bar = indicatif::ProgressBar::new(args.trials as u64);
-    let done = live::record_trials(task(&args.task)?, args.trials, args.seed, args.resolution, &args.out, &factory, &stop, |r| {
+    let opts = live::RecordOptions {
+        task: task(&args.task)?,
+        trials: args.trials,
+        seed0: args.seed,
+        resolution: args.resolution,
+        out: args.out.clone(),
+    };
+    let done = live::record_trials(&opts, &factory, &stop, |r| {
         bar.println(format!(
             "{}: {} actions, {}, max progress {}, {:.2} MB",
             r.path.display(),
@@ -181,17 +201,37 @@ pub struct BenchViewArgs {
 
 /// Runs `seespot bench view`.
 pub fn run_bench_view(args: BenchViewArgs) -> anyhow::Result<()> {
-    let b = live::bench_view(task(&args.task)?, args.seed, args.resolution, args.actions, args.decider.factory()?)?;
+    let b = live::bench_view(
+        task(&args.task)?,
+        args.seed,
+        args.resolution,
+        args.actions,
+        args.decider.factory()?,
+    )?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&b)?);
         return Ok(());
     }
-    println!("view latency at {} px ({}), {} phase steps:", b.resolution, b.decider, b.phases.len());
-    println!("  next phase -> page data ready: median {:.1} ms, p90 {:.1} ms, max {:.1} ms", b.median_ms, b.p90_ms, b.max_ms);
+    println!(
+        "view latency at {} px ({}), {} phase steps:",
+        b.resolution,
+        b.decider,
+        b.phases.len()
+    );
+    println!(
+        "  next phase -> page data ready: median {:.1} ms, p90 {:.1} ms, max {:.1} ms",
+        b.median_ms, b.p90_ms, b.max_ms
+    );
     for (phase, ms) in &b.median_by_phase {
         println!("  {:<7} median {ms:.1} ms", phase.as_str());
     }
-    println!("  debugger overhead (without the decider's own time): median {:.1} ms, max {:.1} ms", b.overhead_median_ms, b.overhead_max_ms);
-    println!("  recording of the trial (in memory, uncompressed): {:.2} MB", b.recording_bytes as f64 / 1e6);
+    println!(
+        "  debugger overhead (without the decider's own time): median {:.1} ms, max {:.1} ms",
+        b.overhead_median_ms, b.overhead_max_ms
+    );
+    println!(
+        "  recording of the trial (in memory, uncompressed): {:.2} MB",
+        b.recording_bytes as f64 / 1e6
+    );
     Ok(())
 }

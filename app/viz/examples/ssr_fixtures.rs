@@ -13,14 +13,20 @@ use seespot_viz::decider::record_demo;
 fn main() -> anyhow::Result<()> {
     let mut args = std::env::args().skip(1);
     let out = PathBuf::from(args.next().context("usage: ssr_fixtures OUT RES")?);
-    let res: usize = args.next().context("usage: ssr_fixtures OUT RES")?.parse()?;
+    let res: usize = args
+        .next()
+        .context("usage: ssr_fixtures OUT RES")?
+        .parse()?;
     let world = WorldConfig {
         grid: Grid::new(res),
         ..WorldConfig::default()
     };
     std::fs::create_dir_all(out.join("models"))?;
     for (i, t) in TaskId::ALL.into_iter().enumerate() {
-        PolicyNet::new(t, res, i as u64)?.save(&out.join("models").join(format!("{}.safetensors", t.as_str())))?;
+        PolicyNet::new(t, res, i as u64)?.save(
+            &out.join("models")
+                .join(format!("{}.safetensors", t.as_str())),
+        )?;
         let mut seed = 0;
         let mut written = 0;
         while written < 2 && seed < 40 {

@@ -59,12 +59,31 @@ fn main() -> anyhow::Result<()> {
     }
     if command == "record" {
         let stop = live::ctrl_c_flag();
-        for r in live::record_trials(opts.task, trials, opts.seed, opts.resolution, &out, &factory, &stop, |_| {})? {
-            println!("{} {} actions success={} {:.2} MB", r.path.display(), r.actions, r.succeeded, r.bytes as f64 / 1e6);
+        for r in live::record_trials(
+            &live::RecordOptions {
+                task: opts.task,
+                trials,
+                seed0: opts.seed,
+                resolution: opts.resolution,
+                out,
+            },
+            &factory,
+            &stop,
+            |_| {},
+        )? {
+            println!(
+                "{} {} actions success={} {:.2} MB",
+                r.path.display(),
+                r.actions,
+                r.succeeded,
+                r.bytes as f64 / 1e6
+            );
         }
         return Ok(());
     }
-    let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()?;
     rt.block_on(live::serve_view(
         opts,
         factory,

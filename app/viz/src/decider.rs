@@ -6,7 +6,9 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::Context;
-use seespot_sim::{Action, Demo, DemoStep, Heightmaps, Oracle, Primitive, TaskId, Trial, WorldConfig};
+use seespot_sim::{
+    Action, Demo, DemoStep, Heightmaps, Oracle, Primitive, TaskId, Trial, WorldConfig,
+};
 use seespot_ssr::{Decision, Method, PairExplanation};
 
 /// One decision: the action to execute and, for SSR-like deciders, its
@@ -48,7 +50,9 @@ pub struct OracleDecider {
 
 impl OracleDecider {
     pub fn new(task: TaskId) -> Self {
-        Self { oracle: Oracle::new(task) }
+        Self {
+            oracle: Oracle::new(task),
+        }
     }
 }
 
@@ -72,7 +76,15 @@ impl Decider for OracleDecider {
         })
     }
 
-    fn query(&mut self, _: &Heightmaps, _: usize, _: usize, _: usize, _: usize, _: usize) -> anyhow::Result<Option<Vec<f32>>> {
+    fn query(
+        &mut self,
+        _: &Heightmaps,
+        _: usize,
+        _: usize,
+        _: usize,
+        _: usize,
+        _: usize,
+    ) -> anyhow::Result<Option<Vec<f32>>> {
         Ok(None)
     }
 }
@@ -156,8 +168,16 @@ impl FeatureMap {
         let small = ((0.006 / px).round() as usize).max(1);
         let large = ((0.03 / px).round() as usize).max(2);
         let near = ((0.06 / px).round() as usize).max(3);
-        let chan = |c: usize| -> Vec<f32> { (0..n * n).map(|i| f32::from(hm.color[i * 3 + c]) / 255.0).collect() };
-        let heights: Vec<f32> = hm.depth.iter().map(|d| d / seespot_sim::BLOCK_SIZE).collect();
+        let chan = |c: usize| -> Vec<f32> {
+            (0..n * n)
+                .map(|i| f32::from(hm.color[i * 3 + c]) / 255.0)
+                .collect()
+        };
+        let heights: Vec<f32> = hm
+            .depth
+            .iter()
+            .map(|d| d / seespot_sim::BLOCK_SIZE)
+            .collect();
         let mut channels = Vec::with_capacity(FEATURE_DIM);
         for c in 0..3 {
             let ch = chan(c);
@@ -172,7 +192,11 @@ impl FeatureMap {
                 data[i * FEATURE_DIM + k] = ch[i];
             }
         }
-        let occupied: Vec<f32> = hm.depth.iter().map(|&d| if d > 0.01 { 1.0 } else { 0.0 }).collect();
+        let occupied: Vec<f32> = hm
+            .depth
+            .iter()
+            .map(|&d| if d > 0.01 { 1.0 } else { 0.0 })
+            .collect();
         let nearby = box_mean(&occupied, n, near);
         let grasp_mask = hm.depth.iter().map(|&d| d > 0.02).collect();
         let place_mask = nearby.iter().map(|&v| v > 0.0).collect();
@@ -236,10 +260,17 @@ pub fn demo_step_for(demo: &Demo, p: u8, primitive: Primitive) -> Option<(usize,
             demo.steps
                 .iter()
                 .enumerate()
-                .filter(|(_, s)| s.meta.action.primitive == primitive && s.meta.progress_before <= p)
+                .filter(|(_, s)| {
+                    s.meta.action.primitive == primitive && s.meta.progress_before <= p
+                })
                 .max_by_key(|(_, s)| s.meta.progress_before)
         })
-        .or_else(|| demo.steps.iter().enumerate().find(|(_, s)| s.meta.action.primitive == primitive))
+        .or_else(|| {
+            demo.steps
+                .iter()
+                .enumerate()
+                .find(|(_, s)| s.meta.action.primitive == primitive)
+        })
 }
 
 impl Decider for FeatureDecider {
@@ -272,15 +303,26 @@ impl Decider for FeatureDecider {
                 };
                 let a_demo = step.meta.action;
                 let demo_map = FeatureMap::new(&step.heightmaps);
-                let match_map = live.distances(demo_map.feature(a_demo.y, a_demo.x), w, Some(live.mask(primitive)));
+                let match_map = live.distances(
+                    demo_map.feature(a_demo.y, a_demo.x),
+                    w,
+                    Some(live.mask(primitive)),
+                );
                 let Some((fi, l)) = argmin(&match_map) else {
                     continue;
                 };
                 let matched = Action::new(primitive, a_demo.rotation, fi / n, fi % n);
-                let rematch_map = demo_map.distances(live.feature(matched.y, matched.x), w, Some(demo_map.mask(primitive)));
-                let (ri, rematch_l) = argmin(&rematch_map).unwrap_or((a_demo.y * n + a_demo.x, 0.0));
+                let rematch_map = demo_map.distances(
+                    live.feature(matched.y, matched.x),
+                    w,
+                    Some(demo_map.mask(primitive)),
+                );
+                let (ri, rematch_l) =
+                    argmin(&rematch_map).unwrap_or((a_demo.y * n + a_demo.x, 0.0));
                 let rematch = Action::new(primitive, a_demo.rotation, ri / n, ri % n);
-                let c = ((rematch.y as f32 - a_demo.y as f32).powi(2) + (rematch.x as f32 - a_demo.x as f32).powi(2)).sqrt();
+                let c = ((rematch.y as f32 - a_demo.y as f32).powi(2)
+                    + (rematch.x as f32 - a_demo.x as f32).powi(2))
+                .sqrt();
                 pairs.push(PairExplanation {
                     policy: self.policies[m],
                     demo: d,
@@ -304,7 +346,9 @@ impl Decider for FeatureDecider {
                 Method::SsrL2cd => a.l.total_cmp(&b.l),
             })
             .map(|(i, _)| i)
-            .context("no (policy, demo) pair has a demo step with this primitive and an allowed match")?;
+            .context(
+                "no (policy, demo) pair has a demo step with this primitive and an allowed match",
+            )?;
         let action = pairs[chosen].matched;
         Ok(Choice {
             action,
@@ -322,16 +366,43 @@ impl Decider for FeatureDecider {
         })
     }
 
-    fn query(&mut self, hm: &Heightmaps, policy: usize, demo: usize, demo_step: usize, y: usize, x: usize) -> anyhow::Result<Option<Vec<f32>>> {
-        anyhow::ensure!(policy < self.policies.len(), "policy index {policy} is out of range 0..{}", self.policies.len());
-        let d = self.demos.get(demo).with_context(|| format!("demo index {demo} is out of range 0..{}", self.demos.len()))?;
-        let step = d.steps.get(demo_step).with_context(|| format!("demo step {demo_step} is out of range 0..{}", d.steps.len()))?;
+    fn query(
+        &mut self,
+        hm: &Heightmaps,
+        policy: usize,
+        demo: usize,
+        demo_step: usize,
+        y: usize,
+        x: usize,
+    ) -> anyhow::Result<Option<Vec<f32>>> {
+        anyhow::ensure!(
+            policy < self.policies.len(),
+            "policy index {policy} is out of range 0..{}",
+            self.policies.len()
+        );
+        let d = self.demos.get(demo).with_context(|| {
+            format!("demo index {demo} is out of range 0..{}", self.demos.len())
+        })?;
+        let step = d.steps.get(demo_step).with_context(|| {
+            format!("demo step {demo_step} is out of range 0..{}", d.steps.len())
+        })?;
         let n = step.heightmaps.grid.resolution;
-        anyhow::ensure!(y < n && x < n, "pixel ({y}, {x}) is outside the {n} x {n} demo heightmap");
-        anyhow::ensure!(hm.grid.resolution == n, "demo resolution {n} differs from the live resolution {}", hm.grid.resolution);
+        anyhow::ensure!(
+            y < n && x < n,
+            "pixel ({y}, {x}) is outside the {n} x {n} demo heightmap"
+        );
+        anyhow::ensure!(
+            hm.grid.resolution == n,
+            "demo resolution {n} differs from the live resolution {}",
+            hm.grid.resolution
+        );
         let demo_map = FeatureMap::new(&step.heightmaps);
         let live = FeatureMap::new(hm);
-        Ok(Some(live.distances(demo_map.feature(y, x), self.weights(policy), None)))
+        Ok(Some(live.distances(
+            demo_map.feature(y, x),
+            self.weights(policy),
+            None,
+        )))
     }
 }
 
@@ -358,7 +429,10 @@ pub fn record_demo(task: TaskId, seed: u64, config: WorldConfig) -> Option<Demo>
             blocks_before,
         };
         meta.steps.push(step_meta.clone());
-        steps.push(DemoStep { heightmaps: hm, meta: step_meta });
+        steps.push(DemoStep {
+            heightmaps: hm,
+            meta: step_meta,
+        });
     }
     if !trial.succeeded() {
         return None;
@@ -392,5 +466,13 @@ pub fn load_demos(task: TaskId, demos_dir: &Path, config: WorldConfig) -> (Vec<D
         seed += 2;
     }
     let seeds: Vec<String> = demos.iter().map(|d| d.meta.seed.to_string()).collect();
-    (demos, format!("no demos at {} for {} px: recorded with the oracle from seeds {}", dir.display(), config.grid.resolution, seeds.join(", ")))
+    (
+        demos,
+        format!(
+            "no demos at {} for {} px: recorded with the oracle from seeds {}",
+            dir.display(),
+            config.grid.resolution,
+            seeds.join(", ")
+        ),
+    )
 }

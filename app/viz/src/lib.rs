@@ -17,6 +17,8 @@ pub mod session;
 pub mod ssr;
 
 pub use decider::{Choice, Decider, FeatureDecider, OracleDecider};
-pub use live::{DeciderKind, ViewOptions, ViewUrls, bench_view, record_trials, serve_view};
+pub use live::{
+    DeciderKind, RecordOptions, ViewOptions, ViewUrls, bench_view, record_trials, serve_view,
+};
 pub use recording::Recorder;
 pub use session::{Phase, Session, SessionConfig};

@@ -3,15 +3,15 @@
 //! size benchmarks.
 
 use std::net::{IpAddr, SocketAddr, TcpListener as StdListener};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use anyhow::Context;
+use seespot_sim::{Grid, TaskId, WorldConfig};
 use serde::Serialize;
 use serde_json::json;
-use seespot_sim::{Grid, TaskId, WorldConfig};
 
 use crate::decider::{Decider, FeatureDecider, OracleDecider, load_demos};
 use crate::recording::Recorder;
@@ -47,26 +47,32 @@ impl DeciderKind {
 /// The decider factory for `kind`, reading models from `models_dir` and
 /// demos from `demos_dir`.
 pub fn factory(kind: DeciderKind, models_dir: PathBuf, demos_dir: PathBuf) -> DeciderFactory {
-    Box::new(move |task: TaskId, world: WorldConfig| -> anyhow::Result<(Box<dyn Decider>, String)> {
-        let model = models_dir.join(format!("{}.safetensors", task.as_str()));
-        match kind {
-            DeciderKind::Oracle => Ok((Box::new(OracleDecider::new(task)), "scripted oracle".to_owned())),
-            DeciderKind::Ssr => crate::ssr::load(task, &models_dir, &demos_dir, world),
-            DeciderKind::Features => {
-                let (demos, note) = load_demos(task, &demos_dir, world);
-                Ok((Box::new(FeatureDecider::new(task, demos)), note))
-            }
-            DeciderKind::Auto => match crate::ssr::load(task, &models_dir, &demos_dir, world) {
-                Ok(d) => Ok(d),
-                Err(e) => {
+    Box::new(
+        move |task: TaskId, world: WorldConfig| -> anyhow::Result<(Box<dyn Decider>, String)> {
+            let model = models_dir.join(format!("{}.safetensors", task.as_str()));
+            match kind {
+                DeciderKind::Oracle => Ok((
+                    Box::new(OracleDecider::new(task)),
+                    "scripted oracle".to_owned(),
+                )),
+                DeciderKind::Ssr => crate::ssr::load(task, &models_dir, &demos_dir, world),
+                DeciderKind::Features => {
                     let (demos, note) = load_demos(task, &demos_dir, world);
-                    let why = format!("SSR unavailable ({e:#}); using the feature baseline. {note}");
-                    let _ = model;
-                    Ok((Box::new(FeatureDecider::new(task, demos)), why))
+                    Ok((Box::new(FeatureDecider::new(task, demos)), note))
                 }
-            },
-        }
-    })
+                DeciderKind::Auto => match crate::ssr::load(task, &models_dir, &demos_dir, world) {
+                    Ok(d) => Ok(d),
+                    Err(e) => {
+                        let (demos, note) = load_demos(task, &demos_dir, world);
+                        let why =
+                            format!("SSR unavailable ({e:#}); using the feature baseline. {note}");
+                        let _ = model;
+                        Ok((Box::new(FeatureDecider::new(task, demos)), why))
+                    }
+                },
+            }
+        },
+    )
 }
 
 /// Options of `seespot view`.
@@ -97,7 +103,8 @@ pub struct ViewUrls {
 }
 
 fn free_port(bind: IpAddr) -> anyhow::Result<u16> {
-    let l = StdListener::bind(SocketAddr::new(bind, 0)).with_context(|| format!("cannot bind {bind}"))?;
+    let l = StdListener::bind(SocketAddr::new(bind, 0))
+        .with_context(|| format!("cannot bind {bind}"))?;
     Ok(l.local_addr()?.port())
 }
 
@@ -118,11 +125,32 @@ pub async fn serve_view(
     };
     let mut viewer_server = None;
     let (recorder, grpc_url) = if opts.no_viewer {
-        (opts.save.as_deref().map(|p| Recorder::to_file(opts.task, p)).transpose()?, None)
+        (
+            opts.save
+                .as_deref()
+                .map(|p| Recorder::to_file(opts.task, p))
+                .transpose()?,
+            None,
+        )
     } else {
-        let grpc_port = if opts.grpc_port == 0 { free_port(bind)? } else { opts.grpc_port };
-        let rec = Recorder::serve(opts.task, &bind.to_string(), grpc_port, opts.save.as_deref())?;
-        (Some(rec), Some(format!("rerun+http://{}/proxy", SocketAddr::new(bind, grpc_port))))
+        let grpc_port = if opts.grpc_port == 0 {
+            free_port(bind)?
+        } else {
+            opts.grpc_port
+        };
+        let rec = Recorder::serve(
+            opts.task,
+            &bind.to_string(),
+            grpc_port,
+            opts.save.as_deref(),
+        )?;
+        (
+            Some(rec),
+            Some(format!(
+                "rerun+http://{}/proxy",
+                SocketAddr::new(bind, grpc_port)
+            )),
+        )
     };
     let viewer_url = match &grpc_url {
         None => None,
@@ -134,7 +162,9 @@ pub async fn serve_view(
                 open_browser: false,
                 ..Default::default()
             };
-            let srv = cfg.host_web_viewer().context("cannot start the rerun web viewer")?;
+            let srv = cfg
+                .host_web_viewer()
+                .context("cannot start the rerun web viewer")?;
             let url = format!("{}/?url={}", srv.server_url(), percent_encode(g));
             viewer_server = Some(srv);
             Some(url)
@@ -145,7 +175,8 @@ pub async fn serve_view(
         seed: opts.seed,
         world,
     };
-    let session = tokio::task::spawn_blocking(move || Session::new(factory, config, recorder)).await??;
+    let session =
+        tokio::task::spawn_blocking(move || Session::new(factory, config, recorder)).await??;
     let info = json!({
         "viewer_url": viewer_url,
         "grpc_url": grpc_url,
@@ -165,6 +196,7 @@ pub async fn serve_view(
     ready(&urls);
     server::serve_page(listener, state.clone(), shutdown).await?;
     // Finish the recording: stop any run, then drop the stream (writes the footer).
+    server::stop(&state);
     let st = state.clone();
     tokio::task::spawn_blocking(move || {
         st.session().take_recorder().inspect(Recorder::flush);
@@ -177,7 +209,13 @@ pub async fn serve_view(
 /// `rerun+http://…` as a query-string value.
 fn percent_encode(s: &str) -> String {
     s.bytes()
-        .map(|b| if b.is_ascii_alphanumeric() || b"-._~".contains(&b) { (b as char).to_string() } else { format!("%{b:02X}") })
+        .map(|b| {
+            if b.is_ascii_alphanumeric() || b"-._~".contains(&b) {
+                (b as char).to_string()
+            } else {
+                format!("%{b:02X}")
+            }
+        })
         .collect()
 }
 
@@ -192,20 +230,35 @@ pub struct RecordedTrial {
     pub bytes: u64,
 }
 
-/// Runs `trials` trials of `task` from seeds `seed0, seed0 + 2, …` (test seeds
-/// are odd: pass an odd `seed0`) and writes `out/<task>-<seed>.rrd` for each.
+/// What `seespot record` runs.
+#[derive(Clone, Debug)]
+pub struct RecordOptions {
+    pub task: TaskId,
+    pub trials: usize,
+    /// Seed of the first trial; the next ones are `seed0 + 2`, `seed0 + 4`, …
+    /// (test seeds are odd: pass an odd one).
+    pub seed0: u64,
+    pub resolution: usize,
+    /// Folder of the `<task>-<seed>.rrd` files.
+    pub out: PathBuf,
+}
+
+/// Runs the trials of `opts` and writes `out/<task>-<seed>.rrd` for each.
 /// `stop` is polled between phases: when set, the current file is finished
 /// (the stream dropped, so the footer is written) and recording stops.
 pub fn record_trials(
-    task: TaskId,
-    trials: usize,
-    seed0: u64,
-    resolution: usize,
-    out: &Path,
+    opts: &RecordOptions,
     factory: &DeciderFactory,
     stop: &AtomicBool,
     mut progress: impl FnMut(&RecordedTrial),
 ) -> anyhow::Result<Vec<RecordedTrial>> {
+    let RecordOptions {
+        task,
+        trials,
+        seed0,
+        resolution,
+        ref out,
+    } = *opts;
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let world = WorldConfig {
         grid: Grid::new(resolution),
@@ -225,7 +278,12 @@ pub fn record_trials(
             let shared: &DeciderFactory = factory;
             let (d, note) = shared(task, world)?;
             let cell = std::sync::Mutex::new(Some((d, note)));
-            Box::new(move |_, _| cell.lock().map_err(|_| anyhow::anyhow!("poisoned"))?.take().context("decider already used"))
+            Box::new(move |_, _| {
+                cell.lock()
+                    .map_err(|_| anyhow::anyhow!("poisoned"))?
+                    .take()
+                    .context("decider already used")
+            })
         };
         let mut session = Session::new(f, config, Some(recorder))?;
         while !session.ended() && !stop.load(Ordering::SeqCst) {
@@ -292,7 +350,13 @@ fn percentile(sorted: &[f64], q: f64) -> f64 {
 /// Steps one trial phase by phase (at most `max_actions` actions), timing from
 /// each "next phase" request to the page's data (state + frame JSON) being
 /// ready, with recording on (in memory).
-pub fn bench_view(task: TaskId, seed: u64, resolution: usize, max_actions: usize, factory: DeciderFactory) -> anyhow::Result<ViewBench> {
+pub fn bench_view(
+    task: TaskId,
+    seed: u64,
+    resolution: usize,
+    max_actions: usize,
+    factory: DeciderFactory,
+) -> anyhow::Result<ViewBench> {
     let world = WorldConfig {
         grid: Grid::new(resolution),
         ..WorldConfig::default()
@@ -308,7 +372,11 @@ pub fn bench_view(task: TaskId, seed: u64, resolution: usize, max_actions: usize
         let pair = s.decision().map_or(0, |d| d.chosen);
         let frame = s.frame(pair).to_string();
         let ms = t0.elapsed().as_secs_f64() * 1e3;
-        let decide_ms = if phase == Phase::Embed { s.last_decide_ms() } else { 0.0 };
+        let decide_ms = if phase == Phase::Embed {
+            s.last_decide_ms()
+        } else {
+            0.0
+        };
         phases.push(PhaseTiming {
             action: s.trial().actions(),
             phase,
@@ -326,7 +394,11 @@ pub fn bench_view(task: TaskId, seed: u64, resolution: usize, max_actions: usize
     let median_by_phase = Phase::ALL
         .iter()
         .map(|ph| {
-            let mut v: Vec<f64> = phases.iter().filter(|p| p.phase == *ph).map(|p| p.ms).collect();
+            let mut v: Vec<f64> = phases
+                .iter()
+                .filter(|p| p.phase == *ph)
+                .map(|p| p.ms)
+                .collect();
             v.sort_by(f64::total_cmp);
             (*ph, percentile(&v, 0.5))
         })
@@ -359,16 +431,21 @@ pub async fn ctrl_c() {
 pub fn ctrl_c_flag() -> Arc<AtomicBool> {
     let flag = Arc::new(AtomicBool::new(false));
     let f = flag.clone();
-    let _ = std::thread::Builder::new().name("ctrl-c".into()).spawn(move || {
-        let Ok(rt) = tokio::runtime::Builder::new_current_thread().enable_all().build() else {
-            return;
-        };
-        rt.block_on(async {
-            if tokio::signal::ctrl_c().await.is_ok() {
-                eprintln!("\nCtrl-C: finishing the current recording…");
-                f.store(true, Ordering::SeqCst);
-            }
+    let _ = std::thread::Builder::new()
+        .name("ctrl-c".into())
+        .spawn(move || {
+            let Ok(rt) = tokio::runtime::Builder::new_current_thread()
+                .enable_all()
+                .build()
+            else {
+                return;
+            };
+            rt.block_on(async {
+                if tokio::signal::ctrl_c().await.is_ok() {
+                    eprintln!("\nCtrl-C: finishing the current recording…");
+                    f.store(true, Ordering::SeqCst);
+                }
+            });
         });
-    });
     flag
 }

@@ -101,7 +101,10 @@ mod tests {
 
     #[test]
     fn paths_are_hierarchical() {
-        assert_eq!(corr_match(TaskId::VerticalSquare, 1), "corr/vertical-square/1/match");
+        assert_eq!(
+            corr_match(TaskId::VerticalSquare, 1),
+            "corr/vertical-square/1/match"
+        );
         assert_eq!(demo_color(0), "demo/0/color");
         assert!(WORLD_BLOCKS.starts_with(WORLD));
         assert!(TEST_COLOR.starts_with(TEST));

@@ -9,7 +9,10 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use rerun::blueprint::{Blueprint, ContainerLike, Horizontal, Spatial2DView, Spatial3DView, Tabs, TextDocumentView, TimePanel, TimeSeriesView, Vertical};
+use rerun::blueprint::{
+    Blueprint, ContainerLike, Horizontal, Spatial2DView, Spatial3DView, Tabs, TextDocumentView,
+    TimePanel, TimeSeriesView, Vertical,
+};
 use rerun::{RecordingStream, RecordingStreamBuilder};
 use seespot_sim::{BLOCK_COLORS, BLOCK_SIZE, Demo, Heightmaps, TaskId, Trial};
 use seespot_ssr::Decision;
@@ -35,6 +38,8 @@ const CHOSEN: [u8; 3] = [0, 230, 118];
 pub struct Recorder {
     rec: RecordingStream,
     phase_tick: i64,
+    /// Index of the current trial on the `trial` timeline.
+    trial_index: u64,
     trials: u64,
     successes: u64,
     progress_sum: f64,
@@ -43,7 +48,9 @@ pub struct Recorder {
 
 impl std::fmt::Debug for Recorder {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Recorder").field("save_path", &self.save_path).finish_non_exhaustive()
+        f.debug_struct("Recorder")
+            .field("save_path", &self.save_path)
+            .finish_non_exhaustive()
     }
 }
 
@@ -54,12 +61,19 @@ pub fn blueprint(task: TaskId) -> Blueprint {
     let mut tabs: Vec<ContainerLike> = Vec::new();
     for p in &policies {
         for n in 0..2 {
-            let matched = Spatial2DView::new(format!("match over live · {} / demo {n}", p.as_str()))
-                .with_origin("/")
-                .with_contents([format!("+ /{}", paths::corr_match(*p, n)), format!("+ /{}", paths::corr_arrows(*p, n))]);
+            let matched =
+                Spatial2DView::new(format!("match over live · {} / demo {n}", p.as_str()))
+                    .with_origin("/")
+                    .with_contents([
+                        format!("+ /{}", paths::corr_match(*p, n)),
+                        format!("+ /{}", paths::corr_arrows(*p, n)),
+                    ]);
             let rematch = Spatial2DView::new(format!("rematch over demo {n} · {}", p.as_str()))
                 .with_origin("/")
-                .with_contents([format!("+ /{}", paths::corr_rematch(*p, n)), format!("+ /{}", paths::corr_arrows(*p, n))]);
+                .with_contents([
+                    format!("+ /{}", paths::corr_rematch(*p, n)),
+                    format!("+ /{}", paths::corr_arrows(*p, n)),
+                ]);
             tabs.push(
                 Horizontal::new([matched.into(), rematch.into()])
                     .with_name(format!("{} / demo {n}", p.as_str()))
@@ -69,26 +83,54 @@ pub fn blueprint(task: TaskId) -> Blueprint {
     }
     let left = Vertical::new([
         Spatial3DView::new("scene").with_origin(paths::WORLD).into(),
-        TextDocumentView::new("status").with_origin(paths::STATUS).into(),
+        TextDocumentView::new("status")
+            .with_origin(paths::STATUS)
+            .into(),
     ])
     .with_row_shares([3.0, 2.0]);
     let image_tabs = |name: &str, color: String, depth: String, action: String| -> ContainerLike {
         Tabs::new([
-            Spatial2DView::new(format!("{name} colour")).with_origin("/").with_contents([format!("+ /{color}"), format!("+ /{action}")]).into(),
-            Spatial2DView::new(format!("{name} depth")).with_origin("/").with_contents([format!("+ /{depth}"), format!("+ /{action}")]).into(),
+            Spatial2DView::new(format!("{name} colour"))
+                .with_origin("/")
+                .with_contents([format!("+ /{color}"), format!("+ /{action}")])
+                .into(),
+            Spatial2DView::new(format!("{name} depth"))
+                .with_origin("/")
+                .with_contents([format!("+ /{depth}"), format!("+ /{action}")])
+                .into(),
         ])
         .into()
     };
     let images = Horizontal::new([
-        image_tabs("live", paths::TEST_COLOR.into(), paths::TEST_DEPTH.into(), paths::TEST_ACTION.into()),
-        image_tabs("demo 0", paths::demo_color(0), paths::demo_depth(0), paths::demo_action(0)),
-        image_tabs("demo 1", paths::demo_color(1), paths::demo_depth(1), paths::demo_action(1)),
+        image_tabs(
+            "live",
+            paths::TEST_COLOR.into(),
+            paths::TEST_DEPTH.into(),
+            paths::TEST_ACTION.into(),
+        ),
+        image_tabs(
+            "demo 0",
+            paths::demo_color(0),
+            paths::demo_depth(0),
+            paths::demo_action(0),
+        ),
+        image_tabs(
+            "demo 1",
+            paths::demo_color(1),
+            paths::demo_depth(1),
+            paths::demo_action(1),
+        ),
     ]);
     let scalars = Horizontal::new([
-        TimeSeriesView::new("L and C per pair").with_origin("/corr").into(),
-        TimeSeriesView::new("metrics").with_origin("/metrics").into(),
+        TimeSeriesView::new("L and C per pair")
+            .with_origin("/corr")
+            .into(),
+        TimeSeriesView::new("metrics")
+            .with_origin("/metrics")
+            .into(),
     ]);
-    let right = Vertical::new([images.into(), Tabs::new(tabs).into(), scalars.into()]).with_row_shares([2.0, 3.0, 2.0]);
+    let right = Vertical::new([images.into(), Tabs::new(tabs).into(), scalars.into()])
+        .with_row_shares([2.0, 3.0, 2.0]);
     Blueprint::new(Horizontal::new([left.into(), right.into()]).with_column_shares([2.0, 3.0]))
         .with_time_panel(TimePanel::new().with_timeline(paths::TIMELINE_PHASE))
 }
@@ -109,7 +151,12 @@ impl Recorder {
 
     /// A recording served over gRPC on `bind:grpc_port` (for the web viewer),
     /// and also written to `save` when given.
-    pub fn serve(task: TaskId, bind: &str, grpc_port: u16, save: Option<&Path>) -> anyhow::Result<Self> {
+    pub fn serve(
+        task: TaskId,
+        bind: &str,
+        grpc_port: u16,
+        save: Option<&Path>,
+    ) -> anyhow::Result<Self> {
         let mut sinks: Vec<Box<dyn rerun::sink::LogSink>> = Vec::new();
         let options = rerun::ServerOptions {
             memory_limit: rerun::MemoryLimit::from_bytes(512 * 1024 * 1024),
@@ -119,16 +166,21 @@ impl Recorder {
             .with_context(|| format!("bad gRPC address {bind}:{grpc_port}"))?;
         sinks.push(Box::new(grpc));
         if let Some(path) = save {
-            let file = rerun::sink::FileSink::new(path).with_context(|| format!("cannot create the recording {}", path.display()))?;
+            let file = rerun::sink::FileSink::new(path)
+                .with_context(|| format!("cannot create the recording {}", path.display()))?;
             sinks.push(Box::new(file));
         }
-        let rec = builder(task).set_sinks(sinks).context("cannot start the rerun recording stream")?;
+        let rec = builder(task)
+            .set_sinks(sinks)
+            .context("cannot start the rerun recording stream")?;
         Ok(Self::from_stream(rec, save.map(Path::to_owned)))
     }
 
     /// An in-memory recording (tests and benchmarks).
     pub fn memory(task: TaskId) -> anyhow::Result<(Self, rerun::sink::MemorySinkStorage)> {
-        let (rec, storage) = builder(task).memory().context("cannot start an in-memory recording")?;
+        let (rec, storage) = builder(task)
+            .memory()
+            .context("cannot start an in-memory recording")?;
         Ok((Self::from_stream(rec, None), storage))
     }
 
@@ -136,6 +188,7 @@ impl Recorder {
         let recorder = Self {
             rec,
             phase_tick: 0,
+            trial_index: 0,
             trials: 0,
             successes: 0,
             progress_sum: 0.0,
@@ -172,11 +225,17 @@ impl Recorder {
 
     fn log_static(&self) {
         let half = seespot_sim::workspace::WORKSPACE_SIZE / 2.0;
-        let table = rerun::Boxes3D::from_centers_and_half_sizes([(0.0, 0.0, -0.002)], [(half, half, 0.002)])
-            .with_colors([rerun::Color::from_rgb(200, 200, 206)])
-            .with_fill_mode(rerun::FillMode::Solid);
+        let table = rerun::Boxes3D::from_centers_and_half_sizes(
+            [(0.0, 0.0, -0.002)],
+            [(half, half, 0.002)],
+        )
+        .with_colors([rerun::Color::from_rgb(200, 200, 206)])
+        .with_fill_mode(rerun::FillMode::Solid);
         self.warn(self.rec.log_static(paths::WORLD_TABLE, &table));
-        self.warn(self.rec.log_static(paths::WORLD, &rerun::ViewCoordinates::RIGHT_HAND_Z_UP()));
+        self.warn(
+            self.rec
+                .log_static(paths::WORLD, &rerun::ViewCoordinates::RIGHT_HAND_Z_UP()),
+        );
     }
 
     fn warn(&self, r: rerun::RecordingStreamResult<()>) {
@@ -185,16 +244,20 @@ impl Recorder {
         }
     }
 
-    fn tick(&mut self, trial_index: u64, action: usize) {
+    fn tick(&mut self, action: usize) {
         self.phase_tick += 1;
-        self.rec.set_time_sequence(paths::TIMELINE_TRIAL, trial_index as i64);
-        self.rec.set_time_sequence(paths::TIMELINE_ACTION, action as i64);
-        self.rec.set_time_sequence(paths::TIMELINE_PHASE, self.phase_tick);
+        self.rec
+            .set_time_sequence(paths::TIMELINE_TRIAL, self.trial_index as i64);
+        self.rec
+            .set_time_sequence(paths::TIMELINE_ACTION, action as i64);
+        self.rec
+            .set_time_sequence(paths::TIMELINE_PHASE, self.phase_tick);
     }
 
     /// Logs a trial's start: the scene and the live heightmaps.
     pub fn begin_trial(&mut self, trial_index: u64, trial: &Trial, decider: &str) {
-        self.tick(trial_index, 0);
+        self.trial_index = trial_index;
+        self.tick(0);
         self.log_scene(trial);
         let hm = trial.world().render();
         self.log_test(&hm);
@@ -205,14 +268,17 @@ impl Recorder {
             trial.seed(),
             trial.progress()
         );
-        self.warn(self.rec.log(paths::STATUS, &rerun::TextDocument::from_markdown(note)));
+        self.warn(
+            self.rec
+                .log(paths::STATUS, &rerun::TextDocument::from_markdown(note)),
+        );
     }
 
-    /// Logs one phase of the decision for action `action` (0-based) of `trial`.
-    /// `hm` is the scene the decision was made on.
+    /// Logs one phase of the decision for action `action` (0-based) of `trial`
+    /// (the trial of the last [`Recorder::begin_trial`]). `hm` is the scene the
+    /// decision was made on.
     pub fn log_phase(
         &mut self,
-        trial_index: u64,
         trial: &Trial,
         action: usize,
         phase: Phase,
@@ -220,7 +286,7 @@ impl Recorder {
         decision: Option<&Decision>,
         demos: &[Demo],
     ) {
-        self.tick(trial_index, action);
+        self.tick(action);
         match phase {
             Phase::Embed => {
                 self.log_test(hm);
@@ -246,7 +312,7 @@ impl Recorder {
                 self.log_progress(trial);
             }
         }
-        self.log_status(trial_index, trial, action, phase, decision);
+        self.log_status(trial, action, phase, decision);
     }
 
     /// Logs a finished trial into the running metrics.
@@ -254,8 +320,14 @@ impl Recorder {
         self.trials += 1;
         self.successes += u64::from(trial.succeeded());
         self.progress_sum += f64::from(trial.max_progress()) / 4.0;
-        self.log_scalar(paths::METRICS_SUCCESS_RATE, self.successes as f64 / self.trials as f64);
-        self.log_scalar(paths::METRICS_MEAN_PROGRESS, self.progress_sum / self.trials as f64);
+        self.log_scalar(
+            paths::METRICS_SUCCESS_RATE,
+            self.successes as f64 / self.trials as f64,
+        );
+        self.log_scalar(
+            paths::METRICS_MEAN_PROGRESS,
+            self.progress_sum / self.trials as f64,
+        );
     }
 
     fn log_scalar(&self, path: &str, v: f64) {
@@ -272,20 +344,45 @@ impl Recorder {
         let world = trial.world();
         let poses = world.block_poses();
         let h = BLOCK_SIZE / 2.0;
-        let boxes = rerun::Boxes3D::from_centers_and_half_sizes(poses.iter().map(|p| (p.position[0], p.position[1], p.position[2])), poses.iter().map(|_| (h, h, h)))
-            .with_quaternions(poses.iter().map(|p| rerun::Quaternion::from_xyzw(p.rotation)))
-            .with_colors(BLOCK_COLORS.iter().map(|c| rerun::Color::from_rgb(c[0], c[1], c[2])))
-            .with_labels(["red", "blue", "green", "yellow"])
-            .with_fill_mode(rerun::FillMode::Solid);
+        let boxes = rerun::Boxes3D::from_centers_and_half_sizes(
+            poses
+                .iter()
+                .map(|p| (p.position[0], p.position[1], p.position[2])),
+            poses.iter().map(|_| (h, h, h)),
+        )
+        .with_quaternions(
+            poses
+                .iter()
+                .map(|p| rerun::Quaternion::from_xyzw(p.rotation)),
+        )
+        .with_colors(
+            BLOCK_COLORS
+                .iter()
+                .map(|c| rerun::Color::from_rgb(c[0], c[1], c[2])),
+        )
+        .with_labels(["red", "blue", "green", "yellow"])
+        .with_fill_mode(rerun::FillMode::Solid);
         self.warn(self.rec.log(paths::WORLD_BLOCKS, &boxes));
         if let Some([x, y, z, yaw]) = world.last_action_pose() {
             let (s, c) = yaw.sin_cos();
             // Two fingers along the jaw axis (yaw from +x) and a palm above them.
             let jaw = 0.045;
-            let centers = [(x + c * jaw, y + s * jaw, z + 0.03), (x - c * jaw, y - s * jaw, z + 0.03), (x, y, z + 0.075)];
-            let half = [(0.006, 0.012, 0.03), (0.006, 0.012, 0.03), (0.055, 0.014, 0.012)];
+            let centers = [
+                (x + c * jaw, y + s * jaw, z + 0.03),
+                (x - c * jaw, y - s * jaw, z + 0.03),
+                (x, y, z + 0.075),
+            ];
+            let half = [
+                (0.006, 0.012, 0.03),
+                (0.006, 0.012, 0.03),
+                (0.055, 0.014, 0.012),
+            ];
             let q = rerun::Quaternion::from_xyzw([0.0, 0.0, (yaw / 2.0).sin(), (yaw / 2.0).cos()]);
-            let held = if world.held_block().is_some() { "gripper (holding)" } else { "gripper" };
+            let held = if world.held_block().is_some() {
+                "gripper (holding)"
+            } else {
+                "gripper"
+            };
             let gripper = rerun::Boxes3D::from_centers_and_half_sizes(centers, half)
                 .with_quaternions([q, q, q])
                 .with_colors([rerun::Color::from_rgb(90, 90, 100); 3])
@@ -312,7 +409,10 @@ impl Recorder {
                 continue;
             }
             done.push(p.demo);
-            let Some(step) = demos.get(p.demo).and_then(|demo| demo.steps.get(p.demo_step)) else {
+            let Some(step) = demos
+                .get(p.demo)
+                .and_then(|demo| demo.steps.get(p.demo_step))
+            else {
                 continue;
             };
             let (color, depth) = images(&step.heightmaps);
@@ -321,7 +421,11 @@ impl Recorder {
             let a = p.demo_action;
             let pt = rerun::Points2D::new([(a.x as f32 + 0.5, a.y as f32 + 0.5)])
                 .with_radii([3.0])
-                .with_colors([rerun::Color::from_rgb(ARROW_MATCH[0], ARROW_MATCH[1], ARROW_MATCH[2])])
+                .with_colors([rerun::Color::from_rgb(
+                    ARROW_MATCH[0],
+                    ARROW_MATCH[1],
+                    ARROW_MATCH[2],
+                )])
                 .with_labels([format!("demo {} step {}: {a}", p.demo, p.demo_step)]);
             self.warn(self.rec.log(paths::demo_action(p.demo), &pt));
         }
@@ -330,11 +434,21 @@ impl Recorder {
     fn log_match(&self, d: &Decision, _hm: &Heightmaps) {
         let n = d.resolution;
         for p in &d.pairs {
-            self.warn(self.rec.log(paths::corr_match(p.policy, p.demo), &heat_image(&p.match_map, n)));
-            let arrows = rerun::Arrows2D::from_vectors([(p.matched.x as f32 - p.demo_action.x as f32, p.matched.y as f32 - p.demo_action.y as f32)])
-                .with_origins([(p.demo_action.x as f32 + 0.5, p.demo_action.y as f32 + 0.5)])
-                .with_colors([rerun::Color::from_rgb(ARROW_MATCH[0], ARROW_MATCH[1], ARROW_MATCH[2])])
-                .with_labels([format!("demo -> F, L = {:.3}", p.l)]);
+            self.warn(self.rec.log(
+                paths::corr_match(p.policy, p.demo),
+                &heat_image(&p.match_map, n),
+            ));
+            let arrows = rerun::Arrows2D::from_vectors([(
+                p.matched.x as f32 - p.demo_action.x as f32,
+                p.matched.y as f32 - p.demo_action.y as f32,
+            )])
+            .with_origins([(p.demo_action.x as f32 + 0.5, p.demo_action.y as f32 + 0.5)])
+            .with_colors([rerun::Color::from_rgb(
+                ARROW_MATCH[0],
+                ARROW_MATCH[1],
+                ARROW_MATCH[2],
+            )])
+            .with_labels([format!("demo -> F, L = {:.3}", p.l)]);
             self.warn(self.rec.log(paths::corr_arrows(p.policy, p.demo), &arrows));
             self.log_scalar(&paths::corr_l(p.policy, p.demo), f64::from(p.l));
         }
@@ -343,25 +457,39 @@ impl Recorder {
     fn log_verify(&self, d: &Decision) {
         let n = d.resolution;
         for p in &d.pairs {
-            self.warn(self.rec.log(paths::corr_rematch(p.policy, p.demo), &heat_image(&p.rematch_map, n)));
-            self.warn(self.rec.log(paths::corr_arrows(p.policy, p.demo), &pair_arrows(p, false)));
+            self.warn(self.rec.log(
+                paths::corr_rematch(p.policy, p.demo),
+                &heat_image(&p.rematch_map, n),
+            ));
+            self.warn(
+                self.rec
+                    .log(paths::corr_arrows(p.policy, p.demo), &pair_arrows(p, false)),
+            );
             self.log_scalar(&paths::corr_c(p.policy, p.demo), f64::from(p.c));
         }
     }
 
     fn log_chosen(&self, d: &Decision) {
         if let Some(p) = d.pairs.get(d.chosen) {
-            self.warn(self.rec.log(paths::corr_arrows(p.policy, p.demo), &pair_arrows(p, true)));
+            self.warn(
+                self.rec
+                    .log(paths::corr_arrows(p.policy, p.demo), &pair_arrows(p, true)),
+            );
             let a = d.action;
             let pt = rerun::Points2D::new([(a.x as f32 + 0.5, a.y as f32 + 0.5)])
                 .with_radii([4.0])
                 .with_colors([rerun::Color::from_rgb(CHOSEN[0], CHOSEN[1], CHOSEN[2])])
-                .with_labels([format!("act: {a} ({} / demo {})", p.policy.as_str(), p.demo)]);
+                .with_labels([format!(
+                    "act: {a} ({} / demo {})",
+                    p.policy.as_str(),
+                    p.demo
+                )]);
             self.warn(self.rec.log(paths::TEST_ACTION, &pt));
         }
     }
 
-    fn log_status(&self, trial_index: u64, trial: &Trial, action: usize, phase: Phase, d: Option<&Decision>) {
+    fn log_status(&self, trial: &Trial, action: usize, phase: Phase, d: Option<&Decision>) {
+        let trial_index = self.trial_index;
         let mut s = format!(
             "## Trial {trial_index} · {} · seed {}\n\nAction **{}** · phase **{}** · progress **{} / 4**\n\n",
             trial.task().as_str(),
@@ -375,29 +503,57 @@ impl Recorder {
             for (i, p) in d.pairs.iter().enumerate() {
                 let show_l = phase >= Phase::Match;
                 let show_c = phase >= Phase::Verify;
-                let mark = if phase >= Phase::Act && i == d.chosen { "**chosen**" } else { "" };
+                let mark = if phase >= Phase::Act && i == d.chosen {
+                    "**chosen**"
+                } else {
+                    ""
+                };
                 s.push_str(&format!(
                     "| {} | {} | {} | {} | {} | {mark} |\n",
                     p.policy.as_str(),
                     p.demo,
-                    if show_l { format!("{:.3}", p.l) } else { "…".into() },
-                    if show_c { format!("{:.1}", p.c) } else { "…".into() },
-                    if show_l { p.matched.to_string() } else { "…".into() },
+                    if show_l {
+                        format!("{:.3}", p.l)
+                    } else {
+                        "…".into()
+                    },
+                    if show_c {
+                        format!("{:.1}", p.c)
+                    } else {
+                        "…".into()
+                    },
+                    if show_l {
+                        p.matched.to_string()
+                    } else {
+                        "…".into()
+                    },
                 ));
             }
         }
         if let Some(end) = trial.end() {
-            s.push_str(&format!("\nTrial ended: **{end:?}** after {} actions.\n", trial.actions()));
+            s.push_str(&format!(
+                "\nTrial ended: **{end:?}** after {} actions.\n",
+                trial.actions()
+            ));
         }
-        self.warn(self.rec.log(paths::STATUS, &rerun::TextDocument::from_markdown(s)));
+        self.warn(
+            self.rec
+                .log(paths::STATUS, &rerun::TextDocument::from_markdown(s)),
+        );
     }
 }
 
 fn pair_arrows(p: &seespot_ssr::PairExplanation, chosen: bool) -> rerun::Arrows2D {
     let c1 = if chosen { CHOSEN } else { ARROW_MATCH };
     rerun::Arrows2D::from_vectors([
-        (p.matched.x as f32 - p.demo_action.x as f32, p.matched.y as f32 - p.demo_action.y as f32),
-        (p.rematch.x as f32 - p.matched.x as f32, p.rematch.y as f32 - p.matched.y as f32),
+        (
+            p.matched.x as f32 - p.demo_action.x as f32,
+            p.matched.y as f32 - p.demo_action.y as f32,
+        ),
+        (
+            p.rematch.x as f32 - p.matched.x as f32,
+            p.rematch.y as f32 - p.matched.y as f32,
+        ),
     ])
     .with_origins([
         (p.demo_action.x as f32 + 0.5, p.demo_action.y as f32 + 0.5),
@@ -408,7 +564,11 @@ fn pair_arrows(p: &seespot_ssr::PairExplanation, chosen: bool) -> rerun::Arrows2
         rerun::Color::from_rgb(ARROW_REMATCH[0], ARROW_REMATCH[1], ARROW_REMATCH[2]),
     ])
     .with_labels([
-        format!("{}demo -> F, L = {:.3}", if chosen { "CHOSEN " } else { "" }, p.l),
+        format!(
+            "{}demo -> F, L = {:.3}",
+            if chosen { "CHOSEN " } else { "" },
+            p.l
+        ),
         format!("F -> rematch, C = {:.1}", p.c),
     ])
 }
@@ -420,11 +580,14 @@ fn images(hm: &Heightmaps) -> (rerun::Image, rerun::DepthImage) {
     let depth_u16: Vec<u8> = hm
         .depth
         .iter()
-        .flat_map(|&d| ((d.max(0.0) * DEPTH_UNITS_PER_METRE).round().min(65_535.0) as u16).to_le_bytes())
+        .flat_map(|&d| {
+            ((d.max(0.0) * DEPTH_UNITS_PER_METRE).round().min(65_535.0) as u16).to_le_bytes()
+        })
         .collect();
-    let depth = rerun::DepthImage::from_data_type_and_bytes(depth_u16, [n, n], rerun::ChannelDatatype::U16)
-        .with_meter(DEPTH_UNITS_PER_METRE)
-        .with_colormap(rerun::components::Colormap::Viridis);
+    let depth =
+        rerun::DepthImage::from_data_type_and_bytes(depth_u16, [n, n], rerun::ChannelDatatype::U16)
+            .with_meter(DEPTH_UNITS_PER_METRE)
+            .with_colormap(rerun::components::Colormap::Viridis);
     (color, depth)
 }
 
@@ -432,17 +595,30 @@ fn images(hm: &Heightmaps) -> (rerun::Image, rerun::DepthImage) {
 /// `1 + d / d_max * 65000` with `meter = 65000 / d_max`, so the viewer shows
 /// distances; masked (infinite) entries are 0, i.e. not drawn.
 fn heat_image(map: &[f32], n: usize) -> rerun::DepthImage {
-    let max = map.iter().copied().filter(|d| d.is_finite()).fold(0.0f32, f32::max).max(1e-6);
+    let max = map
+        .iter()
+        .copied()
+        .filter(|d| d.is_finite())
+        .fold(0.0f32, f32::max)
+        .max(1e-6);
     let scale = HEAT_LEVELS / max;
     let bytes: Vec<u8> = map
         .iter()
         .flat_map(|&d| {
-            let v = if d.is_finite() { 1 + (d * scale).round() as u16 } else { 0 };
+            let v = if d.is_finite() {
+                1 + (d * scale).round() as u16
+            } else {
+                0
+            };
             v.to_le_bytes()
         })
         .collect();
-    rerun::DepthImage::from_data_type_and_bytes(bytes, [n as u32, n as u32], rerun::ChannelDatatype::U16)
-        .with_meter(scale)
-        .with_colormap(rerun::components::Colormap::Turbo)
-        .with_draw_order(10.0)
+    rerun::DepthImage::from_data_type_and_bytes(
+        bytes,
+        [n as u32, n as u32],
+        rerun::ChannelDatatype::U16,
+    )
+    .with_meter(scale)
+    .with_colormap(rerun::components::Colormap::Turbo)
+    .with_draw_order(10.0)
 }

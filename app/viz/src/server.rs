@@ -24,20 +24,44 @@ use axum::http::{StatusCode, Uri, header};
 use axum::response::{IntoResponse, Response};
 use axum::routing::get;
 use futures_util::{SinkExt, StreamExt};
-use serde_json::{Value, json};
 use seespot_sim::TaskId;
+use serde_json::{Value, json};
 use tokio::sync::{broadcast, mpsc};
 
 use crate::session::Session;
 
 /// The page's files, embedded at compile time: `(url path, content type, body)`.
 pub const ASSETS: &[(&str, &str, &str)] = &[
-    ("/", "text/html; charset=utf-8", include_str!("../../../web/index.html")),
-    ("/index.html", "text/html; charset=utf-8", include_str!("../../../web/index.html")),
-    ("/app.js", "text/javascript; charset=utf-8", include_str!("../../../web/app.js")),
-    ("/render.js", "text/javascript; charset=utf-8", include_str!("../../../web/render.js")),
-    ("/style.css", "text/css; charset=utf-8", include_str!("../../../web/style.css")),
-    ("/favicon.svg", "image/svg+xml", include_str!("../../../web/favicon.svg")),
+    (
+        "/",
+        "text/html; charset=utf-8",
+        include_str!("../../../web/index.html"),
+    ),
+    (
+        "/index.html",
+        "text/html; charset=utf-8",
+        include_str!("../../../web/index.html"),
+    ),
+    (
+        "/app.js",
+        "text/javascript; charset=utf-8",
+        include_str!("../../../web/app.js"),
+    ),
+    (
+        "/render.js",
+        "text/javascript; charset=utf-8",
+        include_str!("../../../web/render.js"),
+    ),
+    (
+        "/style.css",
+        "text/css; charset=utf-8",
+        include_str!("../../../web/style.css"),
+    ),
+    (
+        "/favicon.svg",
+        "image/svg+xml",
+        include_str!("../../../web/favicon.svg"),
+    ),
 ];
 
 /// Largest WebSocket message accepted from a tab, bytes.
@@ -54,7 +78,9 @@ pub struct AppState {
 
 impl std::fmt::Debug for AppState {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("AppState").field("info", &self.info).finish_non_exhaustive()
+        f.debug_struct("AppState")
+            .field("info", &self.info)
+            .finish_non_exhaustive()
     }
 }
 
@@ -71,7 +97,9 @@ impl AppState {
 
     /// Locks the session; a panic while stepping does not poison the server.
     pub fn session(&self) -> MutexGuard<'_, Session> {
-        self.session.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+        self.session
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
     fn broadcast_state(&self) {
@@ -97,7 +125,14 @@ pub fn router(state: Arc<AppState>) -> Router {
 /// the file system.
 async fn asset(uri: Uri) -> Response {
     match ASSETS.iter().find(|(p, _, _)| *p == uri.path()) {
-        Some((_, ty, body)) => ([(header::CONTENT_TYPE, *ty), (header::CACHE_CONTROL, "no-cache")], *body).into_response(),
+        Some((_, ty, body)) => (
+            [
+                (header::CONTENT_TYPE, *ty),
+                (header::CACHE_CONTROL, "no-cache"),
+            ],
+            *body,
+        )
+            .into_response(),
         None => (StatusCode::NOT_FOUND, "not found").into_response(),
     }
 }
@@ -111,18 +146,31 @@ async fn api_state(State(s): State<Arc<AppState>>) -> Response {
     blocking(move || st.session().state()).await
 }
 
-async fn api_decision(State(s): State<Arc<AppState>>, Query(q): Query<HashMap<String, String>>) -> Response {
+async fn api_decision(
+    State(s): State<Arc<AppState>>,
+    Query(q): Query<HashMap<String, String>>,
+) -> Response {
     let maps = q.get("maps").is_some_and(|v| v == "1" || v == "true");
     let st = s.clone();
     blocking(move || st.session().decision_json(maps)).await
 }
 
-async fn api_frame(State(s): State<Arc<AppState>>, Query(q): Query<HashMap<String, String>>) -> Response {
-    let pair = match q.get("pair").map(|p| p.parse::<usize>()) {
-        None => 0,
-        Some(Ok(p)) => p,
-        Some(Err(_)) => return (StatusCode::BAD_REQUEST, axum::Json(json!({"type": "error", "message": "`pair` must be a non-negative integer"}))).into_response(),
-    };
+async fn api_frame(
+    State(s): State<Arc<AppState>>,
+    Query(q): Query<HashMap<String, String>>,
+) -> Response {
+    let pair =
+        match q.get("pair").map(|p| p.parse::<usize>()) {
+            None => 0,
+            Some(Ok(p)) => p,
+            Some(Err(_)) => return (
+                StatusCode::BAD_REQUEST,
+                axum::Json(
+                    json!({"type": "error", "message": "`pair` must be a non-negative integer"}),
+                ),
+            )
+                .into_response(),
+        };
     let st = s.clone();
     blocking(move || st.session().frame(pair)).await
 }
@@ -130,12 +178,18 @@ async fn api_frame(State(s): State<Arc<AppState>>, Query(q): Query<HashMap<Strin
 async fn blocking(f: impl FnOnce() -> Value + Send + 'static) -> Response {
     match tokio::task::spawn_blocking(f).await {
         Ok(v) => axum::Json(v).into_response(),
-        Err(e) => (StatusCode::INTERNAL_SERVER_ERROR, format!("internal error: {e}")).into_response(),
+        Err(e) => (
+            StatusCode::INTERNAL_SERVER_ERROR,
+            format!("internal error: {e}"),
+        )
+            .into_response(),
     }
 }
 
 async fn ws(State(s): State<Arc<AppState>>, upgrade: WebSocketUpgrade) -> Response {
-    upgrade.max_message_size(MAX_MESSAGE_BYTES).on_upgrade(move |socket| client(socket, s))
+    upgrade
+        .max_message_size(MAX_MESSAGE_BYTES)
+        .on_upgrade(move |socket| client(socket, s))
 }
 
 fn error(message: impl Into<String>, request: Option<&str>) -> String {
@@ -149,7 +203,9 @@ async fn client(socket: WebSocket, s: Arc<AppState>) {
     let (direct_tx, mut direct_rx) = mpsc::channel::<String>(16);
     let hello = json!({"type": "info", "info": s.info}).to_string();
     let st = s.clone();
-    let state = tokio::task::spawn_blocking(move || st.session().state().to_string()).await.unwrap_or_default();
+    let state = tokio::task::spawn_blocking(move || st.session().state().to_string())
+        .await
+        .unwrap_or_default();
     let writer = tokio::spawn(async move {
         for m in [hello, state] {
             if sink.send(Message::Text(m.into())).await.is_err() {
@@ -177,16 +233,21 @@ async fn client(socket: WebSocket, s: Arc<AppState>) {
         let text = match msg {
             Message::Text(t) => t.as_str().to_owned(),
             Message::Binary(_) => {
-                let _ = direct_tx.send(error("binary messages are not understood; send JSON text", None)).await;
+                let _ = direct_tx
+                    .send(error(
+                        "binary messages are not understood; send JSON text",
+                        None,
+                    ))
+                    .await;
                 continue;
             }
             Message::Close(_) => break,
             _ => continue,
         };
-        if let Some(reply) = handle(&s, &text).await {
-            if direct_tx.send(reply).await.is_err() {
-                break;
-            }
+        if let Some(reply) = handle(&s, &text).await
+            && direct_tx.send(reply).await.is_err()
+        {
+            break;
         }
     }
     writer.abort();
@@ -203,7 +264,10 @@ pub async fn handle(s: &Arc<AppState>, text: &str) -> Option<String> {
     };
     let kind = kind.as_str();
     if s.running.load(Ordering::SeqCst) && !matches!(kind, "stop" | "state" | "query" | "ping") {
-        return Some(error("a run to the end is in progress; send `stop` first", Some(kind)));
+        return Some(error(
+            "a run to the end is in progress; send `stop` first",
+            Some(kind),
+        ));
     }
     let st = s.clone();
     let reply = match kind {
@@ -216,14 +280,26 @@ pub async fn handle(s: &Arc<AppState>, text: &str) -> Option<String> {
                 None => None,
                 Some(t) => match TaskId::parse(t) {
                     Some(t) => Some(t),
-                    None => return Some(error(format!("unknown task `{t}`; expected one of stack, row, unstack, vertical-square"), Some(kind))),
+                    None => {
+                        return Some(error(
+                            format!(
+                                "unknown task `{t}`; expected one of stack, row, unstack, vertical-square"
+                            ),
+                            Some(kind),
+                        ));
+                    }
                 },
             };
             let seed = match v.get("seed") {
                 None | Some(Value::Null) => None,
                 Some(x) => match x.as_u64() {
                     Some(x) => Some(x),
-                    None => return Some(error("field `seed` must be a non-negative integer", Some(kind))),
+                    None => {
+                        return Some(error(
+                            "field `seed` must be a non-negative integer",
+                            Some(kind),
+                        ));
+                    }
                 },
             };
             step(st, move |ses| {
@@ -235,10 +311,16 @@ pub async fn handle(s: &Arc<AppState>, text: &str) -> Option<String> {
         }
         "query" => {
             let field = |name: &str| v.get(name).and_then(Value::as_u64).map(|x| x as usize);
-            let (Some(pair), Some(policy), Some(y), Some(x)) = (field("pair"), field("policy"), field("y"), field("x")) else {
-                return Some(error("query needs non-negative integers `pair`, `policy`, `y` and `x`", Some(kind)));
+            let (Some(pair), Some(policy), Some(y), Some(x)) =
+                (field("pair"), field("policy"), field("y"), field("x"))
+            else {
+                return Some(error(
+                    "query needs non-negative integers `pair`, `policy`, `y` and `x`",
+                    Some(kind),
+                ));
             };
-            let r = tokio::task::spawn_blocking(move || st.session().query(pair, policy, y, x)).await;
+            let r =
+                tokio::task::spawn_blocking(move || st.session().query(pair, policy, y, x)).await;
             return Some(match r {
                 Ok(Ok(v)) => v.to_string(),
                 Ok(Err(e)) => error(format!("{e:#}"), Some(kind)),
@@ -274,7 +356,14 @@ pub async fn handle(s: &Arc<AppState>, text: &str) -> Option<String> {
             s.running.store(false, Ordering::SeqCst);
             return None;
         }
-        other => return Some(error(format!("unknown message type `{other}`; expected next_phase, next_action, run, stop, reset, query, state or ping"), Some(other))),
+        other => {
+            return Some(error(
+                format!(
+                    "unknown message type `{other}`; expected next_phase, next_action, run, stop, reset, query, state or ping"
+                ),
+                Some(other),
+            ));
+        }
     };
     match reply {
         Ok(()) => None,
@@ -283,7 +372,10 @@ pub async fn handle(s: &Arc<AppState>, text: &str) -> Option<String> {
 }
 
 /// Runs `f` on the session on a blocking thread, then broadcasts the new state.
-async fn step(s: Arc<AppState>, f: impl FnOnce(&mut Session) -> anyhow::Result<()> + Send + 'static) -> Result<(), String> {
+async fn step(
+    s: Arc<AppState>,
+    f: impl FnOnce(&mut Session) -> anyhow::Result<()> + Send + 'static,
+) -> Result<(), String> {
     let st = s.clone();
     let r = tokio::task::spawn_blocking(move || {
         let r = f(&mut st.session());
@@ -298,14 +390,25 @@ async fn step(s: Arc<AppState>, f: impl FnOnce(&mut Session) -> anyhow::Result<(
     }
 }
 
+/// Stops a run to the end after its current action.
+pub fn stop(s: &AppState) {
+    s.running.store(false, Ordering::SeqCst);
+}
+
 /// Whether a run to the end is in progress.
 pub fn running(s: &AppState) -> bool {
     s.running.load(Ordering::SeqCst)
 }
 
 /// Binds the page server on `addr` and serves until `shutdown` resolves.
-pub async fn serve_page(listener: tokio::net::TcpListener, state: Arc<AppState>, shutdown: impl std::future::Future<Output = ()> + Send + 'static) -> anyhow::Result<()> {
-    axum::serve(listener, router(state)).with_graceful_shutdown(shutdown).await?;
+pub async fn serve_page(
+    listener: tokio::net::TcpListener,
+    state: Arc<AppState>,
+    shutdown: impl std::future::Future<Output = ()> + Send + 'static,
+) -> anyhow::Result<()> {
+    axum::serve(listener, router(state))
+        .with_graceful_shutdown(shutdown)
+        .await?;
     Ok(())
 }
 

@@ -8,10 +8,10 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
-use serde::Serialize;
-use serde_json::{Value, json};
 use seespot_sim::{Action, Heightmaps, TaskId, Trial, WorldConfig};
 use seespot_ssr::Decision;
+use serde::Serialize;
+use serde_json::{Value, json};
 
 use crate::b64;
 use crate::decider::Decider;
@@ -42,7 +42,8 @@ impl Phase {
 
 /// Makes the decider for a task at a resolution; returns it and a note on
 /// what was loaded (shown on the page).
-pub type DeciderFactory = Box<dyn Fn(TaskId, WorldConfig) -> anyhow::Result<(Box<dyn Decider>, String)> + Send>;
+pub type DeciderFactory =
+    Box<dyn Fn(TaskId, WorldConfig) -> anyhow::Result<(Box<dyn Decider>, String)> + Send>;
 
 /// How a session starts.
 #[derive(Clone, Debug)]
@@ -74,12 +75,19 @@ pub struct Session {
 
 impl std::fmt::Debug for Session {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Session").field("config", &self.config).field("phase", &self.phase).finish_non_exhaustive()
+        f.debug_struct("Session")
+            .field("config", &self.config)
+            .field("phase", &self.phase)
+            .finish_non_exhaustive()
     }
 }
 
 impl Session {
-    pub fn new(factory: DeciderFactory, config: SessionConfig, recorder: Option<Recorder>) -> anyhow::Result<Self> {
+    pub fn new(
+        factory: DeciderFactory,
+        config: SessionConfig,
+        recorder: Option<Recorder>,
+    ) -> anyhow::Result<Self> {
         let (decider, decider_note) = factory(config.task, config.world)?;
         let trial = Trial::new(config.world, config.task, config.seed);
         let mut s = Self {
@@ -214,7 +222,14 @@ impl Session {
         self.phase = Some(next);
         self.version += 1;
         if let (Some(r), Some(hm)) = (&mut self.recorder, &self.decided_on) {
-            r.log_phase(self.trial_index, &self.trial, action_index, next, hm, self.decision.as_ref(), self.decider.demos());
+            r.log_phase(
+                &self.trial,
+                action_index,
+                next,
+                hm,
+                self.decision.as_ref(),
+                self.decider.demos(),
+            );
             if next == Phase::Act && self.trial.end().is_some() {
                 r.end_trial(&self.trial);
             }
@@ -234,9 +249,21 @@ impl Session {
     /// Click-to-query: demo pixel `(y, x)` of pair `pair`'s demo step, under
     /// policy `policy` (index into the decider's policies), over the live scene
     /// of the current decision (or the current scene).
-    pub fn query(&mut self, pair: usize, policy: usize, y: usize, x: usize) -> anyhow::Result<Value> {
-        let d = self.decision.as_ref().context("no decision yet: step to the embed phase first")?;
-        let p = d.pairs.get(pair).with_context(|| format!("pair index {pair} is out of range 0..{}", d.pairs.len()))?;
+    pub fn query(
+        &mut self,
+        pair: usize,
+        policy: usize,
+        y: usize,
+        x: usize,
+    ) -> anyhow::Result<Value> {
+        let d = self
+            .decision
+            .as_ref()
+            .context("no decision yet: step to the embed phase first")?;
+        let p = d
+            .pairs
+            .get(pair)
+            .with_context(|| format!("pair index {pair} is out of range 0..{}", d.pairs.len()))?;
         let (demo, demo_step) = (p.demo, p.demo_step);
         let hm = match &self.decided_on {
             Some(hm) => hm.clone(),
@@ -345,7 +372,10 @@ impl Session {
     /// match / rematch maps once their phase is reached; all base64, row-major,
     /// `H x W`.
     pub fn frame(&self, pair: usize) -> Value {
-        let live = self.decided_on.clone().unwrap_or_else(|| self.trial.world().render());
+        let live = self
+            .decided_on
+            .clone()
+            .unwrap_or_else(|| self.trial.world().render());
         let mut out = json!({
             "type": "frame",
             "version": self.version,
@@ -363,7 +393,12 @@ impl Session {
         let Some(p) = d.pairs.get(pair) else {
             return out;
         };
-        if let Some(step) = self.decider.demos().get(p.demo).and_then(|demo| demo.steps.get(p.demo_step)) {
+        if let Some(step) = self
+            .decider
+            .demos()
+            .get(p.demo)
+            .and_then(|demo| demo.steps.get(p.demo_step))
+        {
             out["demo"] = json!({
                 "demo": p.demo,
                 "step": p.demo_step,
@@ -384,6 +419,9 @@ impl Session {
 
     /// Where a `--save` recording goes, if any.
     pub fn save_path(&self) -> Option<PathBuf> {
-        self.recorder.as_ref().and_then(|r| r.save_path()).map(PathBuf::from)
+        self.recorder
+            .as_ref()
+            .and_then(|r| r.save_path())
+            .map(PathBuf::from)
     }
 }

@@ -23,10 +23,22 @@ async fn start() -> (std::net::SocketAddr, Arc<AppState>) {
             ..WorldConfig::default()
         },
     };
-    let factory = live::factory(DeciderKind::Features, "/nonexistent/models".into(), "/nonexistent/demos".into());
-    let session = tokio::task::spawn_blocking(move || Session::new(factory, config, None)).await.expect("join").expect("session");
-    let state = AppState::new(session, serde_json::json!({"viewer_url": null, "tasks": ["stack"]}));
-    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind");
+    let factory = live::factory(
+        DeciderKind::Features,
+        "/nonexistent/models".into(),
+        "/nonexistent/demos".into(),
+    );
+    let session = tokio::task::spawn_blocking(move || Session::new(factory, config, None))
+        .await
+        .expect("join")
+        .expect("session");
+    let state = AppState::new(
+        session,
+        serde_json::json!({"viewer_url": null, "tasks": ["stack"]}),
+    );
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0")
+        .await
+        .expect("bind");
     let addr = listener.local_addr().expect("addr");
     let st = state.clone();
     tokio::spawn(async move { server::serve_page(listener, st, std::future::pending()).await });
@@ -41,7 +53,11 @@ async fn raw_get(addr: std::net::SocketAddr, target: &str) -> (u16, String) {
     let mut buf = Vec::new();
     s.read_to_end(&mut buf).await.expect("read");
     let text = String::from_utf8_lossy(&buf).to_string();
-    let status = text.split_whitespace().nth(1).and_then(|c| c.parse().ok()).unwrap_or(0);
+    let status = text
+        .split_whitespace()
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+        .unwrap_or(0);
     let body = text.split("\r\n\r\n").nth(1).unwrap_or_default().to_owned();
     (status, body)
 }
@@ -64,7 +80,11 @@ impl Ws {
             s.read_exact(&mut b).await.expect("handshake");
             head.push(b[0]);
         }
-        assert!(String::from_utf8_lossy(&head).starts_with("HTTP/1.1 101"), "{}", String::from_utf8_lossy(&head));
+        assert!(
+            String::from_utf8_lossy(&head).starts_with("HTTP/1.1 101"),
+            "{}",
+            String::from_utf8_lossy(&head)
+        );
         Self { s }
     }
 
@@ -116,7 +136,9 @@ impl Ws {
                 }
             }
         };
-        tokio::time::timeout(Duration::from_secs(60), fut).await.expect("timed out waiting for a message")
+        tokio::time::timeout(Duration::from_secs(60), fut)
+            .await
+            .expect("timed out waiting for a message")
     }
 }
 
@@ -141,7 +163,10 @@ async fn serves_only_embedded_assets() {
     ] {
         let (status, body) = raw_get(addr, target).await;
         assert_eq!(status, 404, "{target} answered {status}");
-        assert!(!body.contains("[workspace]") && !body.contains("root:"), "{target} leaked a file");
+        assert!(
+            !body.contains("[workspace]") && !body.contains("root:"),
+            "{target} leaked a file"
+        );
     }
 }
 
@@ -150,13 +175,25 @@ async fn malformed_and_unknown_messages_get_errors_and_the_server_keeps_running(
     let (addr, _) = start().await;
     let mut ws = Ws::connect(addr).await;
     ws.until("state").await;
-    for bad in ["not json", "{\"no_type\": 1}", "{\"type\": \"fly\"}", "{\"type\": \"reset\", \"task\": \"juggle\"}", "{\"type\": \"reset\", \"seed\": -3}", "{\"type\": \"query\", \"pair\": \"x\"}", "[1,2,3]"] {
+    for bad in [
+        "not json",
+        "{\"no_type\": 1}",
+        "{\"type\": \"fly\"}",
+        "{\"type\": \"reset\", \"task\": \"juggle\"}",
+        "{\"type\": \"reset\", \"seed\": -3}",
+        "{\"type\": \"query\", \"pair\": \"x\"}",
+        "[1,2,3]",
+    ] {
         ws.send(bad).await;
         let m = ws.until("error").await;
-        assert!(m["message"].as_str().is_some_and(|s| !s.is_empty()), "{bad}: {m}");
+        assert!(
+            m["message"].as_str().is_some_and(|s| !s.is_empty()),
+            "{bad}: {m}"
+        );
     }
     // A query before any decision is an error too, not a crash.
-    ws.send("{\"type\": \"query\", \"pair\": 0, \"policy\": 0, \"y\": 1, \"x\": 1}").await;
+    ws.send("{\"type\": \"query\", \"pair\": 0, \"policy\": 0, \"y\": 1, \"x\": 1}")
+        .await;
     ws.until("error").await;
     // Still serving: a real step works.
     ws.send("{\"type\": \"next_phase\"}").await;
@@ -178,7 +215,8 @@ async fn two_clients_see_the_same_trial_and_a_vanished_client_stops_nothing() {
     assert_eq!(sa["version"], sb["version"]);
     assert_eq!(sb["phase"], "embed");
     // b asks a query; only b gets the answer, and it is the backend's answer.
-    b.send("{\"type\": \"query\", \"pair\": 0, \"policy\": 1, \"y\": 30, \"x\": 30}").await;
+    b.send("{\"type\": \"query\", \"pair\": 0, \"policy\": 1, \"y\": 30, \"x\": 30}")
+        .await;
     let q = b.until("query").await;
     assert_eq!(q["policy"], 1);
     let direct = state.session().query(0, 1, 30, 30).expect("query");

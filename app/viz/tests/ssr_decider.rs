@@ -17,7 +17,10 @@ fn ssr_decider_explains_and_answers_queries() {
     let models = std::env::temp_dir().join(format!("seespot-viz-models-{}", std::process::id()));
     std::fs::create_dir_all(&models).expect("mkdir");
     for t in [TaskId::Row, TaskId::Unstack, TaskId::VerticalSquare] {
-        PolicyNet::new(t, 112, 7).expect("net").save(&models.join(format!("{}.safetensors", t.as_str()))).expect("save");
+        PolicyNet::new(t, 112, 7)
+            .expect("net")
+            .save(&models.join(format!("{}.safetensors", t.as_str())))
+            .expect("save");
     }
     let factory = live::factory(DeciderKind::Ssr, models.clone(), demos);
     let config = SessionConfig {
@@ -29,13 +32,23 @@ fn ssr_decider_explains_and_answers_queries() {
         },
     };
     let mut s = Session::new(factory, config, None).expect("session");
-    assert!(s.state()["decider"].as_str().is_some_and(|d| d.starts_with("SSR")), "{}", s.state()["decider"]);
+    assert!(
+        s.state()["decider"]
+            .as_str()
+            .is_some_and(|d| d.starts_with("SSR")),
+        "{}",
+        s.state()["decider"]
+    );
     for phase in Phase::ALL {
         assert_eq!(s.next_phase().expect("phase"), phase);
     }
     let d = s.decision().expect("decision").clone();
     assert_eq!(d.pairs.len(), 6);
-    assert!(d.pairs.iter().all(|p| p.match_map.len() == 112 * 112 && p.rematch_map.len() == 112 * 112));
+    assert!(
+        d.pairs
+            .iter()
+            .all(|p| p.match_map.len() == 112 * 112 && p.rematch_map.len() == 112 * 112)
+    );
     assert_eq!(s.trial().steps()[0].action, d.action);
     let a = d.pairs[0].demo_action;
     let q = s.query(0, 2, a.y, a.x).expect("query");
