@@ -29,10 +29,16 @@ pub struct CurveRow {
     /// This trial's action efficiency (ideal / actual, 0 when it failed).
     #[serde(default)]
     pub trial_efficiency: f32,
-    /// Mean training loss over the actions of this trial (NaN before training).
+    /// Mean training loss over the actions of this trial (NaN before training;
+    /// JSON writes NaN as null, read back as NaN).
+    #[serde(deserialize_with = "nan_if_null")]
     pub loss: f32,
     pub epsilon: f32,
     pub oracle_probability: f32,
+}
+
+fn nan_if_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
+    Ok(Option::<f32>::deserialize(d)?.unwrap_or(f32::NAN))
 }
 
 impl CurveRow {

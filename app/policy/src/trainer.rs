@@ -213,8 +213,10 @@ pub fn open_run(
             });
         }
         let learner = Learner::load_checkpoint(&run_dir.join(&state.checkpoint))?;
-        // The requested length may change between resumes; the rest stays.
+        // The requested length may change between resumes (the decay schedule
+        // follows it); the rest stays.
         state.config.actions = config.actions;
+        state.config.decay_actions = config.decay_actions;
         let resumed = state.actions;
         return Ok((learner, state, Some(resumed)));
     }
