@@ -44,14 +44,26 @@ pub fn run(cmd: DemoCommand) -> anyhow::Result<()> {
             allow_incomplete,
         } => {
             let demo = record(task, seed, resolution)?;
-            let last = demo.steps.last().map(|s| s.meta.progress_after).unwrap_or(0);
+            let last = demo
+                .steps
+                .last()
+                .map(|s| s.meta.progress_after)
+                .unwrap_or(0);
             if last != 4 && !allow_incomplete {
-                bail!("the oracle did not finish {task} from seed {seed} (progress {last}); try another seed");
+                bail!(
+                    "the oracle did not finish {task} from seed {seed} (progress {last}); try another seed"
+                );
             }
-            demo.write(&out).with_context(|| format!("writing {}", out.display()))?;
+            demo.write(&out)
+                .with_context(|| format!("writing {}", out.display()))?;
             // Read it back: what was written must validate.
             Demo::read(&out)?;
-            eprintln!("wrote {} ({} steps, progress {} -> {last})", out.display(), demo.steps.len(), demo.steps[0].meta.progress_before);
+            eprintln!(
+                "wrote {} ({} steps, progress {} -> {last})",
+                out.display(),
+                demo.steps.len(),
+                demo.steps[0].meta.progress_before
+            );
             Ok(())
         }
         DemoCommand::Show { dir, json } => {
@@ -60,11 +72,31 @@ pub fn run(cmd: DemoCommand) -> anyhow::Result<()> {
                 return crate::print_json(&serde_json::to_value(&demo.meta)?);
             }
             let m = &demo.meta;
-            println!("{}: task {}, seed {}, {} px ({:.1} mm/px), seespot {}", dir.display(), m.task, m.seed, m.resolution, Grid::new(m.resolution).pixel_size() * 1000.0, m.seespot_version);
-            println!("{:>4}  {:<7} {:>3} {:>4} {:>4}   {:>24}   progress", "step", "action", "r", "y", "x", "world x, y, z (m), yaw");
+            println!(
+                "{}: task {}, seed {}, {} px ({:.1} mm/px), seespot {}",
+                dir.display(),
+                m.task,
+                m.seed,
+                m.resolution,
+                Grid::new(m.resolution).pixel_size() * 1000.0,
+                m.seespot_version
+            );
+            println!(
+                "{:>4}  {:<7} {:>3} {:>4} {:>4}   {:>24}   progress",
+                "step", "action", "r", "y", "x", "world x, y, z (m), yaw"
+            );
             for (i, s) in m.steps.iter().enumerate() {
                 let [x, y, z, yaw] = s.world_pose;
-                println!("{i:>4}  {:<7} {:>3} {:>4} {:>4}   {x:>6.3} {y:>6.3} {z:>5.3} {:>5.1}°   {} -> {}", s.action.primitive.as_str(), s.action.rotation, s.action.y, s.action.x, yaw.to_degrees(), s.progress_before, s.progress_after);
+                println!(
+                    "{i:>4}  {:<7} {:>3} {:>4} {:>4}   {x:>6.3} {y:>6.3} {z:>5.3} {:>5.1}°   {} -> {}",
+                    s.action.primitive.as_str(),
+                    s.action.rotation,
+                    s.action.y,
+                    s.action.x,
+                    yaw.to_degrees(),
+                    s.progress_before,
+                    s.progress_after
+                );
             }
             Ok(())
         }
@@ -88,7 +120,10 @@ pub fn record(task: TaskId, seed: u64, resolution: usize) -> anyhow::Result<Demo
         let action = oracle.act(trial.world());
         let rec = trial.step(action);
         if rec.progress_after < rec.progress_before {
-            bail!("oracle reversed progress at step {} of {task} seed {seed}; pick another seed", steps.len());
+            bail!(
+                "oracle reversed progress at step {} of {task} seed {seed}; pick another seed",
+                steps.len()
+            );
         }
         let step_meta = DemoStepMeta {
             action,

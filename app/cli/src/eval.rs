@@ -47,7 +47,9 @@ pub struct EvalArgs {
 }
 
 fn parse_method(s: &str) -> Result<EvalMethod, String> {
-    EvalMethod::parse(s).ok_or_else(|| format!("unknown method '{s}' (expected ssr-ccd, ssr-l2cd, spot-q, oracle or random)"))
+    EvalMethod::parse(s).ok_or_else(|| {
+        format!("unknown method '{s}' (expected ssr-ccd, ssr-l2cd, spot-q, oracle or random)")
+    })
 }
 
 pub fn run(args: EvalArgs) -> anyhow::Result<()> {
@@ -100,7 +102,8 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
             100.0 * s.success_rate,
             100.0 * s.progress,
             100.0 * s.progress_se,
-            s.action_efficiency.map_or("-".into(), |e| format!("{:.0}%", 100.0 * e)),
+            s.action_efficiency
+                .map_or("-".into(), |e| format!("{:.0}%", 100.0 * e)),
         );
     }
     println!("report: {}", args.out.join("summary.md").display());
@@ -113,7 +116,9 @@ pub fn write_report(out: &Path) -> anyhow::Result<Vec<seespot_ssr::Summary>> {
     let mut records = Vec::new();
     let trials = out.join("trials");
     let mut files = Vec::new();
-    for method in std::fs::read_dir(&trials).with_context(|| format!("reading {}", trials.display()))? {
+    for method in
+        std::fs::read_dir(&trials).with_context(|| format!("reading {}", trials.display()))?
+    {
         let method = method?.path();
         if method.is_dir() {
             for f in std::fs::read_dir(&method)? {
@@ -131,7 +136,10 @@ pub fn write_report(out: &Path) -> anyhow::Result<Vec<seespot_ssr::Summary>> {
     let summaries = summarize_all(&records, 2, |_, _| 0);
     let table = report::markdown_table(&summaries, true);
     std::fs::write(out.join("summary.md"), &table)?;
-    std::fs::write(out.join("summary.csv"), report::csv(&report::with_means(&summaries)))?;
+    std::fs::write(
+        out.join("summary.csv"),
+        report::csv(&report::with_means(&summaries)),
+    )?;
     report::plot_figure4(&summaries, &out.join("figure4.png"))?;
     Ok(report::with_means(&summaries))
 }

@@ -74,8 +74,14 @@ fn run_trials(args: RunArgs) -> anyhow::Result<()> {
     if let Some(r) = args.resolution {
         config.grid = Grid::new(r);
     }
-    let first = args.seed.or(scene.as_ref().map(|s| s.seed_start)).unwrap_or(1);
-    let trials = args.trials.or(scene.as_ref().map(|s| s.seed_count)).unwrap_or(20);
+    let first = args
+        .seed
+        .or(scene.as_ref().map(|s| s.seed_start))
+        .unwrap_or(1);
+    let trials = args
+        .trials
+        .or(scene.as_ref().map(|s| s.seed_count))
+        .unwrap_or(20);
     let seeds: Vec<u64> = (first..first + trials).collect();
     let bar = crate::progress_bar(seeds.len() as u64, false);
     let mut results = Vec::new();
@@ -134,7 +140,12 @@ fn run_trials(args: RunArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn run_trial(config: WorldConfig, task: TaskId, seed: u64, policy: &mut Policy) -> anyhow::Result<Trial> {
+fn run_trial(
+    config: WorldConfig,
+    task: TaskId,
+    seed: u64,
+    policy: &mut Policy,
+) -> anyhow::Result<Trial> {
     let mut trial = Trial::new(config, task, seed);
     let mut oracle = Oracle::new(task);
     while trial.end().is_none() {
@@ -164,5 +175,10 @@ pub fn random_action(world: &World, rng: &mut impl Rng) -> Action {
     } else {
         allowed[rng.random_range(0..allowed.len())]
     };
-    Action::new(primitive, rng.random_range(0..NUM_ROTATIONS), pixel / n, pixel % n)
+    Action::new(
+        primitive,
+        rng.random_range(0..NUM_ROTATIONS),
+        pixel / n,
+        pixel % n,
+    )
 }

@@ -94,10 +94,9 @@ fn invalid(path: &Path, message: impl Into<String>) -> DemoError {
 impl Demo {
     /// The step whose state has progress `p` and whose action uses `primitive`.
     pub fn step_at(&self, progress: u8, primitive: Primitive) -> Option<(usize, &DemoStep)> {
-        self.steps
-            .iter()
-            .enumerate()
-            .find(|(_, s)| s.meta.progress_before == progress && s.meta.action.primitive == primitive)
+        self.steps.iter().enumerate().find(|(_, s)| {
+            s.meta.progress_before == progress && s.meta.action.primitive == primitive
+        })
     }
 
     /// Writes the demonstration into `dir` (created if needed).
@@ -111,7 +110,8 @@ impl Demo {
         }
         write_heightmaps(dir, "final", &self.final_heightmaps)?;
         let path = dir.join("meta.json");
-        let json = serde_json::to_string_pretty(&self.meta).map_err(|e| invalid(&path, e.to_string()))?;
+        let json =
+            serde_json::to_string_pretty(&self.meta).map_err(|e| invalid(&path, e.to_string()))?;
         std::fs::write(&path, json).map_err(|source| DemoError::Io { path, source })
     }
 
@@ -122,8 +122,8 @@ impl Demo {
             path: path.clone(),
             source,
         })?;
-        let meta: DemoMeta =
-            serde_json::from_str(&text).map_err(|e| invalid(&path, format!("bad metadata: {e}")))?;
+        let meta: DemoMeta = serde_json::from_str(&text)
+            .map_err(|e| invalid(&path, format!("bad metadata: {e}")))?;
         meta.validate(&path)?;
         let grid = Grid::new(meta.resolution);
         let steps = meta
@@ -163,37 +163,80 @@ impl DemoMeta {
     /// Checks ranges and progress order.
     fn validate(&self, path: &Path) -> Result<(), DemoError> {
         if self.format != DEMO_FORMAT {
-            return Err(invalid(path, format!("field `format`: {} is not the supported {DEMO_FORMAT}", self.format)));
+            return Err(invalid(
+                path,
+                format!(
+                    "field `format`: {} is not the supported {DEMO_FORMAT}",
+                    self.format
+                ),
+            ));
         }
         if !crate::scene::RESOLUTION_RANGE.contains(&self.resolution) {
-            return Err(invalid(path, format!("field `resolution`: {} is out of range", self.resolution)));
+            return Err(invalid(
+                path,
+                format!("field `resolution`: {} is out of range", self.resolution),
+            ));
         }
         if self.steps.is_empty() {
-            return Err(invalid(path, "field `steps`: a demonstration needs at least one step"));
+            return Err(invalid(
+                path,
+                "field `steps`: a demonstration needs at least one step",
+            ));
         }
         let mut expected = Primitive::Grasp;
         for (i, s) in self.steps.iter().enumerate() {
             let a = s.action;
             if a.rotation >= NUM_ROTATIONS || a.y >= self.resolution || a.x >= self.resolution {
-                return Err(invalid(path, format!("field `steps[{i}].action`: {a} is outside the {}-px action grid", self.resolution)));
+                return Err(invalid(
+                    path,
+                    format!(
+                        "field `steps[{i}].action`: {a} is outside the {}-px action grid",
+                        self.resolution
+                    ),
+                ));
             }
             if a.primitive != expected {
-                return Err(invalid(path, format!("field `steps[{i}].action.primitive`: expected {expected}, grasps and places alternate")));
+                return Err(invalid(
+                    path,
+                    format!(
+                        "field `steps[{i}].action.primitive`: expected {expected}, grasps and places alternate"
+                    ),
+                ));
             }
             expected = match expected {
                 Primitive::Grasp => Primitive::Place,
                 Primitive::Place => Primitive::Grasp,
             };
-            for (name, p) in [("progress_before", s.progress_before), ("progress_after", s.progress_after)] {
+            for (name, p) in [
+                ("progress_before", s.progress_before),
+                ("progress_after", s.progress_after),
+            ] {
                 if !(1..=MAX_PROGRESS).contains(&p) {
-                    return Err(invalid(path, format!("field `steps[{i}].{name}`: {p} is outside 1..=4")));
+                    return Err(invalid(
+                        path,
+                        format!("field `steps[{i}].{name}`: {p} is outside 1..=4"),
+                    ));
                 }
             }
             if s.progress_after < s.progress_before {
-                return Err(invalid(path, format!("field `steps[{i}].progress_after`: progress fell from {} to {}", s.progress_before, s.progress_after)));
+                return Err(invalid(
+                    path,
+                    format!(
+                        "field `steps[{i}].progress_after`: progress fell from {} to {}",
+                        s.progress_before, s.progress_after
+                    ),
+                ));
             }
             if i > 0 && self.steps[i - 1].progress_after != s.progress_before {
-                return Err(invalid(path, format!("field `steps[{i}].progress_before`: {} does not follow step {} (progress {})", s.progress_before, i - 1, self.steps[i - 1].progress_after)));
+                return Err(invalid(
+                    path,
+                    format!(
+                        "field `steps[{i}].progress_before`: {} does not follow step {} (progress {})",
+                        s.progress_before,
+                        i - 1,
+                        self.steps[i - 1].progress_after
+                    ),
+                ));
             }
         }
         Ok(())
@@ -207,32 +250,60 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> DemoError + '_ {
     }
 }
 
-fn write_png(path: &Path, n: usize, color: png::ColorType, depth: png::BitDepth, data: &[u8]) -> Result<(), DemoError> {
+fn write_png(
+    path: &Path,
+    n: usize,
+    color: png::ColorType,
+    depth: png::BitDepth,
+    data: &[u8],
+) -> Result<(), DemoError> {
     let file = File::create(path).map_err(io(path))?;
     let mut enc = png::Encoder::new(BufWriter::new(file), n as u32, n as u32);
     enc.set_color(color);
     enc.set_depth(depth);
-    let mut w = enc.write_header().map_err(|e| invalid(path, e.to_string()))?;
-    w.write_image_data(data).map_err(|e| invalid(path, e.to_string()))?;
+    let mut w = enc
+        .write_header()
+        .map_err(|e| invalid(path, e.to_string()))?;
+    w.write_image_data(data)
+        .map_err(|e| invalid(path, e.to_string()))?;
     w.finish().map_err(|e| invalid(path, e.to_string()))
 }
 
 /// Writes `{stem}_color.png` and `{stem}_depth.png`.
 pub fn write_heightmaps(dir: &Path, stem: &str, hm: &Heightmaps) -> Result<(), DemoError> {
     let n = hm.resolution();
-    write_png(&dir.join(format!("{stem}_color.png")), n, png::ColorType::Rgb, png::BitDepth::Eight, &hm.color)?;
+    write_png(
+        &dir.join(format!("{stem}_color.png")),
+        n,
+        png::ColorType::Rgb,
+        png::BitDepth::Eight,
+        &hm.color,
+    )?;
     let mut depth = Vec::with_capacity(n * n * 2);
     for &d in &hm.depth {
         let v = (d / DEPTH_UNIT).round().clamp(0.0, u16::MAX as f32) as u16;
         depth.extend_from_slice(&v.to_be_bytes());
     }
-    write_png(&dir.join(format!("{stem}_depth.png")), n, png::ColorType::Grayscale, png::BitDepth::Sixteen, &depth)
+    write_png(
+        &dir.join(format!("{stem}_depth.png")),
+        n,
+        png::ColorType::Grayscale,
+        png::BitDepth::Sixteen,
+        &depth,
+    )
 }
 
-fn read_png(path: &Path, n: usize, color: png::ColorType, depth: png::BitDepth) -> Result<Vec<u8>, DemoError> {
+fn read_png(
+    path: &Path,
+    n: usize,
+    color: png::ColorType,
+    depth: png::BitDepth,
+) -> Result<Vec<u8>, DemoError> {
     let file = File::open(path).map_err(io(path))?;
     let dec = png::Decoder::new(BufReader::new(file));
-    let mut reader = dec.read_info().map_err(|e| invalid(path, format!("not a readable PNG: {e}")))?;
+    let mut reader = dec
+        .read_info()
+        .map_err(|e| invalid(path, format!("not a readable PNG: {e}")))?;
     let size = reader
         .output_buffer_size()
         .ok_or_else(|| invalid(path, "image too large"))?;
@@ -241,10 +312,19 @@ fn read_png(path: &Path, n: usize, color: png::ColorType, depth: png::BitDepth) 
         .next_frame(&mut buf)
         .map_err(|e| invalid(path, format!("damaged PNG data: {e}")))?;
     if info.width as usize != n || info.height as usize != n {
-        return Err(invalid(path, format!("image is {}x{}, expected {n}x{n}", info.width, info.height)));
+        return Err(invalid(
+            path,
+            format!("image is {}x{}, expected {n}x{n}", info.width, info.height),
+        ));
     }
     if info.color_type != color || info.bit_depth != depth {
-        return Err(invalid(path, format!("image is {:?} {:?}, expected {color:?} {depth:?}", info.color_type, info.bit_depth)));
+        return Err(invalid(
+            path,
+            format!(
+                "image is {:?} {:?}, expected {color:?} {depth:?}",
+                info.color_type, info.bit_depth
+            ),
+        ));
     }
     buf.truncate(info.buffer_size());
     Ok(buf)
@@ -253,8 +333,18 @@ fn read_png(path: &Path, n: usize, color: png::ColorType, depth: png::BitDepth) 
 /// Reads `{stem}_color.png` and `{stem}_depth.png`, checking shape and format.
 pub fn read_heightmaps(dir: &Path, stem: &str, grid: Grid) -> Result<Heightmaps, DemoError> {
     let n = grid.resolution;
-    let color = read_png(&dir.join(format!("{stem}_color.png")), n, png::ColorType::Rgb, png::BitDepth::Eight)?;
-    let raw = read_png(&dir.join(format!("{stem}_depth.png")), n, png::ColorType::Grayscale, png::BitDepth::Sixteen)?;
+    let color = read_png(
+        &dir.join(format!("{stem}_color.png")),
+        n,
+        png::ColorType::Rgb,
+        png::BitDepth::Eight,
+    )?;
+    let raw = read_png(
+        &dir.join(format!("{stem}_depth.png")),
+        n,
+        png::ColorType::Grayscale,
+        png::BitDepth::Sixteen,
+    )?;
     let depth = raw
         .chunks_exact(2)
         .map(|b| u16::from_be_bytes([b[0], b[1]]) as f32 * DEPTH_UNIT)

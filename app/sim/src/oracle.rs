@@ -52,12 +52,20 @@ impl Oracle {
                 // The planned block cannot be caught: try any other clear block that the
                 // plan would also accept moving, keeping the same target.
                 (0..NUM_BLOCKS)
-                    .filter(|&i| i != block && is_clear(&poses, i) && !self.keeps(&poses, i, target))
+                    .filter(|&i| {
+                        i != block && is_clear(&poses, i) && !self.keeps(&poses, i, target)
+                    })
                     .find_map(|i| grasp_action(world, i))
             })
             .unwrap_or_else(|| {
                 let p = poses[block];
-                to_action(grid, Primitive::Grasp, p.position[0], p.position[1], p.yaw())
+                to_action(
+                    grid,
+                    Primitive::Grasp,
+                    p.position[0],
+                    p.position[1],
+                    p.yaw(),
+                )
             })
     }
 
@@ -69,7 +77,9 @@ impl Oracle {
             return true;
         }
         match self.task {
-            TaskId::Stack | TaskId::Unstack => tallest_tower(poses).len() >= 2 && tallest_tower(poses).contains(&i),
+            TaskId::Stack | TaskId::Unstack => {
+                tallest_tower(poses).len() >= 2 && tallest_tower(poses).contains(&i)
+            }
             TaskId::Row => {
                 let row = progress::best_row(poses);
                 row.len() >= 2 && row.contains(&i)
@@ -98,7 +108,15 @@ fn grasp_action(world: &World, i: usize) -> Option<Action> {
     let quarter = std::f32::consts::FRAC_PI_2;
     [0.0, quarter, quarter / 2.0, -quarter / 2.0]
         .into_iter()
-        .map(|d| to_action(world.grid(), Primitive::Grasp, p.position[0], p.position[1], p.yaw() + d))
+        .map(|d| {
+            to_action(
+                world.grid(),
+                Primitive::Grasp,
+                p.position[0],
+                p.position[1],
+                p.yaw() + d,
+            )
+        })
         .find(|a| world.check_grasp(*a) == Ok(i))
 }
 
@@ -251,7 +269,11 @@ fn extend_row(poses: &[BlockPose], row: &[usize], moving: usize) -> Option<(f32,
 fn plan_row(poses: &[BlockPose; NUM_BLOCKS]) -> (usize, (f32, f32, f32)) {
     // Extend the largest row that can be extended, by any block outside it.
     let mut rows: Vec<Vec<usize>> = (1u32..(1 << NUM_BLOCKS))
-        .map(|mask| (0..NUM_BLOCKS).filter(|i| mask & (1 << i) != 0).collect::<Vec<_>>())
+        .map(|mask| {
+            (0..NUM_BLOCKS)
+                .filter(|i| mask & (1 << i) != 0)
+                .collect::<Vec<_>>()
+        })
         .filter(|idx: &Vec<usize>| idx.len() >= 2 && progress::is_row(poses, idx))
         .collect();
     rows.sort_by_key(|r| std::cmp::Reverse(r.len()));
@@ -259,7 +281,9 @@ fn plan_row(poses: &[BlockPose; NUM_BLOCKS]) -> (usize, (f32, f32, f32)) {
     let in_best = |m: usize| rows.iter().any(|r| r.len() == best && r.contains(&m));
     for row in &rows {
         // Never break a longer row to extend a shorter one.
-        for m in (0..NUM_BLOCKS).filter(|&i| !row.contains(&i) && (row.len() == best || !in_best(i))) {
+        for m in
+            (0..NUM_BLOCKS).filter(|&i| !row.contains(&i) && (row.len() == best || !in_best(i)))
+        {
             if is_clear(poses, m)
                 && let Some(t) = extend_row(poses, row, m)
             {
@@ -303,7 +327,12 @@ fn beside(poses: &[BlockPose], anchor: usize, moving: usize) -> (f32, f32, f32) 
         if !spot_ok(poses, &[moving], c) {
             continue;
         }
-        let score = dist(c, (0.0, 0.0)) + if spot_ok(poses, &[moving], next) { 0.0 } else { 0.2 }
+        let score = dist(c, (0.0, 0.0))
+            + if spot_ok(poses, &[moving], next) {
+                0.0
+            } else {
+                0.2
+            }
             + k as f32 * 1e-4;
         if best.is_none_or(|(_, s)| score < s) {
             best = Some(((c.0, c.1, base_yaw), score));
@@ -342,7 +371,9 @@ fn plan_vertical_square(poses: &[BlockPose; NUM_BLOCKS]) -> (usize, (f32, f32, f
     // No tower yet: stack one block on the block nearest the centre.
     let base = (0..NUM_BLOCKS)
         .filter(|&i| on_table(&poses[i]) && is_clear(poses, i))
-        .min_by(|&a, &b| dist(xy(&poses[a]), (0.0, 0.0)).total_cmp(&dist(xy(&poses[b]), (0.0, 0.0))))
+        .min_by(|&a, &b| {
+            dist(xy(&poses[a]), (0.0, 0.0)).total_cmp(&dist(xy(&poses[b]), (0.0, 0.0)))
+        })
         .unwrap_or(0);
     let pick = pick_free_block(poses, &[base]);
     let b = poses[base];

@@ -63,10 +63,12 @@ impl Scene {
 
     /// Parses and validates scene text; `path` names the source in errors.
     pub fn parse(text: &str, path: &Path) -> Result<Self, SceneError> {
-        let table: toml::Table = text.parse().map_err(|e: toml::de::Error| SceneError::Syntax {
-            path: path.to_owned(),
-            message: e.message().to_owned(),
-        })?;
+        let table: toml::Table = text
+            .parse()
+            .map_err(|e: toml::de::Error| SceneError::Syntax {
+                path: path.to_owned(),
+                message: e.message().to_owned(),
+            })?;
         let field = |field: &str, message: String| SceneError::Field {
             path: path.to_owned(),
             field: field.to_owned(),
@@ -118,7 +120,10 @@ impl Scene {
             return Err(field("seeds.start", format!("{seed_start} is negative")));
         }
         if !(1..=100_000).contains(&seed_count) {
-            return Err(field("seeds.count", format!("{seed_count} is out of range (1..=100000)")));
+            return Err(field(
+                "seeds.count",
+                format!("{seed_count} is out of range (1..=100000)"),
+            ));
         }
         let mut noise = SensorNoise::default();
         match table.get("noise") {
@@ -133,7 +138,10 @@ impl Scene {
                                 .or_else(|| value.as_integer().map(|i| i as f64))
                                 .ok_or_else(|| field(&name, "must be a number".into()))?;
                             if !(0.0..=0.05).contains(&v) {
-                                return Err(field(&name, format!("{v} is out of range (0..=0.05 m)")));
+                                return Err(field(
+                                    &name,
+                                    format!("{v} is out of range (0..=0.05 m)"),
+                                ));
                             }
                             noise.depth_std = v as f32;
                         }
@@ -221,12 +229,30 @@ mod tests {
     #[test]
     fn errors_name_file_and_field() {
         let cases = [
-            ("task = \"fly\"\nresolution = 112\n[seeds]\nstart = 1\ncount = 5\n", "`task`"),
-            ("resolution = 112\n[seeds]\nstart = 1\ncount = 5\n", "`task`: missing"),
-            ("task = \"row\"\nresolution = 100\n[seeds]\nstart = 1\ncount = 5\n", "`resolution`"),
-            ("task = \"row\"\nresolution = 112\n[seeds]\nstart = 1\n", "`seeds.count`: missing"),
-            ("task = \"row\"\nresolution = 112\n[seeds]\nstart = 1\ncount = 5\n[noise]\ndepth_std = 1.0\n", "`noise.depth_std`"),
-            ("task = \"row\"\nresolution = 112\ncolour = 3\n[seeds]\nstart = 1\ncount = 5\n", "`colour`: unknown"),
+            (
+                "task = \"fly\"\nresolution = 112\n[seeds]\nstart = 1\ncount = 5\n",
+                "`task`",
+            ),
+            (
+                "resolution = 112\n[seeds]\nstart = 1\ncount = 5\n",
+                "`task`: missing",
+            ),
+            (
+                "task = \"row\"\nresolution = 100\n[seeds]\nstart = 1\ncount = 5\n",
+                "`resolution`",
+            ),
+            (
+                "task = \"row\"\nresolution = 112\n[seeds]\nstart = 1\n",
+                "`seeds.count`: missing",
+            ),
+            (
+                "task = \"row\"\nresolution = 112\n[seeds]\nstart = 1\ncount = 5\n[noise]\ndepth_std = 1.0\n",
+                "`noise.depth_std`",
+            ),
+            (
+                "task = \"row\"\nresolution = 112\ncolour = 3\n[seeds]\nstart = 1\ncount = 5\n",
+                "`colour`: unknown",
+            ),
         ];
         for (text, want) in cases {
             let err = parse(text).expect_err(text).to_string();

@@ -79,9 +79,7 @@ impl std::str::FromStr for TaskId {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         TaskId::parse(s).ok_or_else(|| {
-            format!(
-                "unknown task '{s}' (expected one of: stack, row, unstack, vertical-square)"
-            )
+            format!("unknown task '{s}' (expected one of: stack, row, unstack, vertical-square)")
         })
     }
 }

@@ -36,7 +36,10 @@ impl Grid {
     /// World `(x, y)` of pixel `(y, x)`: `x_w = x_min + x * res` (DESIGN §1).
     pub fn pixel_to_world(&self, py: usize, px: usize) -> (f32, f32) {
         let res = self.pixel_size();
-        (self.x_min() + px as f32 * res, self.y_min() + py as f32 * res)
+        (
+            self.x_min() + px as f32 * res,
+            self.y_min() + py as f32 * res,
+        )
     }
 
     /// The pixel `(y, x)` nearest to world `(x, y)`, or `None` outside the grid.

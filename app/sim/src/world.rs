@@ -33,7 +33,7 @@ use rapier3d::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::action::{Action, Primitive};
-use crate::heightmap::{Heightmaps, TABLE_COLOR};
+use crate::heightmap::Heightmaps;
 use crate::noise::SensorNoise;
 use crate::workspace::{Grid, WORKSPACE_SIZE};
 use crate::{BLOCK_COLORS, BLOCK_SIZE, NUM_BLOCKS};
@@ -503,7 +503,12 @@ impl World {
             Pose::from_parts(Vector::new(cx, cy, start_z), Rotation::from_rotation_z(yaw)),
         );
         // Lower until the target height or the first touch (the arm stops on contact).
-        self.move_kinematic(handle, Vector::new(cx, cy, target_z), yaw, Some(self.colliders[held]));
+        self.move_kinematic(
+            handle,
+            Vector::new(cx, cy, target_z),
+            yaw,
+            Some(self.colliders[held]),
+        );
         let body = &mut self.physics.bodies[handle];
         body.set_body_type(RigidBodyType::Dynamic, true);
         body.set_linvel(Vector::ZERO, true);
@@ -529,10 +534,8 @@ impl World {
         let n = (dist / step).ceil().max(1.0) as usize;
         for k in 1..=n {
             let p = from + (to - from) * (k as f32 / n as f32);
-            self.physics.bodies[handle].set_next_kinematic_position(Pose::from_parts(
-                p,
-                Rotation::from_rotation_z(yaw),
-            ));
+            self.physics.bodies[handle]
+                .set_next_kinematic_position(Pose::from_parts(p, Rotation::from_rotation_z(yaw)));
             self.step();
             if let Some(c) = stop_on_contact
                 && self
@@ -653,9 +656,13 @@ pub fn render(grid: Grid, blocks: &[(usize, BlockPose)]) -> Heightmaps {
     for (id, p) in blocks {
         let [bx, by, _] = p.position;
         let lo_x = ((bx - reach - grid.x_min()) / res).floor().max(0.0) as usize;
-        let hi_x = ((bx + reach - grid.x_min()) / res).ceil().min(n as f32 - 1.0);
+        let hi_x = ((bx + reach - grid.x_min()) / res)
+            .ceil()
+            .min(n as f32 - 1.0);
         let lo_y = ((by - reach - grid.y_min()) / res).floor().max(0.0) as usize;
-        let hi_y = ((by + reach - grid.y_min()) / res).ceil().min(n as f32 - 1.0);
+        let hi_y = ((by + reach - grid.y_min()) / res)
+            .ceil()
+            .min(n as f32 - 1.0);
         if hi_x < 0.0 || hi_y < 0.0 {
             continue;
         }
@@ -668,14 +675,13 @@ pub fn render(grid: Grid, blocks: &[(usize, BlockPose)]) -> Heightmaps {
                     if z > hm.depth[i] {
                         hm.depth[i] = z;
                         let shade = if up { 1.0 } else { 0.7 };
-                        for c in 0..3 {
-                            hm.color[i * 3 + c] = (color[c] as f32 * shade) as u8;
+                        for (out, c) in hm.color[i * 3..i * 3 + 3].iter_mut().zip(color) {
+                            *out = (c as f32 * shade) as u8;
                         }
                     }
                 }
             }
         }
     }
-    debug_assert_eq!(TABLE_COLOR.len(), 3);
     hm
 }

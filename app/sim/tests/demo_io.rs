@@ -15,13 +15,26 @@ fn record(task: TaskId, seed: u64) -> Demo {
         let blocks_before = trial.world().table_blocks();
         let a = oracle.act(trial.world());
         let r = trial.step(a);
-        let m = DemoStepMeta { action: a, world_pose: r.outcome.pose, progress_before: r.progress_before, progress_after: r.progress_after, blocks_before };
+        let m = DemoStepMeta {
+            action: a,
+            world_pose: r.outcome.pose,
+            progress_before: r.progress_before,
+            progress_after: r.progress_after,
+            blocks_before,
+        };
         meta.steps.push(m.clone());
-        steps.push(DemoStep { heightmaps: hm, meta: m });
+        steps.push(DemoStep {
+            heightmaps: hm,
+            meta: m,
+        });
     }
     let mut final_heightmaps = trial.world().render();
     quantize_depth(&mut final_heightmaps);
-    Demo { meta, steps, final_heightmaps }
+    Demo {
+        meta,
+        steps,
+        final_heightmaps,
+    }
 }
 
 #[test]
@@ -31,7 +44,13 @@ fn demo_round_trip_is_equal() {
     demo.write(dir.path()).expect("write");
     let back = Demo::read(dir.path()).expect("read");
     assert_eq!(back, demo);
-    assert!(back.step_at(demo.steps[0].meta.progress_before, seespot_sim::Primitive::Grasp).is_some());
+    assert!(
+        back.step_at(
+            demo.steps[0].meta.progress_before,
+            seespot_sim::Primitive::Grasp
+        )
+        .is_some()
+    );
 }
 
 #[test]
@@ -46,8 +65,13 @@ fn damaged_demos_are_refused_with_the_file_named() {
     let mut meta: serde_json::Value = serde_json::from_str(&good).expect("json");
     meta["steps"][1]["progress_before"] = serde_json::json!(3);
     std::fs::write(&meta_path, meta.to_string()).expect("write");
-    let err = Demo::read(dir.path()).expect_err("bad progress").to_string();
-    assert!(err.contains("meta.json") && err.contains("steps[1].progress"), "{err}");
+    let err = Demo::read(dir.path())
+        .expect_err("bad progress")
+        .to_string();
+    assert!(
+        err.contains("meta.json") && err.contains("steps[1].progress"),
+        "{err}"
+    );
 
     // A pixel outside the grid.
     let mut meta: serde_json::Value = serde_json::from_str(&good).expect("json");

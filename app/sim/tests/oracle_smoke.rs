@@ -25,15 +25,28 @@ fn oracle_completes_every_task() {
                 ok += 1;
                 actions += t.actions();
             } else {
-                eprintln!("{task} seed {seed}: {:?} after {} actions, progress {}", t.end(), t.actions(), t.progress());
+                eprintln!(
+                    "{task} seed {seed}: {:?} after {} actions, progress {}",
+                    t.end(),
+                    t.actions(),
+                    t.progress()
+                );
                 for s in t.steps() {
-                    eprintln!("   {} {:?} {}->{}", s.action, s.outcome.failure, s.progress_before, s.progress_after);
+                    eprintln!(
+                        "   {} {:?} {}->{}",
+                        s.action, s.outcome.failure, s.progress_before, s.progress_after
+                    );
                 }
             }
         }
-        eprintln!("{task}: {ok}/{seeds} succeeded, {:.2} actions per success", actions as f64 / ok.max(1) as f64);
+        eprintln!(
+            "{task}: {ok}/{seeds} succeeded, {:.2} actions per success",
+            actions as f64 / ok.max(1) as f64
+        );
         if ok * 10 < seeds * 9 {
-            failures.push(format!("{task}: oracle succeeded in only {ok}/{seeds} trials"));
+            failures.push(format!(
+                "{task}: oracle succeeded in only {ok}/{seeds} trials"
+            ));
         }
     }
     assert!(failures.is_empty(), "{failures:?}");

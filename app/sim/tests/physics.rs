@@ -30,7 +30,11 @@ fn grasp_lifts_a_block_and_place_stacks_it() {
     assert_eq!(trial.world().held_block(), Some(3));
     // The held block is out of view: the heightmap at its old place is the table.
     let hm = trial.world().render();
-    let (py, px) = trial.world().grid().world_to_pixel(0.12, 0.0).expect("inside");
+    let (py, px) = trial
+        .world()
+        .grid()
+        .world_to_pixel(0.12, 0.0)
+        .expect("inside");
     assert!(hm.height(py, px) < 1e-3);
     let p = at(trial.world(), Primitive::Place, 0, 0.02, 0.0);
     trial.step(p);
@@ -47,7 +51,11 @@ fn off_centre_place_topples_the_tower_and_records_a_reversal() {
     let p = at(trial.world(), Primitive::Place, 0, 0.04, 0.0);
     let rec = trial.step(p).clone();
     assert_eq!(rec.progress_before, 3);
-    assert!(rec.progress_after < 3, "tower stood: {:?}", trial.world().block_poses());
+    assert!(
+        rec.progress_after < 3,
+        "tower stood: {:?}",
+        trial.world().block_poses()
+    );
     assert!(rec.reversal);
     assert!(trial.had_reversal());
     assert_eq!(trial.max_progress(), 3);
@@ -66,7 +74,11 @@ fn grasp_failures() {
     let out = world.execute(at(&world, Primitive::Grasp, 0, 0.12, 0.025));
     assert_eq!(out.failure, Some(ActionFailure::EmptyPixel));
     // Hand already full.
-    assert!(world.execute(at(&world, Primitive::Grasp, 0, 0.12, 0.0)).success);
+    assert!(
+        world
+            .execute(at(&world, Primitive::Grasp, 0, 0.12, 0.0))
+            .success
+    );
     let out = world.execute(at(&world, Primitive::Grasp, 0, 0.02, 0.0));
     assert_eq!(out.failure, Some(ActionFailure::HandFull));
 }
@@ -97,17 +109,30 @@ fn trial_ends_when_a_block_leaves_the_workspace() {
         BlockPose::on_table(-0.1, 0.0, 0, 0.0),
         BlockPose::on_table(0.0, 0.1, 0, 0.0),
     ];
-    let inside = Trial::from_world(World::from_poses(WorldConfig::default(), &poses, 0), TaskId::Row, 0, 30);
+    let inside = Trial::from_world(
+        World::from_poses(WorldConfig::default(), &poses, 0),
+        TaskId::Row,
+        0,
+        30,
+    );
     assert_eq!(inside.end(), None);
     poses[3] = BlockPose::on_table(0.0, 0.3, 0, 0.0);
-    let outside = Trial::from_world(World::from_poses(WorldConfig::default(), &poses, 0), TaskId::Row, 0, 30);
+    let outside = Trial::from_world(
+        World::from_poses(WorldConfig::default(), &poses, 0),
+        TaskId::Row,
+        0,
+        30,
+    );
     assert_eq!(outside.end(), Some(seespot_sim::TrialEnd::OutOfWorkspace));
 }
 
 #[test]
 fn sensor_noise_is_seeded_and_bounded() {
     let config = WorldConfig {
-        noise: seespot_sim::SensorNoise { depth_std: 0.002, color_jitter: 8 },
+        noise: seespot_sim::SensorNoise {
+            depth_std: 0.002,
+            color_jitter: 8,
+        },
         ..Default::default()
     };
     let a = World::random(config, 4).observe();
@@ -116,6 +141,11 @@ fn sensor_noise_is_seeded_and_bounded() {
     let clean = World::random(config, 4).render();
     assert_ne!(a.depth, clean.depth);
     assert!(a.depth.iter().all(|d| *d >= 0.0));
-    let diff = a.color.iter().zip(&clean.color).map(|(x, y)| (*x as i16 - *y as i16).abs()).max();
+    let diff = a
+        .color
+        .iter()
+        .zip(&clean.color)
+        .map(|(x, y)| (*x as i16 - *y as i16).abs())
+        .max();
     assert_eq!(diff, Some(8));
 }

@@ -16,7 +16,9 @@ use seespot_policy::optim::AdamConfig;
 use seespot_policy::replay::Experience;
 use seespot_policy::reward::{step_reward, trial_rewards};
 use seespot_policy::{PolicyNet, common_sense_mask, greedy_action};
-use seespot_sim::{Action, Demo, Grid, NUM_ROTATIONS, Oracle, Primitive, TaskId, Trial, WorldConfig};
+use seespot_sim::{
+    Action, Demo, Grid, NUM_ROTATIONS, Oracle, Primitive, TaskId, Trial, WorldConfig,
+};
 
 use crate::correspond::CorrespondOptions;
 use crate::explain::Method;
@@ -39,7 +41,13 @@ pub enum EvalMethod {
 }
 
 impl EvalMethod {
-    pub const ALL: [EvalMethod; 5] = [Self::SsrCcd, Self::SsrL2cd, Self::SpotQ, Self::Oracle, Self::Random];
+    pub const ALL: [EvalMethod; 5] = [
+        Self::SsrCcd,
+        Self::SsrL2cd,
+        Self::SpotQ,
+        Self::Oracle,
+        Self::Random,
+    ];
 
     pub fn as_str(self) -> &'static str {
         match self {
@@ -102,7 +110,10 @@ pub enum EvalError {
 
 /// The records file of (method, task).
 pub fn records_path(out_dir: &Path, method: &str, task: TaskId) -> PathBuf {
-    out_dir.join("trials").join(method).join(format!("{}.jsonl", task.as_str()))
+    out_dir
+        .join("trials")
+        .join(method)
+        .join(format!("{}.jsonl", task.as_str()))
 }
 
 enum Actor {
@@ -122,7 +133,8 @@ pub fn run_task(
     let name = config.method.record_name(config.finetune_steps);
     let path = records_path(&config.out_dir, &name, task);
     if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir).map_err(|e| EvalError::Invalid(format!("{}: {e}", dir.display())))?;
+        std::fs::create_dir_all(dir)
+            .map_err(|e| EvalError::Invalid(format!("{}: {e}", dir.display())))?;
     }
     let mut records = read_records(&path)?;
     records.retain(|r| r.trial < config.trials);
@@ -152,8 +164,17 @@ fn make_actor(config: &EvalConfig, task: TaskId) -> Result<Actor, EvalError> {
     };
     Ok(match config.method {
         EvalMethod::SsrCcd | EvalMethod::SsrL2cd => {
-            let method = if config.method == EvalMethod::SsrCcd { Method::SsrCcd } else { Method::SsrL2cd };
-            let mut ssr = SsrPolicy::load(task, &config.models_dir, &config.demos_dir, ssr_config(method))?;
+            let method = if config.method == EvalMethod::SsrCcd {
+                Method::SsrCcd
+            } else {
+                Method::SsrL2cd
+            };
+            let mut ssr = SsrPolicy::load(
+                task,
+                &config.models_dir,
+                &config.demos_dir,
+                ssr_config(method),
+            )?;
             if config.finetune_steps > 0 {
                 let demos = ssr.demos().to_vec();
                 for (i, (_, policy)) in ssr.policies_mut().iter_mut().enumerate() {
@@ -165,15 +186,26 @@ fn make_actor(config: &EvalConfig, task: TaskId) -> Result<Actor, EvalError> {
         EvalMethod::SpotQ if config.finetune_steps > 0 => {
             // "Good Robot finetuned": the first other-task policy, finetuned on the
             // demonstrations for as many steps as SSR's three together, run greedily.
-            let base = TaskId::ALL.into_iter().find(|t| *t != task).unwrap_or(TaskId::Stack);
+            let base = TaskId::ALL
+                .into_iter()
+                .find(|t| *t != task)
+                .unwrap_or(TaskId::Stack);
             let policy = PolicyNet::load(&model_path(&config.models_dir, base))?;
             let demos = demo_dirs(&config.demos_dir, task)
                 .iter()
                 .map(|d| Demo::read(d))
                 .collect::<Result<Vec<_>, _>>()?;
-            Actor::Greedy(Box::new(finetune(policy, &demos, 3 * config.finetune_steps, 0)?))
+            Actor::Greedy(Box::new(finetune(
+                policy,
+                &demos,
+                3 * config.finetune_steps,
+                0,
+            )?))
         }
-        EvalMethod::SpotQ => Actor::Greedy(Box::new(PolicyNet::load(&model_path(&config.models_dir, task))?)),
+        EvalMethod::SpotQ => Actor::Greedy(Box::new(PolicyNet::load(&model_path(
+            &config.models_dir,
+            task,
+        ))?)),
         EvalMethod::Oracle => Actor::Oracle,
         EvalMethod::Random => Actor::Random,
     })
@@ -241,7 +273,11 @@ fn run_trial(
 
 /// A uniformly random action of `primitive` among those the common-sense mask
 /// allows (anywhere when it allows nothing).
-pub fn random_action(hm: &seespot_sim::Heightmaps, primitive: Primitive, rng: &mut impl Rng) -> Action {
+pub fn random_action(
+    hm: &seespot_sim::Heightmaps,
+    primitive: Primitive,
+    rng: &mut impl Rng,
+) -> Action {
     let mask = common_sense_mask(hm, primitive);
     let allowed: Vec<usize> = (0..mask.len()).filter(|&i| mask[i]).collect();
     let n = hm.resolution();
@@ -250,7 +286,12 @@ pub fn random_action(hm: &seespot_sim::Heightmaps, primitive: Primitive, rng: &m
     } else {
         allowed[rng.random_range(0..allowed.len())]
     };
-    Action::new(primitive, rng.random_range(0..NUM_ROTATIONS), pixel / n, pixel % n)
+    Action::new(
+        primitive,
+        rng.random_range(0..NUM_ROTATIONS),
+        pixel / n,
+        pixel % n,
+    )
 }
 
 /// The demonstrations as SPOT-Q experiences: every demo action with its SPOT
@@ -267,7 +308,13 @@ pub fn demo_experiences(demos: &[Demo]) -> Result<Vec<Experience>, EvalError> {
             if grasp {
                 pair_start = m.progress_before;
             }
-            rewards.push(step_reward(grasp, true, false, m.progress_after, pair_start));
+            rewards.push(step_reward(
+                grasp,
+                true,
+                false,
+                m.progress_after,
+                pair_start,
+            ));
         }
         let targets = trial_rewards(&rewards);
         for (s, target) in demo.steps.iter().zip(targets) {
@@ -277,7 +324,12 @@ pub fn demo_experiences(demos: &[Demo]) -> Result<Vec<Experience>, EvalError> {
                     demo.meta.task, demo.meta.seed
                 )));
             }
-            out.push(Experience::new(s.meta.blocks_before.clone(), s.meta.action, demo.meta.resolution, target));
+            out.push(Experience::new(
+                s.meta.blocks_before.clone(),
+                s.meta.action,
+                demo.meta.resolution,
+                target,
+            ));
         }
     }
     Ok(out)
@@ -285,7 +337,12 @@ pub fn demo_experiences(demos: &[Demo]) -> Result<Vec<Experience>, EvalError> {
 
 /// Finetunes `policy` on the demonstrations for `steps` SPOT-Q steps (batches of
 /// up to 8 demo actions drawn with a seeded rng).
-pub fn finetune(policy: PolicyNet, demos: &[Demo], steps: usize, seed: u64) -> Result<PolicyNet, EvalError> {
+pub fn finetune(
+    policy: PolicyNet,
+    demos: &[Demo],
+    steps: usize,
+    seed: u64,
+) -> Result<PolicyNet, EvalError> {
     let experiences = demo_experiences(demos)?;
     if experiences.is_empty() {
         return Ok(policy);

@@ -1,8 +1,8 @@
 //! The explanation record of one SSR decision: everything the visual debugger
 //! needs to show why the robot chose its action.
 
-use serde::{Deserialize, Serialize};
 use seespot_sim::{Action, Primitive, TaskId};
+use serde::{Deserialize, Serialize};
 
 /// How SSR picks among the (policy, demo) pairs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]

@@ -88,7 +88,12 @@ pub struct SsrPolicy {
 impl SsrPolicy {
     /// Loads the M = 3 policies of the other tasks from `models_dir` and the
     /// N = 2 demonstrations of `task` from `demos_dir`.
-    pub fn load(task: TaskId, models_dir: &Path, demos_dir: &Path, config: SsrConfig) -> Result<Self, SsrError> {
+    pub fn load(
+        task: TaskId,
+        models_dir: &Path,
+        demos_dir: &Path,
+        config: SsrConfig,
+    ) -> Result<Self, SsrError> {
         let policies = TaskId::ALL
             .into_iter()
             .filter(|t| *t != task)
@@ -102,13 +107,23 @@ impl SsrPolicy {
     }
 
     /// SSR over given policies and demonstrations (they must agree on resolution).
-    pub fn new(task: TaskId, policies: Vec<(TaskId, PolicyNet)>, demos: Vec<Demo>, config: SsrConfig) -> Result<Self, SsrError> {
+    pub fn new(
+        task: TaskId,
+        policies: Vec<(TaskId, PolicyNet)>,
+        demos: Vec<Demo>,
+        config: SsrConfig,
+    ) -> Result<Self, SsrError> {
         if policies.is_empty() || demos.is_empty() {
-            return Err(SsrError::Invalid("SSR needs at least one policy and one demonstration".into()));
+            return Err(SsrError::Invalid(
+                "SSR needs at least one policy and one demonstration".into(),
+            ));
         }
         for d in &demos {
             if d.meta.task != task {
-                return Err(SsrError::Invalid(format!("a demonstration of {} was given for task {task}", d.meta.task)));
+                return Err(SsrError::Invalid(format!(
+                    "a demonstration of {} was given for task {task}",
+                    d.meta.task
+                )));
             }
         }
         Ok(Self {
@@ -176,11 +191,18 @@ impl SsrPolicy {
     }
 
     /// The demo's ASE map for (policy, demo, step), computed once per trial.
-    pub fn demo_map(&mut self, policy: usize, demo: usize, step: usize) -> Result<&AseMap, SsrError> {
+    pub fn demo_map(
+        &mut self,
+        policy: usize,
+        demo: usize,
+        step: usize,
+    ) -> Result<&AseMap, SsrError> {
         let key = (policy, demo, step);
         if !self.demo_cache.contains_key(&key) {
             let s = &self.demos[demo].steps[step];
-            let map = self.policies[policy].1.embed(&s.heightmaps, s.meta.action.primitive)?;
+            let map = self.policies[policy]
+                .1
+                .embed(&s.heightmaps, s.meta.action.primitive)?;
             // Keep memory bounded: a trial needs at most a few progress levels at once.
             if self.demo_cache.len() >= 4 * self.policies.len() * self.demos.len() {
                 self.demo_cache.clear();
@@ -191,7 +213,12 @@ impl SsrPolicy {
     }
 
     /// One SSR decision in the live state `hm` with progress `progress`.
-    pub fn decide(&mut self, hm: &Heightmaps, progress: u8, primitive: Primitive) -> Result<Decision, SsrError> {
+    pub fn decide(
+        &mut self,
+        hm: &Heightmaps,
+        progress: u8,
+        primitive: Primitive,
+    ) -> Result<Decision, SsrError> {
         let n = hm.resolution();
         for d in &self.demos {
             if d.meta.resolution != n {
@@ -265,7 +292,11 @@ impl SsrPolicy {
         let chosen = choose(&pairs, self.config.method);
         // The explanation's heatmaps (not part of the timed Correspond step).
         for p in &mut pairs {
-            let m = self.policies.iter().position(|(t, _)| *t == p.policy).unwrap_or(0);
+            let m = self
+                .policies
+                .iter()
+                .position(|(t, _)| *t == p.policy)
+                .unwrap_or(0);
             let live = &self.live[m];
             let demo_map = &self.demo_cache[&(m, p.demo, p.demo_step)];
             let query = demo_map.feature(p.demo_action.flat_index(n));
@@ -290,9 +321,21 @@ impl SsrPolicy {
     /// rotation) under policy `policy`, compared with every live action of the
     /// last decision's primitive. Returns the `H x W` map of distances, the
     /// minimum over rotations (infinite where masked).
-    pub fn query(&mut self, policy: usize, demo: usize, step: usize, y: usize, x: usize) -> Result<Vec<f32>, SsrError> {
-        if policy >= self.policies.len() || demo >= self.demos.len() || step >= self.demos[demo].steps.len() {
-            return Err(SsrError::Invalid(format!("no policy {policy}, demo {demo}, step {step}")));
+    pub fn query(
+        &mut self,
+        policy: usize,
+        demo: usize,
+        step: usize,
+        y: usize,
+        x: usize,
+    ) -> Result<Vec<f32>, SsrError> {
+        if policy >= self.policies.len()
+            || demo >= self.demos.len()
+            || step >= self.demos[demo].steps.len()
+        {
+            return Err(SsrError::Invalid(format!(
+                "no policy {policy}, demo {demo}, step {step}"
+            )));
         }
         let live = self
             .live
@@ -301,7 +344,9 @@ impl SsrPolicy {
             .clone();
         let n = live.resolution;
         if y >= n || x >= n {
-            return Err(SsrError::Invalid(format!("pixel ({y}, {x}) is outside the {n} px map")));
+            return Err(SsrError::Invalid(format!(
+                "pixel ({y}, {x}) is outside the {n} px map"
+            )));
         }
         let rotation = self.demos[demo].steps[step].meta.action.rotation;
         let demo_map = self.demo_map(policy, demo, step)?;

@@ -31,15 +31,26 @@ fn live_scene_identical_to_the_demo_scene_reproduces_the_demo_action() {
     let task = TaskId::Stack;
     let demos = demos(task);
     for method in [Method::SsrCcd, Method::SsrL2cd] {
-        let config = SsrConfig { method, correspond: CorrespondOptions::default() };
-        let mut ssr = SsrPolicy::new(task, untrained_policies(task), demos.clone(), config).expect("ssr");
+        let config = SsrConfig {
+            method,
+            correspond: CorrespondOptions::default(),
+        };
+        let mut ssr =
+            SsrPolicy::new(task, untrained_policies(task), demos.clone(), config).expect("ssr");
         for step in [0usize, 1, 2] {
             let s = &demos[0].steps[step];
             let d = ssr
-                .decide(&s.heightmaps, s.meta.progress_before, s.meta.action.primitive)
+                .decide(
+                    &s.heightmaps,
+                    s.meta.progress_before,
+                    s.meta.action.primitive,
+                )
                 .expect("decide");
             let chosen = &d.pairs[d.chosen];
-            assert_eq!(chosen.demo, 0, "{method:?} step {step}: the identical demo should win");
+            assert_eq!(
+                chosen.demo, 0,
+                "{method:?} step {step}: the identical demo should win"
+            );
             assert_eq!(d.action, s.meta.action, "{method:?} step {step}");
             assert_eq!(chosen.c, 0.0);
             assert!(chosen.l < 1e-3, "L = {}", chosen.l);
@@ -54,9 +65,16 @@ fn live_scene_identical_to_the_demo_scene_reproduces_the_demo_action() {
 fn click_to_query_at_the_demo_action_is_zero_at_the_same_pixel() {
     let task = TaskId::Row;
     let demos = demos(task);
-    let mut ssr = SsrPolicy::new(task, untrained_policies(task), demos.clone(), SsrConfig::default()).expect("ssr");
+    let mut ssr = SsrPolicy::new(
+        task,
+        untrained_policies(task),
+        demos.clone(),
+        SsrConfig::default(),
+    )
+    .expect("ssr");
     let s = &demos[1].steps[0];
-    ssr.decide(&s.heightmaps, s.meta.progress_before, Primitive::Grasp).expect("decide");
+    ssr.decide(&s.heightmaps, s.meta.progress_before, Primitive::Grasp)
+        .expect("decide");
     let a = s.meta.action;
     let map = ssr.query(0, 1, 0, a.y, a.x).expect("query");
     assert_eq!(map.len(), 112 * 112);
@@ -81,7 +99,12 @@ fn ties_are_broken_in_the_documented_order() {
         match_map: vec![],
         rematch_map: vec![],
     };
-    let pairs = vec![pair(3.0, 2.0), pair(1.0, 2.0), pair(1.0, 5.0), pair(1.0, 2.0)];
+    let pairs = vec![
+        pair(3.0, 2.0),
+        pair(1.0, 2.0),
+        pair(1.0, 5.0),
+        pair(1.0, 2.0),
+    ];
     // CCD: smallest C (2.0, pairs 0, 1, 3), then smallest L (pairs 1, 3), then first.
     assert_eq!(choose(&pairs, Method::SsrCcd), 1);
     // L2CD: smallest L (1, 2, 3), then smallest C (1, 3), then first.
@@ -115,20 +138,35 @@ fn evaluation_writes_records_and_resumes_after_interruption() {
         let v: serde_json::Value = serde_json::from_str(line).expect("json line");
         assert_eq!(v["trial"], i);
         assert_eq!(v["seed"], 1 + 2 * i as u64);
-        assert_eq!(v["actions"].as_u64().expect("actions") as usize, v["actions_log"].as_array().expect("log").len());
+        assert_eq!(
+            v["actions"].as_u64().expect("actions") as usize,
+            v["actions_log"].as_array().expect("log").len()
+        );
     }
     // Interrupt: keep one full record and half of the next line.
-    std::fs::write(&path, format!("{}\n{}", lines[0], &lines[1][..lines[1].len() / 2])).expect("truncate");
+    std::fs::write(
+        &path,
+        format!("{}\n{}", lines[0], &lines[1][..lines[1].len() / 2]),
+    )
+    .expect("truncate");
     let mut seen_new = 0;
     let resumed = run_task(&config, TaskId::Row, &mut |_| seen_new += 1).expect("resume");
     assert_eq!(resumed.len(), 3);
     // Same seeds, same trials (decision times aside).
     let untimed = |rs: &[seespot_ssr::TrialRecord]| {
         let mut rs = rs.to_vec();
-        rs.iter_mut().flat_map(|r| r.actions_log.iter_mut()).for_each(|a| a.decide_ms = 0.0);
+        rs.iter_mut()
+            .flat_map(|r| r.actions_log.iter_mut())
+            .for_each(|a| a.decide_ms = 0.0);
         rs
     };
     assert_eq!(untimed(&resumed), untimed(&first));
-    assert_eq!(std::fs::read_to_string(&path).expect("records").lines().count(), 3);
+    assert_eq!(
+        std::fs::read_to_string(&path)
+            .expect("records")
+            .lines()
+            .count(),
+        3
+    );
     assert_eq!(seen_new, 3);
 }
