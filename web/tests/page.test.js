@@ -4,7 +4,8 @@
 // two tabs, a tab closed mid-run, and saves screenshots into ../screenshots.
 //
 // Server: $SEESPOT_BIN (default ../target/release/seespot) run as
-// `$SEESPOT_BIN view --port 0 ...`.
+// `$SEESPOT_BIN view --port 0 ...`; $SEESPOT_DECIDER and $SEESPOT_MODELS pass
+// --decider and --models; $RERUN_BIN (pip rerun-sdk==0.36.3) verifies the .rrd.
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import { spawn, spawnSync } from 'node:child_process';
@@ -31,6 +32,7 @@ function startServer() {
   return new Promise((ok, fail) => {
     const args = ['view', '--port', '0', '--task', 'stack', '--seed', '1', '--resolution', String(RES), '--save', rrd];
     if (process.env.SEESPOT_DECIDER) args.push('--decider', process.env.SEESPOT_DECIDER);
+    if (process.env.SEESPOT_MODELS) args.push('--models', process.env.SEESPOT_MODELS);
     server = spawn(BIN, args, { cwd: root, stdio: ['ignore', 'pipe', 'pipe'] });
     let out = '';
     const timer = setTimeout(() => fail(new Error(`server did not print its URLs in 120 s:\n${out}`)), 120_000);
