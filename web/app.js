@@ -182,7 +182,7 @@ function draw() {
     if (p.matched && p.rematch) dm.push({ kind: 'arrow', from: p.matched, to: p.rematch, color: '#ffaa00', label: `C = ${fmt(p.c, 1)}` });
     if (p.rematch) dm.push({ kind: 'point', at: p.rematch, color: '#ffaa00' });
   }
-  if (app.query) dm.push({ kind: 'point', at: app.query, color: '#ff4fd8', label: 'query', ring: true });
+  if (app.query) dm.push({ kind: 'point', at: app.query, color: '#ff4fd8', label: 'query', ring: true, below: true });
   compose($('demo-canvas'), n, images.demo ? images.demo[kind] : null, images.rematch ? images.rematch.canvas : null, op, dm);
   $('demo-title').textContent = f.demo ? `Demo ${f.demo.demo} · step ${f.demo.step}${p ? ` · policy ${p.policy}` : ''}` : 'Demo (none)';
 
@@ -193,7 +193,7 @@ function draw() {
   if (images.query) { heat = images.query; label = `query: demo pixel (${app.query.y}, ${app.query.x}) · ${app.queryPolicy}`; }
   if (p && p.matched) lm.push({ kind: 'arrow', from: p.demo_action, to: p.matched, color: chosen ? '#00e676' : '#ffffff', label: `L = ${fmt(p.l, 3)}` });
   if (p && p.matched) lm.push({ kind: 'point', at: p.matched, color: chosen ? '#00e676' : '#ffffff', label: chosen ? 'F (executed)' : 'F', ring: chosen });
-  if (images.query && app.queryBest) lm.push({ kind: 'point', at: app.queryBest, color: '#ff4fd8', label: 'best', ring: true });
+  if (images.query && app.queryBest) lm.push({ kind: 'point', at: app.queryBest, color: '#ff4fd8', label: 'best', ring: true, below: true });
   compose($('live-canvas'), n, images.live[kind], heat ? heat.canvas : null, op, lm);
   $('overlay-label').textContent = label;
   $('live-title').textContent = s.phase === 'act' ? 'Live scene (before the action)' : 'Live scene';

@@ -82,19 +82,19 @@ export function compose(canvas, n, base, heat, opacity, marks) {
   if (heat) { ctx.globalAlpha = opacity; ctx.drawImage(heat, 0, 0, W, W); ctx.globalAlpha = 1; }
   for (const m of marks) {
     if (m.kind === 'arrow') arrow(ctx, s, m.from, m.to, m.color, m.label);
-    else if (m.kind === 'point') point(ctx, s, m.at, m.color, m.label, m.ring);
+    else if (m.kind === 'point') point(ctx, s, m.at, m.color, m.label, m.ring, m.below);
   }
 }
 
 function px(s, p) { return [(p.x + 0.5) * s, (p.y + 0.5) * s]; }
 
-function point(ctx, s, at, color, label, ring) {
+function point(ctx, s, at, color, label, ring, below) {
   const [x, y] = px(s, at);
   ctx.lineWidth = 3; ctx.strokeStyle = '#000a';
   ctx.beginPath(); ctx.arc(x, y, ring ? 11 : 7, 0, 2 * Math.PI); ctx.stroke();
   ctx.lineWidth = 2; ctx.strokeStyle = color;
   ctx.beginPath(); ctx.arc(x, y, ring ? 11 : 7, 0, 2 * Math.PI); ctx.stroke();
-  if (label) tag(ctx, x + 12, y - 10, label, color);
+  if (label) tag(ctx, x + 12, below ? y + 26 : y - 10, label, color);
 }
 
 function arrow(ctx, s, from, to, color, label) {
