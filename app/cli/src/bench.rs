@@ -130,20 +130,20 @@ fn bench_ssr(resolution: usize, iterations: usize, json: bool) -> anyhow::Result
     use seespot_ssr::{SsrConfig, SsrPolicy};
     let correspond = seespot_ssr::bench_correspond(resolution, iterations);
     let task = TaskId::Stack;
+    let config = WorldConfig {
+        grid: Grid::new(resolution),
+        ..Default::default()
+    };
     let demos = [0u64, 2]
         .iter()
-        .map(|&s| crate::demo::record(task, s, resolution))
-        .collect::<anyhow::Result<Vec<_>>>()?;
+        .map(|&s| seespot_sim::Demo::record(task, s, config))
+        .collect::<Result<Vec<_>, _>>()?;
     let policies = TaskId::ALL
         .into_iter()
         .filter(|t| *t != task)
         .map(|t| Ok((t, seespot_policy::PolicyNet::new(t, resolution, 1)?)))
         .collect::<anyhow::Result<Vec<_>>>()?;
     let mut ssr = SsrPolicy::new(task, policies, demos, SsrConfig::default())?;
-    let config = WorldConfig {
-        grid: Grid::new(resolution),
-        ..Default::default()
-    };
     let trial = Trial::new(config, task, 1);
     let hm = trial.world().render();
     // The first decision embeds the demo scenes (cached for the rest of a trial).

@@ -4,9 +4,9 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Subcommand;
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use seespot_sim::{Action, Grid, NUM_ROTATIONS, Oracle, Scene, TaskId, Trial, World, WorldConfig};
+use seespot_sim::{Grid, Oracle, Scene, TaskId, Trial, WorldConfig};
 use serde::Serialize;
 
 #[derive(Subcommand, Debug)]
@@ -151,7 +151,10 @@ fn run_trial(
     while trial.end().is_none() {
         let action = match policy {
             Policy::Oracle => oracle.act(trial.world()),
-            Policy::Random(rng) => random_action(trial.world(), rng),
+            Policy::Random(rng) => {
+                let hm = trial.world_mut().observe();
+                seespot_policy::random_action(&hm, trial.world().next_primitive(), rng)
+            }
             Policy::Trained(net) => {
                 let hm = trial.world_mut().observe();
                 seespot_policy::greedy_action(net, &hm, trial.world().next_primitive())?
@@ -160,25 +163,4 @@ fn run_trial(
         trial.step(action);
     }
     Ok(trial)
-}
-
-/// A uniformly random action of the right primitive among those the
-/// common-sense mask allows (any action when the mask allows none).
-pub fn random_action(world: &World, rng: &mut impl Rng) -> Action {
-    let hm = world.render();
-    let primitive = world.next_primitive();
-    let mask = seespot_policy::common_sense_mask(&hm, primitive);
-    let allowed: Vec<usize> = (0..mask.len()).filter(|&i| mask[i]).collect();
-    let n = hm.resolution();
-    let pixel = if allowed.is_empty() {
-        rng.random_range(0..n * n)
-    } else {
-        allowed[rng.random_range(0..allowed.len())]
-    };
-    Action::new(
-        primitive,
-        rng.random_range(0..NUM_ROTATIONS),
-        pixel / n,
-        pixel % n,
-    )
 }

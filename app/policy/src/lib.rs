@@ -33,6 +33,6 @@ pub mod trainer;
 pub use embedding::{AseMap, EMBEDDING_DIM, QMap};
 pub use error::PolicyError;
 pub use eval::{EvalReport, EvalTrial, own_task_eval};
-pub use mask::common_sense_mask;
+pub use mask::{common_sense_mask, random_action};
 pub use policy::{PolicyMeta, PolicyNet, greedy_action, masked_argmax};
 pub use trainer::{TrainConfig, TrainOutcome, TrainProgress, train};

@@ -25,19 +25,17 @@ use std::time::Instant;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use seespot_sim::{
-    Action, Grid, NUM_ROTATIONS, Oracle, Primitive, TaskId, Trial, World, WorldConfig,
-};
+use seespot_sim::{Grid, Oracle, Primitive, TaskId, Trial, World, WorldConfig};
 use serde::{Deserialize, Serialize};
 
-pub use crate::curve::CurveRow;
+use crate::curve::CurveRow;
 pub use crate::learner::{Learner, StepStats};
 pub use crate::optim::AdamConfig as LearnerConfig;
 pub use crate::replay::Experience;
 
 use crate::curve;
 use crate::error::PolicyError;
-use crate::mask::common_sense_mask;
+use crate::mask::random_action;
 use crate::policy::{PolicyNet, greedy_action};
 use crate::replay::Replay;
 use crate::reward::{step_reward, trial_rewards};
@@ -244,23 +242,6 @@ enum Mode {
     Oracle,
     Random,
     Greedy,
-}
-
-fn random_action(hm: &seespot_sim::Heightmaps, primitive: Primitive, rng: &mut impl Rng) -> Action {
-    let mask = common_sense_mask(hm, primitive);
-    let allowed: Vec<usize> = (0..mask.len()).filter(|&i| mask[i]).collect();
-    let n = hm.resolution();
-    let pixel = if allowed.is_empty() {
-        rng.random_range(0..n * n)
-    } else {
-        allowed[rng.random_range(0..allowed.len())]
-    };
-    Action::new(
-        primitive,
-        rng.random_range(0..NUM_ROTATIONS),
-        pixel / n,
-        pixel % n,
-    )
 }
 
 /// Training seed of trial `k` of a run: always even (test seeds are odd).

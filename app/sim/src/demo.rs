@@ -82,6 +82,12 @@ pub enum DemoError {
     },
     #[error("{path}: {message}")]
     Invalid { path: PathBuf, message: String },
+    #[error("the {task} oracle from seed {seed} {message}; try another seed")]
+    Oracle {
+        task: TaskId,
+        seed: u64,
+        message: String,
+    },
 }
 
 fn invalid(path: &Path, message: impl Into<String>) -> DemoError {
@@ -92,6 +98,58 @@ fn invalid(path: &Path, message: impl Into<String>) -> DemoError {
 }
 
 impl Demo {
+    /// Records the scripted oracle on the task's test start from `seed`: the
+    /// noise-free heightmaps before each action (depth rounded to the stored
+    /// unit), the action, its pose, progress and the block poses. Fails when the
+    /// oracle reverses progress or does not finish.
+    pub fn record(task: TaskId, seed: u64, config: crate::WorldConfig) -> Result<Self, DemoError> {
+        let mut trial = crate::Trial::new(config, task, seed);
+        let mut oracle = crate::Oracle::new(task);
+        let mut meta = DemoMeta::new(task, seed, config.grid);
+        let mut steps = Vec::new();
+        let fail = |message: String| DemoError::Oracle {
+            task,
+            seed,
+            message,
+        };
+        while trial.end().is_none() {
+            let mut heightmaps = trial.world().render();
+            quantize_depth(&mut heightmaps);
+            let blocks_before = trial.world().table_blocks();
+            let action = oracle.act(trial.world());
+            let rec = trial.step(action);
+            if rec.progress_after < rec.progress_before {
+                return Err(fail(format!("reversed progress at step {}", steps.len())));
+            }
+            let step = DemoStepMeta {
+                action,
+                world_pose: rec.outcome.pose,
+                progress_before: rec.progress_before,
+                progress_after: rec.progress_after,
+                blocks_before,
+            };
+            meta.steps.push(step.clone());
+            steps.push(DemoStep {
+                heightmaps,
+                meta: step,
+            });
+        }
+        if !trial.succeeded() {
+            return Err(fail(format!(
+                "did not finish ({:?}, progress {})",
+                trial.end(),
+                trial.progress()
+            )));
+        }
+        let mut final_heightmaps = trial.world().render();
+        quantize_depth(&mut final_heightmaps);
+        Ok(Self {
+            meta,
+            steps,
+            final_heightmaps,
+        })
+    }
+
     /// The step whose state has progress `p` and whose action uses `primitive`.
     pub fn step_at(&self, progress: u8, primitive: Primitive) -> Option<(usize, &DemoStep)> {
         self.steps.iter().enumerate().find(|(_, s)| {

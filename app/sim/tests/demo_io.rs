@@ -1,40 +1,9 @@
 //! Demonstrations written and read back, and damaged ones refused.
 
-use seespot_sim::demo::{DemoStepMeta, quantize_depth};
-use seespot_sim::{Demo, DemoMeta, DemoStep, Oracle, TaskId, Trial, WorldConfig};
+use seespot_sim::{Demo, TaskId, WorldConfig};
 
 fn record(task: TaskId, seed: u64) -> Demo {
-    let config = WorldConfig::default();
-    let mut trial = Trial::new(config, task, seed);
-    let mut oracle = Oracle::new(task);
-    let mut meta = DemoMeta::new(task, seed, config.grid);
-    let mut steps = Vec::new();
-    while trial.end().is_none() {
-        let mut hm = trial.world().render();
-        quantize_depth(&mut hm);
-        let blocks_before = trial.world().table_blocks();
-        let a = oracle.act(trial.world());
-        let r = trial.step(a);
-        let m = DemoStepMeta {
-            action: a,
-            world_pose: r.outcome.pose,
-            progress_before: r.progress_before,
-            progress_after: r.progress_after,
-            blocks_before,
-        };
-        meta.steps.push(m.clone());
-        steps.push(DemoStep {
-            heightmaps: hm,
-            meta: m,
-        });
-    }
-    let mut final_heightmaps = trial.world().render();
-    quantize_depth(&mut final_heightmaps);
-    Demo {
-        meta,
-        steps,
-        final_heightmaps,
-    }
+    Demo::record(task, seed, WorldConfig::default()).expect("the oracle finishes")
 }
 
 #[test]

@@ -15,10 +15,8 @@ use seespot_policy::learner::Learner;
 use seespot_policy::optim::AdamConfig;
 use seespot_policy::replay::Experience;
 use seespot_policy::reward::{step_reward, trial_rewards};
-use seespot_policy::{PolicyNet, common_sense_mask, greedy_action};
-use seespot_sim::{
-    Action, Demo, Grid, NUM_ROTATIONS, Oracle, Primitive, TaskId, Trial, WorldConfig,
-};
+use seespot_policy::{PolicyNet, greedy_action, random_action};
+use seespot_sim::{Demo, Grid, Oracle, Primitive, TaskId, Trial, WorldConfig};
 
 use crate::correspond::CorrespondOptions;
 use crate::explain::Method;
@@ -269,29 +267,6 @@ fn run_trial(
         end,
         actions_log: log,
     })
-}
-
-/// A uniformly random action of `primitive` among those the common-sense mask
-/// allows (anywhere when it allows nothing).
-pub fn random_action(
-    hm: &seespot_sim::Heightmaps,
-    primitive: Primitive,
-    rng: &mut impl Rng,
-) -> Action {
-    let mask = common_sense_mask(hm, primitive);
-    let allowed: Vec<usize> = (0..mask.len()).filter(|&i| mask[i]).collect();
-    let n = hm.resolution();
-    let pixel = if allowed.is_empty() {
-        rng.random_range(0..n * n)
-    } else {
-        allowed[rng.random_range(0..allowed.len())]
-    };
-    Action::new(
-        primitive,
-        rng.random_range(0..NUM_ROTATIONS),
-        pixel / n,
-        pixel % n,
-    )
 }
 
 /// The demonstrations as SPOT-Q experiences: every demo action with its SPOT

@@ -409,39 +409,7 @@ impl Decider for FeatureDecider {
 /// Records a demonstration of `task` with the oracle from `seed` (noise-free
 /// heightmaps before each action); `None` when the oracle does not succeed.
 pub fn record_demo(task: TaskId, seed: u64, config: WorldConfig) -> Option<Demo> {
-    let mut trial = Trial::new(config, task, seed);
-    let mut oracle = Oracle::new(task);
-    let mut meta = seespot_sim::DemoMeta::new(task, seed, config.grid);
-    let mut steps = Vec::new();
-    while trial.end().is_none() {
-        let hm = trial.world().render();
-        let blocks_before = trial.world().table_blocks();
-        let action = oracle.act(trial.world());
-        let rec = trial.step(action).clone();
-        if rec.progress_after < rec.progress_before {
-            return None;
-        }
-        let step_meta = seespot_sim::demo::DemoStepMeta {
-            action,
-            world_pose: rec.outcome.pose,
-            progress_before: rec.progress_before,
-            progress_after: rec.progress_after,
-            blocks_before,
-        };
-        meta.steps.push(step_meta.clone());
-        steps.push(DemoStep {
-            heightmaps: hm,
-            meta: step_meta,
-        });
-    }
-    if !trial.succeeded() {
-        return None;
-    }
-    Some(Demo {
-        meta,
-        steps,
-        final_heightmaps: trial.world().render(),
-    })
+    Demo::record(task, seed, config).ok()
 }
 
 /// The two demonstrations of `task`: read from `demos_dir/<task>/{0,2}` when
