@@ -14,6 +14,8 @@ use seespot_sim::{Heightmaps, Primitive};
 pub const OBJECT_HEIGHT: f32 = 0.01;
 /// A place is allowed within this distance of an object pixel, metres.
 pub const PLACE_REACH: f32 = 0.04;
+/// A place is allowed only this far inside the workspace border, metres.
+pub const PLACE_EDGE_MARGIN: f32 = 0.03;
 
 /// Pixels holding an object, `H x W`.
 pub fn object_mask(hm: &Heightmaps) -> Vec<bool> {
@@ -47,8 +49,18 @@ pub fn common_sense_mask(hm: &Heightmaps, primitive: Primitive) -> Vec<bool> {
     match primitive {
         Primitive::Grasp => objects,
         Primitive::Place => {
+            let n = hm.resolution();
             let k = (PLACE_REACH / hm.grid.pixel_size()).round() as usize;
-            dilate(&objects, hm.resolution(), k)
+            let e = (PLACE_EDGE_MARGIN / hm.grid.pixel_size()).round() as usize;
+            let mut mask = dilate(&objects, n, k);
+            for y in 0..n {
+                for x in 0..n {
+                    if y < e || x < e || y + e >= n || x + e >= n {
+                        mask[y * n + x] = false;
+                    }
+                }
+            }
+            mask
         }
     }
 }
@@ -69,6 +81,11 @@ mod tests {
         assert!(p[50 * 112 + 60]); // 10 px = 4 cm
         assert!(!p[50 * 112 + 61]);
         assert_eq!(p.iter().filter(|&&b| b).count(), 21 * 21);
+        // Not within 3 cm (8 px) of the border.
+        let mut hm = Heightmaps::empty(grid);
+        hm.depth[3 * 112 + 3] = 0.05;
+        let p = common_sense_mask(&hm, Primitive::Place);
+        assert!(!p[7 * 112 + 7] && p[8 * 112 + 8]);
     }
 }
 

@@ -25,13 +25,16 @@ fn a_killed_run_resumes_from_its_checkpoint() {
     assert_eq!(second.resumed_from, Some(first.state.actions));
     assert!(second.state.actions >= 36);
     assert!(second.state.trials > first.state.trials);
-    let key = |c: &seespot_policy::trainer::CurveRow| (c.action, c.trial, c.success, c.loss.to_bits());
+    let key =
+        |c: &seespot_policy::trainer::CurveRow| (c.action, c.trial, c.success, c.loss.to_bits());
     let a: Vec<_> = first.state.curve.iter().map(key).collect();
     let b: Vec<_> = second.state.curve.iter().take(a.len()).map(key).collect();
     assert_eq!(a, b);
 
     // Another task in the same run directory is refused, naming the file.
     let other = TrainConfig::new(TaskId::Stack, 10, 3);
-    let err = train(&other, dir.path(), &mut |_| {}).unwrap_err().to_string();
+    let err = train(&other, dir.path(), &mut |_| {})
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("state.json") && err.contains("row"), "{err}");
 }
