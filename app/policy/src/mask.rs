@@ -81,11 +81,13 @@ mod tests {
         assert!(p[50 * 112 + 60]); // 10 px = 4 cm
         assert!(!p[50 * 112 + 61]);
         assert_eq!(p.iter().filter(|&&b| b).count(), 21 * 21);
-        // Not within 3 cm (8 px) of the border.
+        // Not within 3 cm (7 px at 4 mm/px) of the border.
         let mut hm = Heightmaps::empty(grid);
         hm.depth[3 * 112 + 3] = 0.05;
         let p = common_sense_mask(&hm, Primitive::Place);
-        assert!(!p[7 * 112 + 7] && p[8 * 112 + 8]);
+        let e = (PLACE_EDGE_MARGIN / grid.pixel_size()).round() as usize;
+        assert!((7..=8).contains(&e));
+        assert!(!p[(e - 1) * 112 + e] && !p[e * 112 + e - 1] && p[e * 112 + e]);
     }
 }
 
