@@ -20,22 +20,44 @@ pub fn scene(resolution: usize, seed: u64) -> (World, Heightmaps) {
     (world, hm)
 }
 
-fn min_ms(
+/// CPU time (user + system, all threads) of this process, ms, from
+/// `/proc/self/stat` (clock ticks assumed 100 Hz); `None` where unavailable.
+pub fn process_cpu_ms() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    let rest = &stat[stat.rfind(')')? + 2..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    // utime and stime are fields 14 and 15 of the line, 12 and 13 after "pid (comm) ".
+    let ticks: f64 = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+    Some(ticks * 10.0)
+}
+
+/// Wall time (minimum and median over `iters` runs after a warm-up; the minimum
+/// is the most robust to other processes sharing the cores) and mean CPU time
+/// per run (all threads), ms.
+fn time_ms(
     mut f: impl FnMut() -> Result<(), PolicyError>,
     iters: usize,
-) -> Result<f64, PolicyError> {
+) -> Result<serde_json::Value, PolicyError> {
     f()?; // warm-up
     let mut t = Vec::with_capacity(iters);
+    let cpu0 = process_cpu_ms();
     for _ in 0..iters {
         let s = Instant::now();
         f()?;
         t.push(s.elapsed().as_secs_f64() * 1e3);
     }
+    let cpu = cpu0
+        .zip(process_cpu_ms())
+        .map(|(a, b)| (b - a) / iters as f64);
     t.sort_by(f64::total_cmp);
-    Ok(t[0])
+    Ok(serde_json::json!({
+        "wall_ms_min": t[0],
+        "wall_ms_median": t[t.len() / 2],
+        "cpu_ms_mean": cpu,
+    }))
 }
 
-/// Minimum wall times (robust to other processes sharing the cores) (ms) of: Q maps of both primitives for all 16 rotations,
+/// Wall and CPU times (see `time_ms`) of: Q maps of both primitives for all 16 rotations,
 /// ASE maps of both primitives, at each resolution; one SPOT-Q training step
 /// (batch `trainer::DEFAULT_BATCH`). `iters` timed runs each after a warm-up.
 pub fn bench(resolutions: &[usize], iters: usize) -> Result<serde_json::Value, PolicyError> {
@@ -43,7 +65,7 @@ pub fn bench(resolutions: &[usize], iters: usize) -> Result<serde_json::Value, P
     let mut rows = Vec::new();
     for &res in resolutions {
         let (_, hm) = scene(res, 1);
-        let q = min_ms(
+        let q = time_ms(
             || {
                 for p in Primitive::ALL {
                     policy.q_values(&hm, p)?;
@@ -52,7 +74,7 @@ pub fn bench(resolutions: &[usize], iters: usize) -> Result<serde_json::Value, P
             },
             iters,
         )?;
-        let e = min_ms(
+        let e = time_ms(
             || {
                 for p in Primitive::ALL {
                     policy.embed_with_q(&hm, p)?;
@@ -63,8 +85,8 @@ pub fn bench(resolutions: &[usize], iters: usize) -> Result<serde_json::Value, P
         )?;
         rows.push(serde_json::json!({
             "resolution": res,
-            "forward_q_both_primitives_16_rotations_ms": q,
-            "embed_with_q_both_primitives_16_rotations_ms": e,
+            "forward_q_both_primitives_16_rotations": q,
+            "embed_with_q_both_primitives_16_rotations": e,
         }));
     }
     let mut tr = trainer::Learner::new(
@@ -72,11 +94,14 @@ pub fn bench(resolutions: &[usize], iters: usize) -> Result<serde_json::Value, P
         trainer::LearnerConfig::default(),
     )?;
     let batch = fixed_batch(trainer::DEFAULT_BATCH);
-    let step = min_ms(|| tr.train_step(&batch).map(|_| ()), iters)?;
+    let step = time_ms(|| tr.train_step(&batch).map(|_| ()), iters)?;
     Ok(serde_json::json!({
         "threads": rayon::current_num_threads(),
         "forward": rows,
-        "train_step_ms": step,
+        "train_step": step,
+        "load_average_1min": std::fs::read_to_string("/proc/loadavg")
+            .ok()
+            .and_then(|l| l.split_whitespace().next().and_then(|v| v.parse::<f64>().ok())),
         "train_batch": trainer::DEFAULT_BATCH,
         "budget_ms_224_both_primitives": 150.0,
     }))
