@@ -215,7 +215,7 @@ fn model_card(
          | training trials | {trials} (even seeds, at most {maxa} actions each) |\n\
          | seed | {seed} |\n\
          | training wall time | {wall:.0} s ({wallm:.1} min) on a shared 2-core CPU |\n\
-         | exploration | {expl} |\n\
+         | exploration | oracle {o_n} / random {r_n} / greedy {g_n} actions |\n\
          | seespot version | {ver} |\n\n",
         arch = seespot_policy::policy::ARCHITECTURE,
         res = c.resolution,
@@ -230,10 +230,9 @@ fn model_card(
         seed = c.seed,
         wall = s.wall_seconds,
         wallm = s.wall_seconds / 60.0,
-        expl = format!(
-            "oracle {} / random {} / greedy {} actions",
-            s.mode_counts[0], s.mode_counts[1], s.mode_counts[2]
-        ),
+        o_n = s.mode_counts[0],
+        r_n = s.mode_counts[1],
+        g_n = s.mode_counts[2],
         ver = seespot_sim::VERSION,
     );
     md.push_str("## Own-task success\n\n");

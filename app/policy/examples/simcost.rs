@@ -1,4 +1,5 @@
 //! Per-action cost of the simulator and the learner: `--example simcost`.
+#![allow(clippy::unwrap_used)]
 use seespot_sim::{Oracle, TaskId, Trial, WorldConfig};
 use std::time::Instant;
 fn main() {

@@ -16,7 +16,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let rec = trial.step(action).clone();
         println!(
             "{action} q={qa:.3} success={} failure={:?} progress {}->{} reversal={}",
-            rec.outcome.success, rec.outcome.failure, rec.progress_before, rec.progress_after, rec.reversal
+            rec.outcome.success,
+            rec.outcome.failure,
+            rec.progress_before,
+            rec.progress_after,
+            rec.reversal
         );
     }
     println!("end {:?}", trial.end());

@@ -1,4 +1,5 @@
 //! Breakdown of the forward pass: `cargo run --release -p seespot-policy --example trunk`.
+#![allow(clippy::unwrap_used)]
 use candle_core::{Device, Tensor};
 use std::time::Instant;
 fn main() {

@@ -12,6 +12,9 @@ use crate::error::PolicyError;
 /// Font used for the plot's labels.
 pub const FONT_PATH: &str = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
 
+/// A named, coloured line of the plot.
+type Line = (&'static str, RGBColor, Vec<(f32, f32)>);
+
 /// One point of the learning curve, written when a training trial ends.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CurveRow {
@@ -102,7 +105,7 @@ pub fn plot(stem: &Path, title: &str, rows: &[CurveRow]) -> Result<PathBuf, Poli
             .map(|r| (r.action as f32, f(r)))
             .collect()
     };
-    let lines = |_: ()| -> [(&'static str, RGBColor, Vec<(f32, f32)>); 3] {
+    let lines = |_: ()| -> [Line; 3] {
         [
             ("trial success (window)", BLUE, series(&|r| r.success_rate)),
             (
@@ -143,7 +146,7 @@ fn draw<DB: DrawingBackend>(
     with_text: bool,
     max_x: f32,
     max_y: f32,
-    lines: [(&str, RGBColor, Vec<(f32, f32)>); 3],
+    lines: [Line; 3],
 ) -> Result<(), String> {
     root.fill(&WHITE).map_err(|e| e.to_string())?;
     let mut builder = ChartBuilder::on(&root);

@@ -71,7 +71,7 @@ impl NetInput {
             }
         };
         let offset;
-        if h % n == 0 {
+        if h.is_multiple_of(n) {
             let k = h / n;
             let inv = 1.0 / (k * k) as f32;
             for c in 0..INPUT_CHANNELS {

@@ -65,6 +65,30 @@ pub fn common_sense_mask(hm: &Heightmaps, primitive: Primitive) -> Vec<bool> {
     }
 }
 
+/// A uniformly random action of `primitive`: a random rotation at a pixel the
+/// common-sense mask allows (any pixel when it allows none). The exploration
+/// action of SPOT-Q and the `random` baseline.
+pub fn random_action(
+    hm: &Heightmaps,
+    primitive: Primitive,
+    rng: &mut impl rand::Rng,
+) -> seespot_sim::Action {
+    let mask = common_sense_mask(hm, primitive);
+    let allowed: Vec<usize> = (0..mask.len()).filter(|&i| mask[i]).collect();
+    let n = hm.resolution();
+    let pixel = if allowed.is_empty() {
+        rng.random_range(0..n * n)
+    } else {
+        allowed[rng.random_range(0..allowed.len())]
+    };
+    seespot_sim::Action::new(
+        primitive,
+        rng.random_range(0..seespot_sim::NUM_ROTATIONS),
+        pixel / n,
+        pixel % n,
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -89,28 +113,4 @@ mod tests {
         assert!((7..=8).contains(&e));
         assert!(!p[(e - 1) * 112 + e] && !p[e * 112 + e - 1] && p[e * 112 + e]);
     }
-}
-
-/// A uniformly random action of `primitive`: a random rotation at a pixel the
-/// common-sense mask allows (any pixel when it allows none). The exploration
-/// action of SPOT-Q and the `random` baseline.
-pub fn random_action(
-    hm: &Heightmaps,
-    primitive: Primitive,
-    rng: &mut impl rand::Rng,
-) -> seespot_sim::Action {
-    let mask = common_sense_mask(hm, primitive);
-    let allowed: Vec<usize> = (0..mask.len()).filter(|&i| mask[i]).collect();
-    let n = hm.resolution();
-    let pixel = if allowed.is_empty() {
-        rng.random_range(0..n * n)
-    } else {
-        allowed[rng.random_range(0..allowed.len())]
-    };
-    seespot_sim::Action::new(
-        primitive,
-        rng.random_range(0..seespot_sim::NUM_ROTATIONS),
-        pixel / n,
-        pixel % n,
-    )
 }

@@ -28,7 +28,7 @@ use rand_chacha::ChaCha8Rng;
 use seespot_sim::{Grid, Oracle, Primitive, TaskId, Trial, World, WorldConfig};
 use serde::{Deserialize, Serialize};
 
-use crate::curve::CurveRow;
+pub use crate::curve::CurveRow;
 pub use crate::learner::{Learner, StepStats};
 pub use crate::optim::AdamConfig as LearnerConfig;
 pub use crate::replay::Experience;

@@ -1,4 +1,5 @@
 //! Shapes, consistency, training, checkpoints and bad weights files.
+#![allow(clippy::unwrap_used)]
 
 use std::path::Path;
 

@@ -1,4 +1,5 @@
 //! The training loop: a short run checkpoints, and a second call resumes it.
+#![allow(clippy::unwrap_used)]
 
 use seespot_policy::trainer::{TrainConfig, train};
 use seespot_sim::TaskId;
@@ -26,7 +27,7 @@ fn a_killed_run_resumes_from_its_checkpoint() {
     assert!(second.state.actions >= 36);
     assert!(second.state.trials > first.state.trials);
     let key =
-        |c: &seespot_policy::trainer::CurveRow| (c.action, c.trial, c.success, c.loss.to_bits());
+        |c: &seespot_policy::curve::CurveRow| (c.action, c.trial, c.success, c.loss.to_bits());
     let a: Vec<_> = first.state.curve.iter().map(key).collect();
     let b: Vec<_> = second.state.curve.iter().take(a.len()).map(key).collect();
     assert_eq!(a, b);
