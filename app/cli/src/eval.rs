@@ -84,7 +84,7 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         .with_context(|| format!("evaluating {name} on {task}"))?;
     }
     bar.finish_and_clear();
-    let summary = write_report(&args.out)?;
+    let summary = write_report(&args.out, &args.models, args.finetune_steps.max(333))?;
     let ours: Vec<&seespot_ssr::Summary> = summary.iter().filter(|s| s.method == name).collect();
     if args.json {
         return crate::print_json(&serde_json::json!({
@@ -112,7 +112,14 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
 
 /// Summarizes every record under `<out>/trials/` into `summary.md`,
 /// `summary.csv` and `figure4.png` (the paper's numbers beside ours).
-pub fn write_report(out: &Path) -> anyhow::Result<Vec<seespot_ssr::Summary>> {
+///
+/// Train steps on the test task: 0 for SSR, oracle and random; the model's
+/// recorded SPOT-Q steps for `spot-q`; 3 x `finetune_steps` for finetuned rows.
+pub fn write_report(
+    out: &Path,
+    models: &Path,
+    finetune_steps: usize,
+) -> anyhow::Result<Vec<seespot_ssr::Summary>> {
     let mut records = Vec::new();
     let trials = out.join("trials");
     let mut files = Vec::new();
@@ -133,7 +140,19 @@ pub fn write_report(out: &Path) -> anyhow::Result<Vec<seespot_ssr::Summary>> {
     for f in files {
         records.extend(read_records(&f)?);
     }
-    let summaries = summarize_all(&records, 2, |_, _| 0);
+    let train_steps = |method: &str, task: TaskId| -> u64 {
+        if method.ends_with("-finetuned") {
+            return 3 * finetune_steps as u64;
+        }
+        if method != "spot-q" {
+            return 0;
+        }
+        seespot_policy::PolicyNet::load(&seespot_ssr::policy::model_path(models, task))
+            .ok()
+            .and_then(|p| p.meta.extra.get("train_steps").and_then(|s| s.parse().ok()))
+            .unwrap_or(0)
+    };
+    let summaries = summarize_all(&records, 2, train_steps);
     let table = report::markdown_table(&summaries, true);
     std::fs::write(out.join("summary.md"), &table)?;
     std::fs::write(
