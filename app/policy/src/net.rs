@@ -12,7 +12,7 @@
 //! | conv5 | 3x3 | 1 | 1 | 32 -> 64 | 28 x 28 |
 //!
 //! (32 channels in the 28 x 28 layers keep the forward of 2 primitives x 16
-//! rotations near 150 ms on 2 cores; 64 there measured ~2.5x slower.)
+//! rotations near 150 ms on 2 cores; 64 there measured about 2x slower.)
 //! Every conv is followed by a ReLU; there is no normalisation. The receptive
 //! field is 39 network pixels (15.6 cm). With padding `dilation` every output
 //! cell `k` is centred on input pixel `4k` ([`TRUNK_STRIDE`]).
