@@ -60,7 +60,7 @@ pub fn run(cmd: SimCommand) -> anyhow::Result<()> {
 
 enum Policy {
     Oracle,
-    Random(ChaCha8Rng),
+    Random(Box<ChaCha8Rng>),
     Trained(Box<seespot_policy::PolicyNet>),
 }
 
@@ -88,7 +88,7 @@ fn run_trials(args: RunArgs) -> anyhow::Result<()> {
     for &seed in &seeds {
         let mut policy = match args.policy.as_str() {
             "oracle" => Policy::Oracle,
-            "random" => Policy::Random(ChaCha8Rng::seed_from_u64(seed)),
+            "random" => Policy::Random(Box::new(ChaCha8Rng::seed_from_u64(seed))),
             path => Policy::Trained(Box::new(
                 seespot_policy::PolicyNet::load(std::path::Path::new(path))
                     .with_context(|| format!("loading policy {path}"))?,

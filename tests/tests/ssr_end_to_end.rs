@@ -7,7 +7,7 @@ use seespot_ssr::policy::{SsrConfig, SsrPolicy, choose, demo_dirs};
 use seespot_ssr::{CorrespondOptions, Method};
 
 fn demos_dir() -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../demos")
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../demos")
 }
 
 fn demos(task: TaskId) -> Vec<Demo> {
