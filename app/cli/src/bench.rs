@@ -154,6 +154,7 @@ fn bench_ssr(resolution: usize, iterations: usize, json: bool) -> anyhow::Result
     let mut embed = Vec::new();
     let mut corr = Vec::new();
     for _ in 0..iterations.clamp(1, 5) {
+        ssr.forget_last_decision();
         let t = Instant::now();
         let d = ssr.decide(&hm, trial.progress(), Primitive::Grasp)?;
         total.push(t.elapsed().as_secs_f64() * 1e3);

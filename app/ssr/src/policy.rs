@@ -173,6 +173,12 @@ impl SsrPolicy {
         &mut self.policies
     }
 
+    /// Forgets the last decision, so the next `decide` recomputes even on the
+    /// same input (for benchmarks).
+    pub fn forget_last_decision(&mut self) {
+        self.last = None;
+    }
+
     /// The live ASE maps of the last decision, one per policy.
     pub fn live_maps(&self) -> &[AseMap] {
         &self.live
