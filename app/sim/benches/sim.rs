@@ -29,7 +29,9 @@ fn drop_settle_render(c: &mut Criterion) {
 
 fn render(c: &mut Criterion) {
     let world = World::random(config(), 0);
-    c.bench_function("render_224", |b| b.iter(|| std::hint::black_box(world.render())));
+    c.bench_function("render_224", |b| {
+        b.iter(|| std::hint::black_box(world.render()))
+    });
 }
 
 criterion_group!(benches, drop_settle_render, render);
