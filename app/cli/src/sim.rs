@@ -6,8 +6,8 @@ use anyhow::Context;
 use clap::Subcommand;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use seespot_policy::eval::EvalTrial;
 use seespot_sim::{Grid, Oracle, Scene, TaskId, Trial, WorldConfig};
-use serde::Serialize;
 
 #[derive(Subcommand, Debug)]
 pub enum SimCommand {
@@ -39,17 +39,6 @@ pub struct RunArgs {
     /// Print one machine-readable summary object on stdout.
     #[arg(long)]
     json: bool,
-}
-
-/// One trial's result.
-#[derive(Debug, Serialize)]
-pub struct TrialResult {
-    pub seed: u64,
-    pub success: bool,
-    pub actions: usize,
-    pub max_progress: u8,
-    pub reversal: bool,
-    pub end: Option<seespot_sim::TrialEnd>,
 }
 
 pub fn run(cmd: SimCommand) -> anyhow::Result<()> {
@@ -95,7 +84,7 @@ fn run_trials(args: RunArgs) -> anyhow::Result<()> {
             )),
         };
         let trial = run_trial(config, task, seed, &mut policy)?;
-        results.push(TrialResult {
+        results.push(EvalTrial {
             seed,
             success: trial.succeeded(),
             actions: trial.actions(),
