@@ -84,14 +84,7 @@ fn run_trials(args: RunArgs) -> anyhow::Result<()> {
             )),
         };
         let trial = run_trial(config, task, seed, &mut policy)?;
-        results.push(EvalTrial {
-            seed,
-            success: trial.succeeded(),
-            actions: trial.actions(),
-            max_progress: trial.max_progress(),
-            reversal: trial.had_reversal(),
-            end: trial.end(),
-        });
+        results.push(EvalTrial::from_trial(&trial));
         let ok = results.iter().filter(|r| r.success).count();
         bar.set_message(format!("success {ok}/{}", results.len()));
         bar.inc(1);

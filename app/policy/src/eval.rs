@@ -19,6 +19,20 @@ pub struct EvalTrial {
     pub end: Option<seespot_sim::TrialEnd>,
 }
 
+impl EvalTrial {
+    /// The result of a finished (or stopped) trial.
+    pub fn from_trial(trial: &Trial) -> Self {
+        Self {
+            seed: trial.seed(),
+            success: trial.succeeded(),
+            actions: trial.actions(),
+            max_progress: trial.max_progress(),
+            reversal: trial.had_reversal(),
+            end: trial.end(),
+        }
+    }
+}
+
 /// Own-task results (DESIGN §5 metrics over the trials).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct EvalReport {
@@ -60,14 +74,7 @@ pub fn own_task_eval(
             let action = greedy_action(policy, &hm, primitive)?;
             trial.step(action);
         }
-        let t = EvalTrial {
-            seed,
-            success: trial.succeeded(),
-            actions: trial.actions(),
-            max_progress: trial.max_progress(),
-            reversal: trial.had_reversal(),
-            end: trial.end(),
-        };
+        let t = EvalTrial::from_trial(&trial);
         on_trial(&t);
         out.push(t);
     }
