@@ -1,7 +1,6 @@
 //! Correspond (Match + Verify) at the paper's scale: R = 16, 224 x 224, D = 64,
 //! M = 3 policies, N = 2 demos. Prints the `seespot bench ssr` JSON first (with
-//! its same-run naive and memory-bandwidth baselines and the ratio against the
-//! numpy + scipy reference's 0.85 s), then runs criterion.
+//! its same-run naive and memory-bandwidth baselines), then runs criterion.
 //!
 //! `cargo bench -p seespot-ssr --bench correspond`; `SEESPOT_BENCH_RES=112` for a
 //! smaller scale.
