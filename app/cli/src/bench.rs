@@ -27,13 +27,13 @@ pub enum BenchCommand {
         #[arg(long)]
         json: bool,
     },
-    /// See-SPOT-Run at the paper's scale: Correspond alone (R = 16, 224 x 224,
-    /// 64-d, M = 3, N = 2) and one whole decision (embed with 3 policies +
-    /// Correspond).
     /// The debugger: time from a "next phase" request to the page's data, and
     /// the .rrd size per trial.
     #[cfg(feature = "viewer")]
     View(crate::view::BenchViewArgs),
+    /// See-SPOT-Run at the paper's scale: Correspond alone (R = 16, 224 x 224,
+    /// 64-d, M = 3, N = 2) and one whole decision (embed with 3 policies +
+    /// Correspond).
     Ssr {
         #[arg(long, default_value_t = 224)]
         resolution: usize,
@@ -69,9 +69,6 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
     }
 }
 
-/// PyBullet's time for the same drop-settle-render step on this machine, ms.
-const PYBULLET_STEP_MS: f64 = 14.0;
-
 fn bench_sim(actions: usize, resolution: usize, json: bool) -> anyhow::Result<()> {
     let config = WorldConfig {
         grid: Grid::new(resolution),
@@ -105,18 +102,15 @@ fn bench_sim(actions: usize, resolution: usize, json: bool) -> anyhow::Result<()
         "ms_per_action": per_action_ms,
         "physics_steps_per_action": physics_steps as f64 / actions as f64,
         "render_ms": 1000.0 * render_s / renders as f64,
-        "pybullet_ms_per_action": PYBULLET_STEP_MS,
-        "speedup_vs_pybullet": PYBULLET_STEP_MS / per_action_ms,
         "checksum": checksum,
     });
     if json {
         return crate::print_json(&report);
     }
     println!(
-        "sim at {resolution} px: {:.0} drop+settle+render actions/s ({per_action_ms:.2} ms, {:.0} physics steps each; {:.1}x PyBullet's 14 ms), render alone {:.3} ms",
+        "sim at {resolution} px: {:.0} drop+settle+render actions/s ({per_action_ms:.2} ms, {:.0} physics steps each), render alone {:.3} ms",
         report["actions_per_second"].as_f64().unwrap_or(0.0),
         report["physics_steps_per_action"].as_f64().unwrap_or(0.0),
-        report["speedup_vs_pybullet"].as_f64().unwrap_or(0.0),
         report["render_ms"].as_f64().unwrap_or(0.0),
     );
     Ok(())

@@ -1,7 +1,6 @@
 //! The block world's speed at the paper's 224 px: one "drop a random block 0.2 m
 //! above the table, settle at 240 Hz, render colour + depth" step, and the render
-//! alone. The same step takes ~14 ms in a PyBullet tabletop on this machine
-//! (`seespot bench sim` prints the ratio).
+//! alone.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use rand::{Rng, SeedableRng};
