@@ -1,7 +1,7 @@
 //! SSR end to end on small inputs: identity scenes, tie order, resumable evaluation.
 
 use seespot_policy::PolicyNet;
-use seespot_sim::{Demo, Primitive, TaskId};
+use seespot_sim::{Demo, Primitive, Seeds, TaskId, TrialRecord};
 use seespot_ssr::eval::{EvalConfig, EvalMethod, records_path, run_task, world_config};
 use seespot_ssr::policy::{SsrConfig, SsrPolicy, choose, demo_dirs};
 use seespot_ssr::{CorrespondOptions, Method};
@@ -119,8 +119,7 @@ fn evaluation_writes_records_and_resumes_after_interruption() {
     let out = tempfile::tempdir().expect("tempdir");
     let config = EvalConfig {
         method: EvalMethod::Oracle,
-        trials: 3,
-        seed: 1,
+        seeds: Seeds::new(1, 3).expect("test seeds"),
         out_dir: out.path().to_owned(),
         models_dir: "models".into(),
         demos_dir: demos_dir(),
@@ -153,7 +152,7 @@ fn evaluation_writes_records_and_resumes_after_interruption() {
     let resumed = run_task(&config, TaskId::Row, &mut |_| seen_new += 1).expect("resume");
     assert_eq!(resumed.len(), 3);
     // Same seeds, same trials (decision times aside).
-    let untimed = |rs: &[seespot_ssr::TrialRecord]| {
+    let untimed = |rs: &[TrialRecord]| {
         let mut rs = rs.to_vec();
         rs.iter_mut()
             .flat_map(|r| r.actions_log.iter_mut())
@@ -169,4 +168,29 @@ fn evaluation_writes_records_and_resumes_after_interruption() {
         3
     );
     assert_eq!(seen_new, 3);
+
+    // Another seed range into the same file: records count for the seed they
+    // name, never for their position (seeds 1, 3, 5 are not reused as 101-105).
+    let later = EvalConfig {
+        seeds: Seeds::new(101, 3).expect("test seeds"),
+        ..config.clone()
+    };
+    let other = run_task(&later, TaskId::Row, &mut |_| {}).expect("other seeds");
+    assert_eq!(
+        other.iter().map(|r| r.seed).collect::<Vec<_>>(),
+        vec![101, 103, 105]
+    );
+    // And a longer run reuses the three recorded seeds and adds the rest.
+    let longer = EvalConfig {
+        seeds: Seeds::new(1, 4).expect("test seeds"),
+        ..config
+    };
+    let mut ran = 0;
+    let four = run_task(&longer, TaskId::Row, &mut |_| ran += 1).expect("longer");
+    assert_eq!(
+        four.iter().map(|r| r.seed).collect::<Vec<_>>(),
+        vec![1, 3, 5, 7]
+    );
+    assert_eq!(untimed(&four[..3]), untimed(&first));
+    assert_eq!(ran, 4);
 }

@@ -4,9 +4,11 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use seespot_sim::TaskId;
+use seespot_sim::metrics::summarize_all;
+use seespot_sim::record::read_records;
+use seespot_sim::{Seeds, Summary};
 use seespot_ssr::CorrespondOptions;
 use seespot_ssr::eval::{EvalConfig, EvalMethod, run_task, world_config};
-use seespot_ssr::metrics::{read_records, summarize_all};
 use seespot_ssr::report;
 
 #[derive(clap::Args, Debug)]
@@ -19,8 +21,9 @@ pub struct EvalArgs {
     task: String,
     /// Trials per task.
     #[arg(long, default_value_t = 50)]
-    trials: usize,
-    /// First test seed; trial i uses seed + 2 i (odd seeds).
+    trials: u64,
+    /// First seed; trial i uses seed + 2 i. 1 (the default) gives the test
+    /// seeds 1, 3, ...; 10001 the validation seeds, for choosing settings.
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Where trial records (`trials/<method>/<task>.jsonl`) and the report go.
@@ -58,10 +61,10 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
     } else {
         vec![args.task.parse::<TaskId>().map_err(anyhow::Error::msg)?]
     };
+    let seeds = Seeds::new(args.seed, args.trials)?;
     let config = EvalConfig {
         method: args.method,
-        trials: args.trials,
-        seed: args.seed,
+        seeds,
         out_dir: args.out.clone(),
         models_dir: args.models.clone(),
         demos_dir: args.demos.clone(),
@@ -72,7 +75,7 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         finetune_steps: args.finetune_steps,
     };
     let name = args.method.record_name(args.finetune_steps);
-    let bar = crate::progress_bar((tasks.len() * args.trials) as u64, false);
+    let bar = crate::progress_bar(tasks.len() as u64 * args.trials, false);
     for task in &tasks {
         let (mut ok, mut n) = (0, 0);
         run_task(&config, *task, &mut |r| {
@@ -85,7 +88,7 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
     }
     bar.finish_and_clear();
     let summary = write_report(&args.out, &args.models, args.finetune_steps.max(333))?;
-    let ours: Vec<&seespot_ssr::Summary> = summary.iter().filter(|s| s.method == name).collect();
+    let ours: Vec<&Summary> = summary.iter().filter(|s| s.method == name).collect();
     if args.json {
         return crate::print_json(&serde_json::json!({
             "method": name,
@@ -119,7 +122,7 @@ pub fn write_report(
     out: &Path,
     models: &Path,
     finetune_steps: usize,
-) -> anyhow::Result<Vec<seespot_ssr::Summary>> {
+) -> anyhow::Result<Vec<Summary>> {
     let mut records = Vec::new();
     let trials = out.join("trials");
     let mut files = Vec::new();

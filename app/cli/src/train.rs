@@ -4,9 +4,9 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use seespot_policy::PolicyNet;
 use seespot_policy::trainer::{TrainConfig, TrainOutcome};
-use seespot_policy::{EvalReport, EvalTrial, PolicyNet};
-use seespot_sim::{Grid, TaskId, WorldConfig};
+use seespot_sim::{Seeds, Split, Summary, TaskId, summarize};
 
 /// Train a SPOT-Q policy for one task.
 #[derive(clap::Args, Debug, Clone)]
@@ -40,6 +40,10 @@ pub struct TrainArgs {
     /// Hide the progress bar.
     #[arg(long)]
     pub quiet: bool,
+    /// Print one machine-readable summary object on stdout (the weights, the
+    /// model card, the run's counters and the own-task metrics).
+    #[arg(long)]
+    pub json: bool,
 }
 
 fn bar(len: u64, quiet: bool, template: &str) -> indicatif::ProgressBar {
@@ -126,8 +130,7 @@ pub fn run(args: TrainArgs) -> anyhow::Result<()> {
         Some(own_task_eval(
             &outcome.policy,
             task,
-            args.eval_trials,
-            0,
+            Seeds::new(Split::Test.first(), args.eval_trials as u64)?,
             args.quiet,
         )?)
     } else {
@@ -137,60 +140,76 @@ pub fn run(args: TrainArgs) -> anyhow::Result<()> {
     std::fs::write(&card, model_card(&outcome, &out, report.as_ref(), &args))
         .with_context(|| format!("writing {}", card.display()))?;
     eprintln!("wrote {}", card.display());
+    if args.json {
+        return crate::print_json(&serde_json::json!({
+            "task": task,
+            "weights": out,
+            "model_card": card,
+            "run_dir": run_dir,
+            "actions": outcome.state.actions,
+            "train_steps": outcome.state.train_steps,
+            "training_trials": outcome.state.trials,
+            "wall_seconds": outcome.state.wall_seconds,
+            "own_task": report.as_ref().map(|r| serde_json::json!({
+                "seeds": r.seeds,
+                "summary": r.summary,
+                "wall_seconds": r.wall_seconds,
+            })),
+        }));
+    }
     if let Some(r) = &report {
         eprintln!(
             "own-task success {:.0}% over {} trials (progress {:.0}% +- {:.0}%)",
-            r.success_rate * 100.0,
-            r.trials.len(),
-            r.progress * 100.0,
-            r.progress_stderr * 100.0
+            r.summary.success_rate * 100.0,
+            r.summary.trials,
+            r.summary.progress * 100.0,
+            r.summary.progress_se * 100.0
         );
     }
     Ok(())
 }
 
-/// Runs `policy` greedily on its own `task` for `trials` test trials (odd seeds
-/// from `first_seed`, default world at 112 px), with a progress bar.
+/// The own-task measurement of a model card.
+pub struct OwnTaskReport {
+    pub seeds: Seeds,
+    pub summary: Summary,
+    pub wall_seconds: f64,
+}
+
+/// Runs `policy` greedily on its own `task` over `seeds` (default world at the
+/// policy's resolution), with a progress bar.
 pub fn own_task_eval(
     policy: &PolicyNet,
     task: TaskId,
-    trials: usize,
-    first_seed: u64,
+    seeds: Seeds,
     quiet: bool,
-) -> anyhow::Result<EvalReport> {
+) -> anyhow::Result<OwnTaskReport> {
     let pb = bar(
-        trials as u64,
+        seeds.count(),
         quiet,
         "{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} test trials {msg} (eta {eta})",
     );
-    let config = WorldConfig {
-        grid: Grid::new(policy.meta.resolution),
-        ..WorldConfig::default()
-    };
-    let mut done = 0usize;
+    let start = std::time::Instant::now();
     let mut ok = 0usize;
-    let report = seespot_policy::own_task_eval(
-        policy,
-        task,
-        config,
-        trials,
-        first_seed,
-        &mut |t: &EvalTrial| {
-            done += 1;
-            ok += t.success as usize;
-            pb.inc(1);
-            pb.set_message(format!("success {ok}/{done}"));
-        },
-    )
+    let records = seespot_policy::own_task_eval(policy, task, seeds, &mut |t| {
+        ok += usize::from(t.success);
+        pb.inc(1);
+        pb.set_message(format!("success {ok}/{}", t.trial + 1));
+    })
+    .map_err(|e| anyhow::anyhow!(e))
     .with_context(|| format!("evaluating the {task} policy"))?;
     pb.finish_and_clear();
-    Ok(report)
+    Ok(OwnTaskReport {
+        seeds,
+        summary: summarize(&records, task.ideal_actions(), 0, 0),
+        wall_seconds: start.elapsed().as_secs_f64(),
+    })
 }
 
 fn model_card(
     outcome: &TrainOutcome,
     out: &Path,
-    report: Option<&EvalReport>,
+    report: Option<&OwnTaskReport>,
     args: &TrainArgs,
 ) -> String {
     let s = &outcome.state;
@@ -238,7 +257,7 @@ fn model_card(
     md.push_str("## Own-task success\n\n");
     match report {
         Some(r) => {
-            let seeds = r.trials.first().zip(r.trials.last());
+            let s = &r.summary;
             md.push_str(&format!(
                 "Greedy (argmax Q under the common-sense masks), {n} test trials, odd seeds {lo}..={hi}, \
                  30-action limit, measured by `seespot_policy::own_task_eval` in {w:.0} s:\n\n\
@@ -247,15 +266,15 @@ fn model_card(
                  | progress (mean max P / 4) | {p:.0}% +- {pe:.0}% (s.e.) |\n\
                  | action efficiency (successful trials) | {ae:.0}% |\n\n\
                  Re-measure: `seespot sim run --policy {out} --task {task} --trials {n} --json`.\n\n",
-                n = r.trials.len(),
-                lo = seeds.map_or(0, |s| s.0.seed),
-                hi = seeds.map_or(0, |s| s.1.seed),
+                n = s.trials,
+                lo = r.seeds.start(),
+                hi = r.seeds.iter().last().unwrap_or(r.seeds.start()),
                 w = r.wall_seconds,
-                sr = r.success_rate * 100.0,
-                k = r.trials.iter().filter(|t| t.success).count(),
-                p = r.progress * 100.0,
-                pe = r.progress_stderr * 100.0,
-                ae = r.action_efficiency * 100.0,
+                sr = s.success_rate * 100.0,
+                k = s.successes,
+                p = s.progress * 100.0,
+                pe = s.progress_se * 100.0,
+                ae = s.action_efficiency.unwrap_or(0.0) * 100.0,
                 out = out.display(),
             ));
         }

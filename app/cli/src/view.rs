@@ -4,34 +4,17 @@
 use std::net::IpAddr;
 use std::path::PathBuf;
 
-use anyhow::Context;
 use seespot_sim::TaskId;
 use seespot_viz::live::{self, DeciderKind, ViewOptions};
-
-const DECIDERS: [&str; 4] = ["auto", "ssr", "features", "oracle"];
-
-fn task(s: &str) -> anyhow::Result<TaskId> {
-    TaskId::parse(s).with_context(|| {
-        format!("unknown task `{s}`; expected one of stack, row, unstack, vertical-square")
-    })
-}
-
-fn decider(s: &str) -> anyhow::Result<DeciderKind> {
-    DeciderKind::parse(s).with_context(|| {
-        format!(
-            "unknown decider `{s}`; expected one of {}",
-            DECIDERS.join(", ")
-        )
-    })
-}
 
 /// Where the decider comes from.
 #[derive(clap::Args, Debug, Clone)]
 pub struct DeciderArgs {
-    /// What picks the actions: `auto` (the shipped SSR policy if its models and
-    /// demos exist, else SSR's loop over handcrafted features), `ssr`, `features` or `oracle`.
-    #[arg(long, default_value = "auto", value_parser = DECIDERS)]
-    pub decider: String,
+    /// What picks the actions: `ssr` (See-SPOT-Run with the shipped policies
+    /// and demonstrations), `features` (SSR's loop over handcrafted features, no
+    /// trained weights) or `oracle`.
+    #[arg(long, default_value = "ssr")]
+    pub decider: DeciderKind,
     /// Folder of the shipped policies (`<task>.safetensors`).
     #[arg(long, default_value = "models")]
     pub models: PathBuf,
@@ -43,7 +26,7 @@ pub struct DeciderArgs {
 impl DeciderArgs {
     fn factory(&self) -> anyhow::Result<seespot_viz::session::DeciderFactory> {
         Ok(live::factory(
-            decider(&self.decider)?,
+            self.decider,
             self.models.clone(),
             self.demos.clone(),
         ))
@@ -55,7 +38,7 @@ impl DeciderArgs {
 pub struct ViewArgs {
     /// Task to run (stack, row, unstack, vertical-square).
     #[arg(long, default_value = "stack")]
-    pub task: String,
+    pub task: TaskId,
     /// Trial seed (test seeds are odd).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -87,7 +70,7 @@ pub struct ViewArgs {
 /// Runs `seespot view` until Ctrl-C.
 pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
     let opts = ViewOptions {
-        task: task(&args.task)?,
+        task: args.task,
         seed: args.seed,
         resolution: args.resolution,
         bind: args.bind,
@@ -127,11 +110,12 @@ pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
 pub struct RecordArgs {
     /// Task to run.
     #[arg(long, default_value = "stack")]
-    pub task: String,
+    pub task: TaskId,
     /// Number of trials.
     #[arg(long, default_value_t = 1)]
-    pub trials: usize,
-    /// Seed of the first trial; the next ones are seed + 2, seed + 4, …
+    pub trials: u64,
+    /// Seed of the first trial; the next ones are seed + 2, seed + 4, … (odd:
+    /// test seeds; see `seespot_sim::seeds`).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Heightmap resolution, pixels per side.
@@ -148,11 +132,11 @@ pub struct RecordArgs {
 pub fn run_record(args: RecordArgs) -> anyhow::Result<()> {
     let factory = args.decider.factory()?;
     let stop = live::ctrl_c_flag();
-    let bar = indicatif::ProgressBar::new(args.trials as u64);
+    let seeds = seespot_sim::Seeds::new(args.seed, args.trials)?;
+    let bar = crate::progress_bar(args.trials, false);
     let opts = live::RecordOptions {
-        task: task(&args.task)?,
-        trials: args.trials,
-        seed0: args.seed,
+        task: args.task,
+        seeds,
         resolution: args.resolution,
         out: args.out.clone(),
     };
@@ -183,7 +167,7 @@ pub fn run_record(args: RecordArgs) -> anyhow::Result<()> {
 #[derive(clap::Args, Debug, Clone)]
 pub struct BenchViewArgs {
     #[arg(long, default_value = "stack")]
-    pub task: String,
+    pub task: TaskId,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Heightmap resolution (224 = the paper's).
@@ -202,7 +186,7 @@ pub struct BenchViewArgs {
 /// Runs `seespot bench view`.
 pub fn run_bench_view(args: BenchViewArgs) -> anyhow::Result<()> {
     let b = live::bench_view(
-        task(&args.task)?,
+        args.task,
         args.seed,
         args.resolution,
         args.actions,

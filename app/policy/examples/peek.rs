@@ -1,20 +1,20 @@
-//! Greedy own-task check of a run's latest checkpoint:
-//! `--example peek -- runs/train-stack stack 6`.
-fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! Greedy own-task check of a run's latest checkpoint on *validation* seeds
+//! (never the test seeds): `--example peek -- runs/train-stack stack 6`.
+fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+    use seespot_sim::{Seeds, Split};
     let a: Vec<String> = std::env::args().collect();
-    let dir = std::path::Path::new(&a[1]);
-    let task: seespot_sim::TaskId = a[2].parse()?;
-    let n: usize = a.get(3).and_then(|s| s.parse().ok()).unwrap_or(6);
+    let usage = "usage: peek RUN_DIR TASK [TRIALS]";
+    let dir = std::path::Path::new(a.get(1).ok_or(usage)?);
+    let task: seespot_sim::TaskId = a.get(2).ok_or(usage)?.parse()?;
+    let n: u64 = a.get(3).and_then(|s| s.parse().ok()).unwrap_or(6);
     let state: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("state.json"))?)?;
     let ckpt = state["checkpoint"].as_str().unwrap_or_default();
     let learner = seespot_policy::trainer::Learner::load_checkpoint(&dir.join(ckpt))?;
-    let r = seespot_policy::own_task_eval(
+    let records = seespot_policy::own_task_eval(
         &learner.policy,
         task,
-        Default::default(),
-        n,
-        1000,
+        Seeds::new(Split::Validation.first(), n)?,
         &mut |t| {
             println!(
                 "seed {} success {} actions {} max_progress {}",
@@ -22,9 +22,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             )
         },
     )?;
-    println!(
-        "{ckpt}: success {:.2} progress {:.2}",
-        r.success_rate, r.progress
-    );
+    let s = seespot_sim::summarize(&records, task.ideal_actions(), 0, 0);
+    println!("success {:.2} progress {:.2}", s.success_rate, s.progress);
     Ok(())
 }

@@ -26,6 +26,9 @@ pub enum PolicyError {
     /// A checkpoint or run-directory file is damaged or does not match.
     #[error("{path}: {reason}")]
     Checkpoint { path: PathBuf, reason: String },
+    /// A demonstration cannot be used (the message names it).
+    #[error("{0}")]
+    Demo(String),
     /// The network failed (a bug, not bad user data).
     #[error("network: {0}")]
     Candle(#[from] candle_core::Error),

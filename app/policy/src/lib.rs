@@ -1,6 +1,7 @@
 //! SPOT-Q policies for seespot: the per-primitive Q-network, rotations, the
 //! action-state embedding function (the network without its last layer), common
-//! sense masks and the SPOT-Q trainer.
+//! sense masks, the SPOT-Q trainer and finetuning on demonstrations, and the
+//! SPOT-Q and random [`seespot_sim::Actor`]s.
 //!
 //! ```no_run
 //! use seespot_policy::{PolicyNet, greedy_action};
@@ -13,11 +14,12 @@
 //! # Ok::<(), seespot_policy::PolicyError>(())
 //! ```
 
+pub mod actors;
 pub mod bench;
 pub mod curve;
 pub mod embedding;
 pub mod error;
-pub mod eval;
+pub mod finetune;
 pub mod input;
 pub mod learner;
 pub mod mask;
@@ -30,9 +32,10 @@ pub mod rotation;
 pub mod tensor_file;
 pub mod trainer;
 
+pub use actors::{RandomActor, own_task_eval};
 pub use embedding::{AseMap, EMBEDDING_DIM, QMap};
 pub use error::PolicyError;
-pub use eval::{EvalReport, EvalTrial, own_task_eval};
+pub use finetune::finetune;
 pub use mask::{common_sense_mask, random_action};
 pub use policy::{PolicyMeta, PolicyNet, greedy_action, masked_argmax};
 pub use trainer::{TrainConfig, TrainOutcome, TrainProgress, train};

@@ -1,4 +1,4 @@
-//! "Common sense" action masks (DESIGN §3), applied to exploration, to the
+//! "Common sense" action masks (docs/design.md §3), applied to exploration, to the
 //! greedy argmax and to the ASE maps.
 //!
 //! - **grasp**: only where there is an object, i.e. the depth heightmap is above

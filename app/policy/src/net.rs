@@ -1,5 +1,5 @@
 //! The per-primitive Q-network: a small strided fully convolutional trunk
-//! (the embedding function E_m, DESIGN §3) and a final 1x1 linear layer `w_m`.
+//! (the embedding function E_m, docs/design.md §3) and a final 1x1 linear layer `w_m`.
 //!
 //! Trunk, on the 4 x 112 x 112 network input (4 mm/px):
 //!

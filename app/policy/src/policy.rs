@@ -1,5 +1,5 @@
 //! [`PolicyNet`]: the grasp and place Q-networks of one task, the embedding
-//! function E_m (DESIGN §3) and the weights file.
+//! function E_m (docs/design.md §3) and the weights file.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -151,7 +151,7 @@ impl PolicyNet {
         AseMap::new(primitive, h, NUM_ROTATIONS, EMBEDDING_DIM, features, mask)
     }
 
-    /// The embedding function E_m (DESIGN §3): the `R x H x W x 64` action-state
+    /// The embedding function E_m (docs/design.md §3): the `R x H x W x 64` action-state
     /// embeddings of `primitive` in `hm` (H = `hm`'s resolution), masked by the
     /// common-sense mask.
     pub fn embed(&self, hm: &Heightmaps, primitive: Primitive) -> Result<AseMap, PolicyError> {
@@ -232,10 +232,8 @@ impl PolicyNet {
         expect("rotations", &NUM_ROTATIONS.to_string())?;
         expect("embedding_dim", &EMBEDDING_DIM.to_string())?;
         let task = get("task")?.clone();
-        if TaskId::parse(&task).is_none() {
-            return Err(format(format!(
-                "metadata field `task` is `{task}`, not a known task"
-            )));
+        if let Err(e) = task.parse::<TaskId>() {
+            return Err(format(format!("metadata field `task`: {e}")));
         }
         let resolution: usize = get("resolution")?
             .parse()

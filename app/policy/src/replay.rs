@@ -5,7 +5,7 @@
 //! re-rendered when it is replayed, so the buffer and its checkpoint stay small.
 
 use rand::Rng;
-use seespot_sim::world::render;
+use seespot_sim::heightmap::render;
 use seespot_sim::{Action, BlockPose, Grid, Heightmaps, Primitive};
 use serde::{Deserialize, Serialize};
 

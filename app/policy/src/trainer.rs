@@ -1,4 +1,4 @@
-//! The SPOT-Q training loop (Good Robot!, RA-L 2020; DESIGN §3), one task per run.
+//! The SPOT-Q training loop (Good Robot!, RA-L 2020; docs/design.md §3), one task per run.
 //!
 //! Each action: choose (oracle-guided exploration, epsilon-greedy under the
 //! common-sense masks), execute, record the progress-scaled step reward; one
@@ -25,7 +25,7 @@ use std::time::Instant;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use seespot_sim::{Grid, Oracle, Primitive, TaskId, Trial, World, WorldConfig};
+use seespot_sim::{Grid, Oracle, Primitive, Seeds, TaskId, Trial, World, WorldConfig};
 use serde::{Deserialize, Serialize};
 
 pub use crate::curve::CurveRow;
@@ -244,9 +244,20 @@ enum Mode {
     Greedy,
 }
 
-/// Training seed of trial `k` of a run: always even (test seeds are odd).
-pub fn train_seed(run_seed: u64, k: usize) -> u64 {
-    2 * (run_seed * 1_000_003 + k as u64)
+/// Training trials a run may start (far more than any run executes).
+pub const MAX_TRAIN_TRIALS: u64 = 1 << 32;
+
+/// The training seeds of run `run_seed`: even seeds (see [`seespot_sim::seeds`])
+/// from `2_000_006 * run_seed`, so runs of different seeds do not share trials.
+pub fn train_seeds(run_seed: u64) -> Result<Seeds, PolicyError> {
+    let bad = |why: String| PolicyError::Checkpoint {
+        path: PathBuf::from("--seed"),
+        reason: format!("run seed {run_seed}: {why}"),
+    };
+    let start = run_seed
+        .checked_mul(2 * 1_000_003)
+        .ok_or_else(|| bad("too large".into()))?;
+    Seeds::new(start, MAX_TRAIN_TRIALS).map_err(|e| bad(e.to_string()))
 }
 
 /// Trains (or resumes) the run in `run_dir` until `config.actions` actions.
@@ -265,8 +276,14 @@ pub fn train(
     let mut session_start = Instant::now();
     let mut last_checkpoint = state.actions;
     let mut last_loss = f32::NAN;
+    let seeds = train_seeds(cfg.seed)?;
     while state.actions < cfg.actions {
-        let seed = train_seed(cfg.seed, state.trials);
+        let seed = seeds
+            .get(state.trials as u64)
+            .ok_or_else(|| PolicyError::Checkpoint {
+                path: run_dir.join("state.json"),
+                reason: format!("more than {MAX_TRAIN_TRIALS} training trials"),
+            })?;
         let world = if cfg.task.starts_from_tower() {
             World::tower(world_config, seed)
         } else {

@@ -1,6 +1,11 @@
-//! Top-down orthographic colour and depth heightmaps.
+//! The camera: top-down orthographic colour and depth heightmaps of the
+//! blocks, rendered by casting one vertical ray per pixel.
+
+use rapier3d::prelude::Vector;
 
 use crate::workspace::Grid;
+use crate::world::BlockPose;
+use crate::{BLOCK_COLORS, BLOCK_SIZE};
 
 /// A pair of top-down heightmaps over the workspace.
 ///
@@ -46,7 +51,7 @@ impl Heightmaps {
     }
 
     /// Maximum height in the `(2h+1) x (2h+1)` window around `(y, x)`, clipped to
-    /// the image: the action height of DESIGN §1 (`h` = [`Grid::finger_window_half`]).
+    /// the image: the action height of docs/design.md §1 (`h` = [`Grid::finger_window_half`]).
     pub fn max_in_window(&self, y: usize, x: usize, h: usize) -> f32 {
         let n = self.grid.resolution;
         let (y0, y1) = (y.saturating_sub(h), (y + h).min(n - 1));
@@ -68,3 +73,77 @@ impl Heightmaps {
 
 /// Colour of the bare table, RGB.
 pub const TABLE_COLOR: [u8; 3] = [120, 120, 128];
+
+/// Intersection of the vertical ray through `(x, y)` with a block: the hit height
+/// and whether the face hit is the block's most upward-facing one.
+pub(crate) fn ray_down(p: &BlockPose, x: f32, y: f32) -> Option<(f32, bool)> {
+    let q = p.quat();
+    let inv = q.inverse();
+    let top = 1.0f32;
+    let origin = inv * Vector::new(x - p.position[0], y - p.position[1], top - p.position[2]);
+    let dir = inv * Vector::new(0.0, 0.0, -1.0);
+    let h = BLOCK_SIZE / 2.0;
+    let (mut t0, mut t1) = (f32::MIN, f32::MAX);
+    let mut axis = 2;
+    for k in 0..3 {
+        let (o, d) = (origin[k], dir[k]);
+        if d.abs() < 1e-9 {
+            if o.abs() > h {
+                return None;
+            }
+            continue;
+        }
+        let (a, b) = ((-h - o) / d, (h - o) / d);
+        let (near, far) = if a < b { (a, b) } else { (b, a) };
+        if near > t0 {
+            t0 = near;
+            axis = k;
+        }
+        t1 = t1.min(far);
+    }
+    if t0 > t1 || t1 < 0.0 {
+        return None;
+    }
+    // The face is flat-facing-up when its normal is the most vertical axis.
+    let up = dir[axis].abs() >= 0.9;
+    Some((top - t0, up))
+}
+
+/// Renders noise-free colour and depth heightmaps of the given blocks.
+pub fn render(grid: Grid, blocks: &[(usize, BlockPose)]) -> Heightmaps {
+    let mut hm = Heightmaps::empty(grid);
+    let n = grid.resolution;
+    let res = grid.pixel_size();
+    let reach = BLOCK_SIZE * 0.87;
+    for (id, p) in blocks {
+        let [bx, by, _] = p.position;
+        let lo_x = ((bx - reach - grid.x_min()) / res).floor().max(0.0) as usize;
+        let hi_x = ((bx + reach - grid.x_min()) / res)
+            .ceil()
+            .min(n as f32 - 1.0);
+        let lo_y = ((by - reach - grid.y_min()) / res).floor().max(0.0) as usize;
+        let hi_y = ((by + reach - grid.y_min()) / res)
+            .ceil()
+            .min(n as f32 - 1.0);
+        if hi_x < 0.0 || hi_y < 0.0 {
+            continue;
+        }
+        let color = BLOCK_COLORS[*id];
+        for py in lo_y..=hi_y as usize {
+            for px in lo_x..=hi_x as usize {
+                let (x, y) = grid.pixel_to_world(py, px);
+                if let Some((z, up)) = ray_down(p, x, y) {
+                    let i = py * n + px;
+                    if z > hm.depth[i] {
+                        hm.depth[i] = z;
+                        let shade = if up { 1.0 } else { 0.7 };
+                        for (out, c) in hm.color[i * 3..i * 3 + 3].iter_mut().zip(color) {
+                            *out = (c as f32 * shade) as u8;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    hm
+}

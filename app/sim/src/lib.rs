@@ -5,6 +5,11 @@
 //! orthographic heightmap camera, the four tasks of See-SPOT-Run with their
 //! progress measure, and a scripted oracle per task that records demonstrations.
 //!
+//! It also owns what every method shares about trials: the [`Actor`] trait that
+//! picks actions and the one trial loop [`run_trial`], the seed scheme
+//! ([`seeds`]: training even, test odd, validation odd from 10 001), the one
+//! [`TrialRecord`] of a finished trial and the paper's [`metrics`] over records.
+//!
 //! Frames and units: the world frame has z up, metres, the table top at z = 0.
 //! The workspace is a 0.448 m square centred on the origin. A pixel `(y, x)` of a
 //! heightmap maps to `x_w = x_min + x * pixel_size`, `y_w = y_min + y * pixel_size`.
@@ -21,23 +26,31 @@
 //! ```
 
 pub mod action;
+pub mod actor;
 pub mod demo;
 pub mod heightmap;
+pub mod metrics;
 pub mod noise;
 pub mod oracle;
 pub mod progress;
+pub mod record;
 pub mod scene;
+pub mod seeds;
 pub mod task;
 pub mod trial;
 pub mod workspace;
 pub mod world;
 
 pub use action::{Action, NUM_ROTATIONS, Primitive};
+pub use actor::{Actor, ActorError, Choice, ChosenPair, run_trial, run_trials};
 pub use demo::{Demo, DemoError, DemoMeta, DemoStep};
 pub use heightmap::Heightmaps;
+pub use metrics::{Summary, summarize};
 pub use noise::SensorNoise;
 pub use oracle::Oracle;
+pub use record::{ActionLog, TrialRecord};
 pub use scene::{Scene, SceneError};
+pub use seeds::{Seeds, Split};
 pub use task::TaskId;
 pub use trial::{StepRecord, Trial, TrialEnd};
 pub use workspace::Grid;

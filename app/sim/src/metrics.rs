@@ -1,157 +1,16 @@
-//! The paper's evaluation metrics (Sec. 5.1, DESIGN.md §5) over per-trial records.
+//! The paper's evaluation metrics (Sec. 5.1) over trial records: the one
+//! summarizer of seespot.
 //!
-//! One [`TrialRecord`] is one JSON line of an evaluation's `trials.jsonl`;
-//! [`summarize`] turns the records of one (method, task) into a [`Summary`], and
+//! [`summarize`] turns the [`TrialRecord`]s of one (method, task) into a
+//! [`Summary`], [`summarize_all`] groups mixed records first, and
 //! [`mean_over_tasks`] averages the four leave-one-out folds into the "mean" row.
 
 use std::collections::BTreeMap;
-use std::io::{BufRead, Write};
-use std::path::Path;
 
-use seespot_sim::task::MAX_PROGRESS;
-use seespot_sim::{Action, TaskId};
 use serde::{Deserialize, Serialize};
 
-/// One executed action of a trial.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct ActionLog {
-    pub action: Action,
-    /// Task progress P (1..=4) before and after the action.
-    pub progress_before: u8,
-    pub progress_after: u8,
-    /// The (policy, demo) pair SSR acted on; `None` for methods without pairs.
-    pub chosen_policy: Option<TaskId>,
-    pub chosen_demo: Option<usize>,
-    /// L (embedding distance, Eq. 4) and C (cycle consistency distance, pixels,
-    /// Eq. 7) of the chosen pair.
-    pub l: Option<f32>,
-    pub c: Option<f32>,
-    /// Wall-clock milliseconds spent deciding the action.
-    pub decide_ms: f64,
-    /// Whether the primitive itself succeeded (block held after a grasp, block
-    /// released after a place); `None` when not recorded.
-    #[serde(default)]
-    pub primitive_success: Option<bool>,
-}
-
-/// One test trial: a JSON line of `trials.jsonl`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct TrialRecord {
-    /// Method id, e.g. `ssr-ccd`, `ssr-l2cd`, `spot-q`, `oracle`, `random`.
-    pub method: String,
-    /// The test task (the fold: its own policy is left out).
-    pub task: TaskId,
-    /// The trial's world seed (test seeds are odd).
-    pub seed: u64,
-    /// Trial number within the (method, task) run, from 0.
-    pub trial: usize,
-    /// Progress reached 4.
-    pub success: bool,
-    /// Actions executed.
-    pub actions: usize,
-    /// Highest, first and last progress P of the trial (1..=4).
-    pub max_progress: u8,
-    pub start_progress: u8,
-    pub final_progress: u8,
-    /// Progress dropped below a value it had earlier in the trial.
-    pub reversal: bool,
-    /// Why the trial ended: `success`, `action-limit`, `out-of-workspace`, ...
-    pub end: String,
-    pub actions_log: Vec<ActionLog>,
-}
-
-impl TrialRecord {
-    /// The record as one JSON line (no trailing newline).
-    pub fn to_json_line(&self) -> Result<String, serde_json::Error> {
-        serde_json::to_string(self)
-    }
-}
-
-/// A problem reading or writing trial records.
-#[derive(Debug, thiserror::Error)]
-pub enum MetricsError {
-    #[error("{path}: {source}")]
-    Io {
-        path: String,
-        source: std::io::Error,
-    },
-    #[error("{path}, line {line}: not a trial record: {source}")]
-    Parse {
-        path: String,
-        line: usize,
-        source: serde_json::Error,
-    },
-}
-
-/// Reads a `trials.jsonl` file. A missing file is no records. A malformed *last*
-/// line (a write cut short when the evaluation was killed) is dropped, so a
-/// resumed run re-does that trial; a malformed line elsewhere is an error naming
-/// the file and line.
-pub fn read_records(path: &Path) -> Result<Vec<TrialRecord>, MetricsError> {
-    let io = |source| MetricsError::Io {
-        path: path.display().to_string(),
-        source,
-    };
-    let file = match std::fs::File::open(path) {
-        Ok(f) => f,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
-        Err(e) => return Err(io(e)),
-    };
-    let lines: Vec<String> = std::io::BufReader::new(file)
-        .lines()
-        .collect::<Result<_, _>>()
-        .map_err(io)?;
-    let last = lines.iter().rposition(|l| !l.trim().is_empty());
-    let mut out = Vec::new();
-    for (i, line) in lines.iter().enumerate() {
-        if line.trim().is_empty() {
-            continue;
-        }
-        match serde_json::from_str(line) {
-            Ok(r) => out.push(r),
-            Err(_) if Some(i) == last => break,
-            Err(source) => {
-                return Err(MetricsError::Parse {
-                    path: path.display().to_string(),
-                    line: i + 1,
-                    source,
-                });
-            }
-        }
-    }
-    Ok(out)
-}
-
-/// Appends one record as a line to `path` (created if missing) and syncs it, so
-/// a killed evaluation loses at most the running trial. If the file ends in a
-/// partial line (a write cut short), that fragment is cut off first, as
-/// [`read_records`] would have ignored it.
-pub fn append_record(path: &Path, record: &TrialRecord) -> Result<(), MetricsError> {
-    let io = |source| MetricsError::Io {
-        path: path.display().to_string(),
-        source,
-    };
-    let keep = match std::fs::read(path) {
-        Ok(bytes) if bytes.last().is_some_and(|&b| b != b'\n') => {
-            Some(bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1))
-        }
-        _ => None,
-    };
-    let mut f = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(path)
-        .map_err(io)?;
-    if let Some(len) = keep {
-        f.set_len(len as u64).map_err(io)?;
-    }
-    let mut line = record
-        .to_json_line()
-        .map_err(|e| io(std::io::Error::other(e)))?;
-    line.push('\n');
-    f.write_all(line.as_bytes()).map_err(io)?;
-    f.sync_data().map_err(io)
-}
+use crate::record::TrialRecord;
+use crate::task::{MAX_PROGRESS, TaskId};
 
 /// Annotated actions of a demonstration set: `demos x ideal actions` (2 x 6 = 12;
 /// 2 x 4 = 8 for `row`).
@@ -353,20 +212,7 @@ mod tests {
     use super::*;
 
     fn rec(trial: usize, success: bool, actions: usize, max_p: u8, reversal: bool) -> TrialRecord {
-        TrialRecord {
-            method: "ssr-ccd".into(),
-            task: TaskId::Stack,
-            seed: 2 * trial as u64 + 1,
-            trial,
-            success,
-            actions,
-            max_progress: max_p,
-            start_progress: 1,
-            final_progress: if success { 4 } else { 1 },
-            reversal,
-            end: if success { "success" } else { "action-limit" }.into(),
-            actions_log: Vec::new(),
-        }
+        crate::record::tests::example(trial, success, actions, max_p, reversal)
     }
 
     /// Five trials: successes of 6 and 10 actions (one after a reversal), and
@@ -440,48 +286,5 @@ mod tests {
         assert_eq!(m.trials, 6);
         assert_eq!(m.recoveries, Some(0.5));
         assert_eq!(m.annotated_actions, 10);
-    }
-
-    #[test]
-    fn jsonl_round_trip_and_truncated_tail() {
-        let dir = tempfile::tempdir().expect("tempdir");
-        let path = dir.path().join("trials.jsonl");
-        assert!(read_records(&path).expect("missing is empty").is_empty());
-        let mut r = records();
-        r[0].actions_log.push(ActionLog {
-            action: Action::new(seespot_sim::Primitive::Grasp, 3, 10, 20),
-            progress_before: 1,
-            progress_after: 1,
-            chosen_policy: Some(TaskId::Row),
-            chosen_demo: Some(1),
-            l: Some(0.5),
-            c: Some(2.0),
-            decide_ms: 12.5,
-            primitive_success: Some(true),
-        });
-        for x in &r[..2] {
-            append_record(&path, x).expect("append");
-        }
-        // A write cut short by a kill.
-        let mut f = std::fs::OpenOptions::new()
-            .append(true)
-            .open(&path)
-            .expect("open");
-        f.write_all(b"{\"method\":\"ssr").expect("write");
-        drop(f);
-        assert_eq!(read_records(&path).expect("read"), r[..2].to_vec());
-        // Appending cuts the fragment off: every record stays readable.
-        append_record(&path, &r[2]).expect("append");
-        assert_eq!(read_records(&path).expect("read"), r[..3].to_vec());
-        // A corrupt line in the middle is an error naming the file and line.
-        let text = std::fs::read_to_string(&path).expect("read");
-        let lines: Vec<&str> = text.lines().collect();
-        let bad = format!("{}\n{{oops\n{}\n", lines[0], lines[1]);
-        std::fs::write(&path, bad).expect("write");
-        let msg = read_records(&path)
-            .err()
-            .map(|e| e.to_string())
-            .unwrap_or_default();
-        assert!(msg.contains("trials.jsonl, line 2"), "{msg}");
     }
 }

@@ -25,6 +25,24 @@ pub struct Oracle {
     place_target: Option<(f32, f32, f32)>,
 }
 
+impl crate::actor::Actor for Oracle {
+    fn name(&self) -> String {
+        "oracle".to_owned()
+    }
+
+    fn begin_trial(&mut self, trial: &crate::trial::Trial) {
+        *self = Self::new(trial.task());
+    }
+
+    fn act(
+        &mut self,
+        trial: &crate::trial::Trial,
+        _hm: &crate::heightmap::Heightmaps,
+    ) -> Result<crate::actor::Choice, crate::actor::ActorError> {
+        Ok(Oracle::act(self, trial.world()).into())
+    }
+}
+
 impl Oracle {
     pub fn new(task: TaskId) -> Self {
         Self {

@@ -1,4 +1,4 @@
-//! The progress measure P(s) of DESIGN §2, computed from block poses.
+//! The progress measure P(s) of docs/design.md §2, computed from block poses.
 //!
 //! Tolerances are the reference implementation's, kept as named constants.
 
@@ -59,7 +59,7 @@ pub fn tower_below(blocks: &[BlockPose], top: usize) -> Vec<usize> {
     }
 }
 
-/// Whether the blocks at `idx` (two or more) form a row by the rules of DESIGN §2.
+/// Whether the blocks at `idx` (two or more) form a row by the rules of docs/design.md §2.
 pub fn is_row(blocks: &[BlockPose], idx: &[usize]) -> bool {
     if idx.len() < 2 {
         return idx.len() == 1;
@@ -133,7 +133,7 @@ pub fn stacked_pairs(blocks: &[BlockPose]) -> Vec<(usize, usize)> {
     pairs
 }
 
-/// Progress of the vertical square (two 2-block towers side by side), DESIGN §2:
+/// Progress of the vertical square (two 2-block towers side by side), docs/design.md §2:
 /// 4 if two 2-block stacks have bottoms that form a row; 3 if one 2-block stack's
 /// bottom forms a row with another block; 2 if there is a 2-block stack or a
 /// 2-block row; else 1.

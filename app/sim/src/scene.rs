@@ -4,8 +4,9 @@
 //! task = "stack"          # stack | row | unstack | vertical-square
 //! resolution = 112        # heightmap pixels per side (224 = the paper's 2 mm)
 //! [seeds]
-//! start = 1               # first seed (test seeds are odd, train/demo seeds even)
-//! count = 50              # number of trials
+//! start = 1               # first seed; trials take every other seed from it
+//! count = 50              # number of trials (see `seeds`: test seeds are odd
+//!                         # below 10001, validation odd from 10001, train even)
 //! [noise]                 # optional
 //! depth_std = 0.0         # metres
 //! color_jitter = 0        # u8 levels
@@ -16,6 +17,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::noise::SensorNoise;
+use crate::seeds::Seeds;
 use crate::task::TaskId;
 use crate::workspace::Grid;
 use crate::world::WorldConfig;
@@ -28,8 +30,8 @@ pub const RESOLUTION_RANGE: std::ops::RangeInclusive<usize> = 32..=448;
 pub struct Scene {
     pub task: TaskId,
     pub resolution: usize,
-    pub seed_start: u64,
-    pub seed_count: u64,
+    /// The trials' seeds: `seeds.start`, `+ 2`, ... (one split).
+    pub seeds: Seeds,
     pub noise: SensorNoise,
 }
 
@@ -81,12 +83,7 @@ impl Scene {
         }
         let task = match table.get("task") {
             None => return Err(field("task", "missing".into())),
-            Some(toml::Value::String(s)) => TaskId::parse(s).ok_or_else(|| {
-                field(
-                    "task",
-                    format!("unknown task '{s}' (expected stack, row, unstack or vertical-square)"),
-                )
-            })?,
+            Some(toml::Value::String(s)) => s.parse().map_err(|e| field("task", e))?,
             Some(_) => return Err(field("task", "must be a string".into())),
         };
         let resolution = int(&table, "resolution", path)?
@@ -160,11 +157,12 @@ impl Scene {
             }
             Some(_) => return Err(field("noise", "must be a table".into())),
         }
+        let seeds = Seeds::new(seed_start as u64, seed_count as u64)
+            .map_err(|e| field("seeds", e.to_string()))?;
         Ok(Self {
             task,
             resolution,
-            seed_start: seed_start as u64,
-            seed_count: seed_count as u64,
+            seeds,
             noise,
         })
     }
@@ -174,11 +172,6 @@ impl Scene {
             grid: Grid::new(self.resolution),
             noise: self.noise,
         }
-    }
-
-    /// The scene's seeds, in order.
-    pub fn seeds(&self) -> impl Iterator<Item = u64> + use<> {
-        self.seed_start..self.seed_start + self.seed_count
     }
 }
 
@@ -222,7 +215,7 @@ mod tests {
         let s = parse("task = \"row\"\nresolution = 112\n[seeds]\nstart = 1\ncount = 5\n[noise]\ndepth_std = 0.002\n")
             .expect("valid");
         assert_eq!(s.task, TaskId::Row);
-        assert_eq!(s.seeds().collect::<Vec<_>>(), vec![1, 2, 3, 4, 5]);
+        assert_eq!(s.seeds.iter().collect::<Vec<_>>(), vec![1, 3, 5, 7, 9]);
         assert_eq!(s.noise.depth_std, 0.002);
     }
 

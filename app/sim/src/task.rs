@@ -19,7 +19,7 @@ pub enum TaskId {
 /// Progress value of a finished task.
 pub const MAX_PROGRESS: u8 = 4;
 
-/// Actions after which a test trial ends (DESIGN §2).
+/// Actions after which a test trial ends (docs/design.md §2).
 pub const MAX_TRIAL_ACTIONS: usize = 30;
 
 impl TaskId {
@@ -40,12 +40,7 @@ impl TaskId {
         }
     }
 
-    /// Parses a kebab-case id; `None` for an unknown one.
-    pub fn parse(s: &str) -> Option<TaskId> {
-        Self::ALL.into_iter().find(|t| t.as_str() == s)
-    }
-
-    /// Ideal number of actions from a typical start (DESIGN §2).
+    /// Ideal number of actions from a typical start (docs/design.md §2).
     pub fn ideal_actions(self) -> usize {
         match self {
             TaskId::Row => 4,
@@ -78,8 +73,13 @@ impl std::fmt::Display for TaskId {
 impl std::str::FromStr for TaskId {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        TaskId::parse(s).ok_or_else(|| {
-            format!("unknown task '{s}' (expected one of: stack, row, unstack, vertical-square)")
-        })
+        Self::ALL
+            .into_iter()
+            .find(|t| t.as_str() == s)
+            .ok_or_else(|| {
+                format!(
+                    "unknown task '{s}' (expected one of: stack, row, unstack, vertical-square)"
+                )
+            })
     }
 }

@@ -1,4 +1,4 @@
-//! A trial: a world, a task, its progress history and the end rules of DESIGN §2.
+//! A trial: a world, a task, its progress history and the end rules of docs/design.md §2.
 
 use serde::{Deserialize, Serialize};
 

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-/// Side of the workspace square, metres (DESIGN §1).
+/// Side of the workspace square, metres (docs/design.md §1).
 pub const WORKSPACE_SIZE: f32 = 0.448;
 
 /// A square pixel grid over the workspace: `resolution x resolution` pixels of
@@ -33,7 +33,7 @@ impl Grid {
         WORKSPACE_SIZE / self.resolution as f32
     }
 
-    /// World `(x, y)` of pixel `(y, x)`: `x_w = x_min + x * res` (DESIGN §1).
+    /// World `(x, y)` of pixel `(y, x)`: `x_w = x_min + x * res` (docs/design.md §1).
     pub fn pixel_to_world(&self, py: usize, px: usize) -> (f32, f32) {
         let res = self.pixel_size();
         (

@@ -33,16 +33,16 @@ use rapier3d::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::action::{Action, Primitive};
-use crate::heightmap::Heightmaps;
+use crate::heightmap::{Heightmaps, render};
 use crate::noise::SensorNoise;
 use crate::workspace::{Grid, WORKSPACE_SIZE};
-use crate::{BLOCK_COLORS, BLOCK_SIZE, NUM_BLOCKS};
+use crate::{BLOCK_SIZE, NUM_BLOCKS};
 
 /// Physics rate, Hz.
 pub const PHYSICS_HZ: f32 = 240.0;
 /// Contact spring natural frequency, Hz (rapier's default is 30).
 pub const CONTACT_NATURAL_FREQUENCY: f32 = 120.0;
-/// Height from which random-start blocks are dropped, metres (DESIGN §1).
+/// Height from which random-start blocks are dropped, metres (docs/design.md §1).
 pub const DROP_HEIGHT: f32 = 0.15;
 /// Random starts drop blocks inside the workspace inset by this much, metres.
 pub const DROP_INSET: f32 = 0.1;
@@ -241,7 +241,7 @@ impl World {
         world
     }
 
-    /// A random start (DESIGN §1): each block dropped from [`DROP_HEIGHT`] at a
+    /// A random start (docs/design.md §1): each block dropped from [`DROP_HEIGHT`] at a
     /// uniform x, y in the workspace inset by [`DROP_INSET`], random orientation,
     /// the physics settled after each drop.
     pub fn random(config: WorldConfig, seed: u64) -> Self {
@@ -603,85 +603,11 @@ impl World {
 fn height_at(blocks: &[(usize, BlockPose)], x: f32, y: f32) -> Option<(f32, usize, bool)> {
     let mut best: Option<(f32, usize, bool)> = None;
     for (id, p) in blocks {
-        if let Some((z, up)) = ray_down(p, x, y)
+        if let Some((z, up)) = crate::heightmap::ray_down(p, x, y)
             && best.is_none_or(|(bz, _, _)| z > bz)
         {
             best = Some((z, *id, up));
         }
     }
     best
-}
-
-/// Intersection of the vertical ray through `(x, y)` with a block: the hit height
-/// and whether the face hit is the block's most upward-facing one.
-fn ray_down(p: &BlockPose, x: f32, y: f32) -> Option<(f32, bool)> {
-    let q = p.quat();
-    let inv = q.inverse();
-    let top = 1.0f32;
-    let origin = inv * Vector::new(x - p.position[0], y - p.position[1], top - p.position[2]);
-    let dir = inv * Vector::new(0.0, 0.0, -1.0);
-    let h = BLOCK_SIZE / 2.0;
-    let (mut t0, mut t1) = (f32::MIN, f32::MAX);
-    let mut axis = 2;
-    for k in 0..3 {
-        let (o, d) = (origin[k], dir[k]);
-        if d.abs() < 1e-9 {
-            if o.abs() > h {
-                return None;
-            }
-            continue;
-        }
-        let (a, b) = ((-h - o) / d, (h - o) / d);
-        let (near, far) = if a < b { (a, b) } else { (b, a) };
-        if near > t0 {
-            t0 = near;
-            axis = k;
-        }
-        t1 = t1.min(far);
-    }
-    if t0 > t1 || t1 < 0.0 {
-        return None;
-    }
-    // The face is flat-facing-up when its normal is the most vertical axis.
-    let up = dir[axis].abs() >= 0.9;
-    Some((top - t0, up))
-}
-
-/// Renders noise-free colour and depth heightmaps of the given blocks.
-pub fn render(grid: Grid, blocks: &[(usize, BlockPose)]) -> Heightmaps {
-    let mut hm = Heightmaps::empty(grid);
-    let n = grid.resolution;
-    let res = grid.pixel_size();
-    let reach = BLOCK_SIZE * 0.87;
-    for (id, p) in blocks {
-        let [bx, by, _] = p.position;
-        let lo_x = ((bx - reach - grid.x_min()) / res).floor().max(0.0) as usize;
-        let hi_x = ((bx + reach - grid.x_min()) / res)
-            .ceil()
-            .min(n as f32 - 1.0);
-        let lo_y = ((by - reach - grid.y_min()) / res).floor().max(0.0) as usize;
-        let hi_y = ((by + reach - grid.y_min()) / res)
-            .ceil()
-            .min(n as f32 - 1.0);
-        if hi_x < 0.0 || hi_y < 0.0 {
-            continue;
-        }
-        let color = BLOCK_COLORS[*id];
-        for py in lo_y..=hi_y as usize {
-            for px in lo_x..=hi_x as usize {
-                let (x, y) = grid.pixel_to_world(py, px);
-                if let Some((z, up)) = ray_down(p, x, y) {
-                    let i = py * n + px;
-                    if z > hm.depth[i] {
-                        hm.depth[i] = z;
-                        let shade = if up { 1.0 } else { 0.7 };
-                        for (out, c) in hm.color[i * 3..i * 3 + 3].iter_mut().zip(color) {
-                            *out = (c as f32 * shade) as u8;
-                        }
-                    }
-                }
-            }
-        }
-    }
-    hm
 }

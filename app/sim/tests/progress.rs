@@ -1,4 +1,4 @@
-//! The progress measure of every task on hand-placed block layouts (DESIGN §2).
+//! The progress measure of every task on hand-placed block layouts (docs/design.md §2).
 
 use seespot_sim::TaskId;
 use seespot_sim::world::BlockPose;

@@ -1,11 +1,11 @@
 //! See-SPOT-Run: repurpose SPOT-Q policies trained on other tasks to do a new
 //! task from two demonstrations (paper Sec. 4.2), and the leave-one-out
-//! evaluation with the metrics of Sec. 5.1.
+//! evaluation (its trial records and metrics live in [`seespot_sim::record`] and
+//! [`seespot_sim::metrics`]).
 
 pub mod correspond;
 pub mod eval;
 pub mod explain;
-pub mod metrics;
 pub mod policy;
 pub mod report;
 
@@ -14,5 +14,4 @@ pub use correspond::{
     match_queries_with, rematch, rematch_with, smooth,
 };
 pub use explain::{Decision, Method, PairExplanation};
-pub use metrics::{ActionLog, Summary, TrialRecord, summarize};
 pub use policy::{SsrConfig, SsrError, SsrPolicy};

@@ -22,7 +22,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use seespot_policy::{AseMap, PolicyError, PolicyNet};
-use seespot_sim::{Action, Demo, DemoError, Heightmaps, Primitive, TaskId};
+use seespot_sim::actor::{Actor, ActorError, Choice, ChosenPair};
+use seespot_sim::{Action, Demo, DemoError, Heightmaps, Primitive, TaskId, Trial};
 
 use crate::correspond::{self, CorrespondOptions};
 use crate::explain::{Decision, Method, PairExplanation};
@@ -184,22 +185,15 @@ impl SsrPolicy {
         &self.live
     }
 
-    /// The demo step each demonstration uses at progress `p` for `primitive`: the
-    /// step with that progress, else the last earlier step of that primitive, else
-    /// its first step of that primitive.
+    /// The demo step demonstration `demo` uses at progress `progress` for
+    /// `primitive` (see [`demo_step`]).
     pub fn demo_step(&self, demo: usize, progress: u8, primitive: Primitive) -> Option<usize> {
-        let d = &self.demos[demo];
-        if let Some((i, _)) = d.step_at(progress, primitive) {
-            return Some(i);
-        }
-        let same: Vec<usize> = (0..d.steps.len())
-            .filter(|&i| d.steps[i].meta.action.primitive == primitive)
-            .collect();
-        same.iter()
-            .rev()
-            .find(|&&i| d.steps[i].meta.progress_before <= progress)
-            .or(same.first())
-            .copied()
+        demo_step(&self.demos[demo], progress, primitive)
+    }
+
+    /// The explanation record of the last decision, if any.
+    pub fn last_decision(&self) -> Option<&Decision> {
+        self.last.as_ref().map(|(_, _, _, d)| d)
     }
 
     /// The demo's ASE map for (policy, demo, step), computed once per trial.
@@ -389,6 +383,48 @@ impl SsrPolicy {
             }
         }
         Ok(best)
+    }
+}
+
+/// The demo step a demonstration uses at progress `progress` for `primitive`:
+/// the step with that progress, else the last earlier step of that primitive,
+/// else its first step of that primitive; `None` when it has none.
+pub fn demo_step(demo: &Demo, progress: u8, primitive: Primitive) -> Option<usize> {
+    if let Some((i, _)) = demo.step_at(progress, primitive) {
+        return Some(i);
+    }
+    let same: Vec<usize> = (0..demo.steps.len())
+        .filter(|&i| demo.steps[i].meta.action.primitive == primitive)
+        .collect();
+    same.iter()
+        .rev()
+        .find(|&&i| demo.steps[i].meta.progress_before <= progress)
+        .or(same.first())
+        .copied()
+}
+
+/// See-SPOT-Run as an [`Actor`]: each choice is a full [`SsrPolicy::decide`],
+/// whose explanation record stays available as [`SsrPolicy::last_decision`].
+impl Actor for SsrPolicy {
+    fn name(&self) -> String {
+        match self.config.method {
+            Method::SsrCcd => "See-SPOT-Run CCD".to_owned(),
+            Method::SsrL2cd => "See-SPOT-Run L2CD".to_owned(),
+        }
+    }
+
+    fn act(&mut self, trial: &Trial, hm: &Heightmaps) -> Result<Choice, ActorError> {
+        let d = self.decide(hm, trial.progress(), trial.world().next_primitive())?;
+        let p = &d.pairs[d.chosen];
+        Ok(Choice {
+            action: d.action,
+            pair: Some(ChosenPair {
+                policy: p.policy,
+                demo: p.demo,
+                l: p.l,
+                c: p.c,
+            }),
+        })
     }
 }
 

@@ -10,12 +10,12 @@ use plotters::prelude::*;
 use seespot_sim::TaskId;
 use serde::Serialize;
 
-use crate::metrics::{Summary, mean_over_tasks};
+use seespot_sim::metrics::{Summary, mean_over_tasks};
 
 /// Trials per task in the paper's evaluation.
 pub const PAPER_TRIALS: usize = 50;
 
-/// One number of the paper's simulation results (Tables 1-2; DESIGN.md §5).
+/// One number of the paper's simulation results (Tables 1-2; docs/design.md §5).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct PaperResult {
     /// Display name, e.g. `SSR CCD`.
@@ -50,10 +50,10 @@ impl PaperResult {
     }
 }
 
-/// Training actions per task of the reference SPOT-Q policies (DESIGN.md §3).
+/// Training actions per task of the reference SPOT-Q policies (docs/design.md §3).
 const SPOT_Q_TRAIN_STEPS: u64 = 40_000;
 
-/// The paper's simulation results, DESIGN.md §5 (trial success / progress per
+/// The paper's simulation results, docs/design.md §5 (trial success / progress per
 /// task in `TaskId::ALL` order, then the mean; SPOT-Q has the mean only).
 pub fn paper_results() -> Vec<PaperResult> {
     // (method, train steps, [(success %, progress %); stack, unstack, row, vsq, mean])
@@ -517,7 +517,8 @@ pub fn plot_figure4(summaries: &[Summary], path: &Path) -> Result<PathBuf, Repor
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::metrics::{TrialRecord, summarize_all};
+    use seespot_sim::TrialRecord;
+    use seespot_sim::metrics::summarize_all;
 
     fn records() -> Vec<TrialRecord> {
         let mut out = Vec::new();
@@ -536,7 +537,7 @@ mod tests {
                         start_progress: 1,
                         final_progress: if success { 4 } else { 1 },
                         reversal: trial == 1,
-                        end: "success".into(),
+                        end: Some(seespot_sim::TrialEnd::Success),
                         actions_log: Vec::new(),
                     });
                 }

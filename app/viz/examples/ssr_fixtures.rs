@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use seespot_policy::PolicyNet;
 use seespot_sim::{Grid, TaskId, WorldConfig};
-use seespot_viz::decider::record_demo;
+use seespot_viz::decider::load_demos;
 
 fn main() -> anyhow::Result<()> {
     let mut args = std::env::args().skip(1);
@@ -27,14 +27,9 @@ fn main() -> anyhow::Result<()> {
             &out.join("models")
                 .join(format!("{}.safetensors", t.as_str())),
         )?;
-        let mut seed = 0;
-        let mut written = 0;
-        while written < 2 && seed < 40 {
-            if let Some(d) = record_demo(t, seed, world) {
-                d.write(&out.join("demos").join(t.as_str()).join(["0", "2"][written]))?;
-                written += 1;
-            }
-            seed += 2;
+        let (demos, _) = load_demos(t, std::path::Path::new("/nonexistent"), world)?;
+        for (d, name) in demos.iter().zip(["0", "2"]) {
+            d.write(&out.join("demos").join(t.as_str()).join(name))?;
         }
     }
     println!("wrote {}", out.display());

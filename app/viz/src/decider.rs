@@ -1,34 +1,27 @@
-//! What chooses the next action in a viewed trial, behind one trait so the
-//! debugger works with the shipped SSR policy, a handcrafted-feature stand-in
-//! (when no models are shipped yet) or the scripted oracle.
+//! What chooses the next action in a viewed trial: an [`Actor`] that can also
+//! explain itself. [`Decider`] adds to the one action-picking trait what the
+//! debugger shows: the demonstrations, the policies, the explanation record of
+//! the last decision and click-to-query. It is implemented by See-SPOT-Run
+//! ([`seespot_ssr::SsrPolicy`], the default), the scripted oracle (no
+//! explanation), and [`FeatureDecider`], SSR's loop over handcrafted features.
 
 use std::path::Path;
 use std::time::Instant;
 
 use anyhow::Context;
-use seespot_sim::{
-    Action, Demo, DemoStep, Heightmaps, Oracle, Primitive, TaskId, Trial, WorldConfig,
-};
-use seespot_ssr::{Decision, Method, PairExplanation};
+use seespot_sim::actor::{Actor, ActorError, Choice, ChosenPair};
+use seespot_sim::{Action, Demo, Heightmaps, Oracle, Primitive, Seeds, TaskId, Trial, WorldConfig};
+use seespot_ssr::policy::{DEMO_SEEDS, choose, demo_step};
+use seespot_ssr::{Decision, Method, PairExplanation, SsrPolicy};
 
-/// One decision: the action to execute and, for SSR-like deciders, its
-/// explanation record.
-#[derive(Clone, Debug)]
-pub struct Choice {
-    pub action: Action,
-    pub decision: Option<Decision>,
-}
-
-/// Picks actions for a trial and answers click-to-query requests.
-pub trait Decider: Send {
-    /// A short human-readable name shown on the page.
-    fn name(&self) -> String;
+/// An [`Actor`] the debugger can explain.
+pub trait Decider: Actor + Send {
     /// The demonstrations of the test task (empty for the oracle).
     fn demos(&self) -> &[Demo];
     /// The policies used, in the order of `Decision::pairs`.
     fn policies(&self) -> Vec<TaskId>;
-    /// Decides the next action from the live heightmaps `hm` of `trial`.
-    fn decide(&mut self, trial: &Trial, hm: &Heightmaps) -> anyhow::Result<Choice>;
+    /// The explanation record of the last [`Actor::act`], if the decider has one.
+    fn decision(&self) -> Option<&Decision>;
     /// Click-to-query: the `H x W` distance map over the live scene `hm` of the
     /// ASE of demo `demo`'s pixel `(y, x)` at step `demo_step`, under policy
     /// index `policy`; `None` when the decider has no embedding.
@@ -44,23 +37,7 @@ pub trait Decider: Send {
 }
 
 /// The scripted oracle: no explanation, but the page and the recording still work.
-pub struct OracleDecider {
-    oracle: Oracle,
-}
-
-impl OracleDecider {
-    pub fn new(task: TaskId) -> Self {
-        Self {
-            oracle: Oracle::new(task),
-        }
-    }
-}
-
-impl Decider for OracleDecider {
-    fn name(&self) -> String {
-        "oracle (scripted, no explanation)".to_owned()
-    }
-
+impl Decider for Oracle {
     fn demos(&self) -> &[Demo] {
         &[]
     }
@@ -69,11 +46,8 @@ impl Decider for OracleDecider {
         Vec::new()
     }
 
-    fn decide(&mut self, trial: &Trial, _hm: &Heightmaps) -> anyhow::Result<Choice> {
-        Ok(Choice {
-            action: self.oracle.act(trial.world()),
-            decision: None,
-        })
+    fn decision(&self) -> Option<&Decision> {
+        None
     }
 
     fn query(
@@ -89,20 +63,54 @@ impl Decider for OracleDecider {
     }
 }
 
+/// See-SPOT-Run with the shipped policies and demonstrations.
+impl Decider for SsrPolicy {
+    fn demos(&self) -> &[Demo] {
+        SsrPolicy::demos(self)
+    }
+
+    fn policies(&self) -> Vec<TaskId> {
+        self.policy_tasks()
+    }
+
+    fn decision(&self) -> Option<&Decision> {
+        self.last_decision()
+    }
+
+    fn query(
+        &mut self,
+        _hm: &Heightmaps,
+        policy: usize,
+        demo: usize,
+        demo_step: usize,
+        y: usize,
+        x: usize,
+    ) -> anyhow::Result<Option<Vec<f32>>> {
+        Ok(Some(SsrPolicy::query(self, policy, demo, demo_step, y, x)?))
+    }
+}
+
 /// Number of channels of the handcrafted per-pixel feature.
 const FEATURE_DIM: usize = 8;
 
-/// A stand-in for SSR when no trained models are shipped: the same embed /
-/// match / verify / act loop (DESIGN §4) over a handcrafted, rotation-invariant
-/// per-pixel feature (box-filtered colour and height at two scales) instead of a
-/// network's ASE. Each "policy" weights colour and height differently, so the
-/// pairs disagree the way real policies do. Matches are searched at the demo
-/// action's rotation (the feature does not depend on rotation).
+/// SSR's embed / match / verify / act loop (paper Sec. 4.2) over a handcrafted,
+/// rotation-invariant per-pixel feature (box-filtered colour and height at two
+/// scales) instead of a network's ASE. Each "policy" weights colour and height
+/// differently, so the pairs disagree the way real policies do. Matches are
+/// searched at the demo action's rotation (the feature does not depend on
+/// rotation).
+///
+/// Its use: the debugger's own tests (server, recording, page) run on it at
+/// small resolutions, because it needs no trained weights and decides in
+/// milliseconds, so they test the debugger rather than the networks; and
+/// `seespot view --decider features` shows how far plain colour and height
+/// features get. It is not a method of the evaluation.
 pub struct FeatureDecider {
     task: TaskId,
     policies: Vec<TaskId>,
     demos: Vec<Demo>,
     method: Method,
+    last: Option<Decision>,
 }
 
 impl FeatureDecider {
@@ -114,6 +122,7 @@ impl FeatureDecider {
             policies,
             demos,
             method: Method::SsrCcd,
+            last: None,
         }
     }
 
@@ -252,41 +261,12 @@ fn argmin(v: &[f32]) -> Option<(usize, f32)> {
     best
 }
 
-/// The demo step SSR uses at test progress `p` for `primitive`: the step at
-/// progress `p`, else the nearest lower progress, else the first with that primitive.
-pub fn demo_step_for(demo: &Demo, p: u8, primitive: Primitive) -> Option<(usize, &DemoStep)> {
-    demo.step_at(p, primitive)
-        .or_else(|| {
-            demo.steps
-                .iter()
-                .enumerate()
-                .filter(|(_, s)| {
-                    s.meta.action.primitive == primitive && s.meta.progress_before <= p
-                })
-                .max_by_key(|(_, s)| s.meta.progress_before)
-        })
-        .or_else(|| {
-            demo.steps
-                .iter()
-                .enumerate()
-                .find(|(_, s)| s.meta.action.primitive == primitive)
-        })
-}
-
-impl Decider for FeatureDecider {
+impl Actor for FeatureDecider {
     fn name(&self) -> String {
-        "feature baseline (handcrafted features; no shipped models found)".to_owned()
+        "feature baseline (SSR over handcrafted features)".to_owned()
     }
 
-    fn demos(&self) -> &[Demo] {
-        &self.demos
-    }
-
-    fn policies(&self) -> Vec<TaskId> {
-        self.policies.clone()
-    }
-
-    fn decide(&mut self, trial: &Trial, hm: &Heightmaps) -> anyhow::Result<Choice> {
+    fn act(&mut self, trial: &Trial, hm: &Heightmaps) -> Result<Choice, ActorError> {
         let t0 = Instant::now();
         let n = hm.grid.resolution;
         let primitive = trial.world().next_primitive();
@@ -298,9 +278,10 @@ impl Decider for FeatureDecider {
         for m in 0..self.policies.len() {
             let w = self.weights(m);
             for (d, demo) in self.demos.iter().enumerate() {
-                let Some((step_index, step)) = demo_step_for(demo, progress, primitive) else {
+                let Some(step_index) = demo_step(demo, progress, primitive) else {
                     continue;
                 };
+                let step = &demo.steps[step_index];
                 let a_demo = step.meta.action;
                 let demo_map = FeatureMap::new(&step.heightmaps);
                 let match_map = live.distances(
@@ -338,32 +319,50 @@ impl Decider for FeatureDecider {
                 });
             }
         }
-        let chosen = pairs
-            .iter()
-            .enumerate()
-            .min_by(|(_, a), (_, b)| match self.method {
-                Method::SsrCcd => a.c.total_cmp(&b.c).then(a.l.total_cmp(&b.l)),
-                Method::SsrL2cd => a.l.total_cmp(&b.l),
-            })
-            .map(|(i, _)| i)
-            .context(
-                "no (policy, demo) pair has a demo step with this primitive and an allowed match",
-            )?;
-        let action = pairs[chosen].matched;
-        Ok(Choice {
-            action,
-            decision: Some(Decision {
-                method: self.method,
-                primitive,
-                progress,
-                resolution: n,
-                pairs,
-                chosen,
-                action,
-                embed_ms,
-                correspond_ms: t1.elapsed().as_secs_f64() * 1e3,
+        if pairs.is_empty() {
+            return Err(
+                "no (policy, demo) pair has a demo step with this primitive and an allowed match"
+                    .into(),
+            );
+        }
+        let chosen = choose(&pairs, self.method);
+        let p = &pairs[chosen];
+        let choice = Choice {
+            action: p.matched,
+            pair: Some(ChosenPair {
+                policy: p.policy,
+                demo: p.demo,
+                l: p.l,
+                c: p.c,
             }),
-        })
+        };
+        let action = p.matched;
+        self.last = Some(Decision {
+            method: self.method,
+            primitive,
+            progress,
+            resolution: n,
+            pairs,
+            chosen,
+            action,
+            embed_ms,
+            correspond_ms: t1.elapsed().as_secs_f64() * 1e3,
+        });
+        Ok(choice)
+    }
+}
+
+impl Decider for FeatureDecider {
+    fn demos(&self) -> &[Demo] {
+        &self.demos
+    }
+
+    fn policies(&self) -> Vec<TaskId> {
+        self.policies.clone()
+    }
+
+    fn decision(&self) -> Option<&Decision> {
+        self.last.as_ref()
     }
 
     fn query(
@@ -406,41 +405,68 @@ impl Decider for FeatureDecider {
     }
 }
 
-/// Records a demonstration of `task` with the oracle from `seed` (noise-free
-/// heightmaps before each action); `None` when the oracle does not succeed.
-pub fn record_demo(task: TaskId, seed: u64, config: WorldConfig) -> Option<Demo> {
-    Demo::record(task, seed, config).ok()
+/// Training seeds tried when recording a demonstration in memory.
+const DEMO_SEED_TRIES: u64 = 20;
+
+/// Records a demonstration of `task` with the oracle (noise-free heightmaps
+/// before each action) from the first training seed at or after `seed`, not in
+/// `taken`, on which the oracle succeeds.
+pub fn record_demo(
+    task: TaskId,
+    seed: u64,
+    taken: &[u64],
+    config: WorldConfig,
+) -> anyhow::Result<Demo> {
+    let seeds = Seeds::new(seed, DEMO_SEED_TRIES)?;
+    let mut last = None;
+    for s in seeds.iter().filter(|s| !taken.contains(s)) {
+        match Demo::record(task, s, config) {
+            Ok(d) => return Ok(d),
+            Err(e) => last = Some(e),
+        }
+    }
+    Err(anyhow::anyhow!(
+        "the {task} oracle did not succeed from {DEMO_SEED_TRIES} seeds from {seed} at {} px{}",
+        config.grid.resolution,
+        last.map(|e| format!(" (last: {e})")).unwrap_or_default()
+    ))
 }
 
-/// The two demonstrations of `task`: read from `demos_dir/<task>/{0,2}` when
-/// present at this resolution, else recorded in memory with the oracle from the
-/// first even seeds that succeed. Returns the demos and a note saying which.
-pub fn load_demos(task: TaskId, demos_dir: &Path, config: WorldConfig) -> (Vec<Demo>, String) {
+/// The two demonstrations of `task` at the resolution of `config`: read from
+/// `demos_dir/<task>/{0,2}` where they exist at that resolution, else recorded in
+/// memory with the oracle (see [`record_demo`]). A demonstration that exists but
+/// cannot be read is an error naming it. Returns the demos and a note saying
+/// where they came from.
+pub fn load_demos(
+    task: TaskId,
+    demos_dir: &Path,
+    config: WorldConfig,
+) -> anyhow::Result<(Vec<Demo>, String)> {
     let dir = demos_dir.join(task.as_str());
-    let read: Vec<Demo> = ["0", "2"]
-        .iter()
-        .filter_map(|s| Demo::read(&dir.join(s)).ok())
-        .filter(|d| d.meta.resolution == config.grid.resolution)
-        .collect();
-    if read.len() == 2 {
-        return (read, format!("demos read from {}", dir.display()));
-    }
-    let mut demos = Vec::new();
-    let mut seed = 0;
-    while demos.len() < 2 && seed < 40 {
-        if let Some(d) = record_demo(task, seed, config) {
-            demos.push(d);
+    let n = config.grid.resolution;
+    let mut demos: Vec<Demo> = Vec::new();
+    let mut notes = Vec::new();
+    for seed in DEMO_SEEDS {
+        let path = dir.join(seed.to_string());
+        if path.exists() {
+            let d = Demo::read(&path)
+                .with_context(|| format!("cannot use the demonstration {}", path.display()))?;
+            if d.meta.resolution == n {
+                notes.push(format!("read {}", path.display()));
+                demos.push(d);
+                continue;
+            }
+            notes.push(format!("{} is {} px", path.display(), d.meta.resolution));
+        } else {
+            notes.push(format!("no {}", path.display()));
         }
-        seed += 2;
+        let taken: Vec<u64> = demos.iter().map(|d| d.meta.seed).collect();
+        let d = record_demo(task, seed, &taken, config)?;
+        notes.push(format!(
+            "recorded seed {} with the oracle at {n} px",
+            d.meta.seed
+        ));
+        demos.push(d);
     }
-    let seeds: Vec<String> = demos.iter().map(|d| d.meta.seed.to_string()).collect();
-    (
-        demos,
-        format!(
-            "no demos at {} for {} px: recorded with the oracle from seeds {}",
-            dir.display(),
-            config.grid.resolution,
-            seeds.join(", ")
-        ),
-    )
+    Ok((demos, notes.join("; ")))
 }

@@ -2,8 +2,9 @@
 //!
 //! - [`paths`]: the one scheme of rerun entity paths and timelines;
 //! - [`recording`]: logging trials to rerun (`.rrd` files or a live gRPC stream);
-//! - [`decider`]: what picks actions in a viewed trial (SSR, a feature baseline, the oracle);
+//! - [`decider`]: what picks actions in a viewed trial and explains them (SSR, a feature baseline, the oracle);
 //! - [`session`]: a trial stepped phase by phase (embed, match, verify, act);
+//! - [`protocol`]: the WebSocket message types shared by the server and the page;
 //! - [`server`]: the local web server behind `web/` (assets, JSON API, WebSocket);
 //! - [`live`]: `view`, `record` and the latency / size benchmarks the CLI calls.
 
@@ -11,14 +12,17 @@ pub mod b64;
 pub mod decider;
 pub mod live;
 pub mod paths;
+pub mod phase;
+pub mod protocol;
 pub mod recording;
 pub mod server;
 pub mod session;
 pub mod ssr;
 
-pub use decider::{Choice, Decider, FeatureDecider, OracleDecider};
+pub use decider::{Decider, FeatureDecider};
 pub use live::{
     DeciderKind, RecordOptions, ViewOptions, ViewUrls, bench_view, record_trials, serve_view,
 };
+pub use phase::Phase;
 pub use recording::Recorder;
-pub use session::{Phase, Session, SessionConfig};
+pub use session::{Session, SessionConfig};

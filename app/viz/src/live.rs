@@ -9,11 +9,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use anyhow::Context;
-use seespot_sim::{Grid, TaskId, WorldConfig};
+use seespot_sim::{Grid, Oracle, Seeds, TaskId, WorldConfig};
 use serde::Serialize;
 use serde_json::json;
 
-use crate::decider::{Decider, FeatureDecider, OracleDecider, load_demos};
+use crate::decider::{Decider, FeatureDecider, load_demos};
 use crate::recording::Recorder;
 use crate::server::{self, AppState};
 use crate::session::{DeciderFactory, Phase, Session, SessionConfig};
@@ -22,25 +22,37 @@ use crate::session::{DeciderFactory, Phase, Session, SessionConfig};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum DeciderKind {
-    /// The shipped SSR policy when its models and demos exist, else the feature baseline.
-    Auto,
-    /// The shipped SSR policy (models/<task>.safetensors + demos); an error if missing.
+    /// See-SPOT-Run with the shipped policies (`<models>/<task>.safetensors`)
+    /// and demonstrations; an error naming the file if one is missing.
     Ssr,
-    /// SSR's loop over handcrafted features (no models needed).
+    /// SSR's loop over handcrafted features: no trained weights needed (the
+    /// debugger's tests use it).
     Features,
     /// The scripted oracle (no explanation).
     Oracle,
 }
 
 impl DeciderKind {
-    pub fn parse(s: &str) -> Option<Self> {
-        match s {
-            "auto" => Some(Self::Auto),
-            "ssr" => Some(Self::Ssr),
-            "features" => Some(Self::Features),
-            "oracle" => Some(Self::Oracle),
-            _ => None,
+    pub const ALL: [Self; 3] = [Self::Ssr, Self::Features, Self::Oracle];
+
+    /// The kebab-case name used on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Ssr => "ssr",
+            Self::Features => "features",
+            Self::Oracle => "oracle",
         }
+    }
+}
+
+impl std::str::FromStr for DeciderKind {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Self::ALL
+            .into_iter()
+            .find(|k| k.as_str() == s)
+            .ok_or_else(|| format!("unknown decider '{s}' (expected ssr, features or oracle)"))
     }
 }
 
@@ -49,27 +61,15 @@ impl DeciderKind {
 pub fn factory(kind: DeciderKind, models_dir: PathBuf, demos_dir: PathBuf) -> DeciderFactory {
     Box::new(
         move |task: TaskId, world: WorldConfig| -> anyhow::Result<(Box<dyn Decider>, String)> {
-            let model = models_dir.join(format!("{}.safetensors", task.as_str()));
             match kind {
-                DeciderKind::Oracle => Ok((
-                    Box::new(OracleDecider::new(task)),
-                    "scripted oracle".to_owned(),
-                )),
+                DeciderKind::Oracle => {
+                    Ok((Box::new(Oracle::new(task)), "scripted oracle".to_owned()))
+                }
                 DeciderKind::Ssr => crate::ssr::load(task, &models_dir, &demos_dir, world),
                 DeciderKind::Features => {
-                    let (demos, note) = load_demos(task, &demos_dir, world);
+                    let (demos, note) = load_demos(task, &demos_dir, world)?;
                     Ok((Box::new(FeatureDecider::new(task, demos)), note))
                 }
-                DeciderKind::Auto => match crate::ssr::load(task, &models_dir, &demos_dir, world) {
-                    Ok(d) => Ok(d),
-                    Err(e) => {
-                        let (demos, note) = load_demos(task, &demos_dir, world);
-                        let why =
-                            format!("SSR unavailable ({e:#}); using the feature baseline. {note}");
-                        let _ = model;
-                        Ok((Box::new(FeatureDecider::new(task, demos)), why))
-                    }
-                },
             }
         },
     )
@@ -234,10 +234,8 @@ pub struct RecordedTrial {
 #[derive(Clone, Debug)]
 pub struct RecordOptions {
     pub task: TaskId,
-    pub trials: usize,
-    /// Seed of the first trial; the next ones are `seed0 + 2`, `seed0 + 4`, …
-    /// (test seeds are odd: pass an odd one).
-    pub seed0: u64,
+    /// The trials' seeds.
+    pub seeds: Seeds,
     pub resolution: usize,
     /// Folder of the `<task>-<seed>.rrd` files.
     pub out: PathBuf,
@@ -254,8 +252,7 @@ pub fn record_trials(
 ) -> anyhow::Result<Vec<RecordedTrial>> {
     let RecordOptions {
         task,
-        trials,
-        seed0,
+        seeds,
         resolution,
         ref out,
     } = *opts;
@@ -265,11 +262,10 @@ pub fn record_trials(
         ..WorldConfig::default()
     };
     let mut done = Vec::new();
-    for i in 0..trials {
+    for seed in seeds.iter() {
         if stop.load(Ordering::SeqCst) {
             break;
         }
-        let seed = seed0 + 2 * i as u64;
         let path = out.join(format!("{}-{seed}.rrd", task.as_str()));
         let recorder = Recorder::to_file(task, &path)?;
         let config = SessionConfig { task, seed, world };

@@ -1,5 +1,5 @@
 //! The one scheme of rerun entity paths and timelines used by every seespot
-//! recording (DESIGN §6). Everything that logs goes through these names.
+//! recording (docs/design.md §6). Everything that logs goes through these names.
 //!
 //! | path | what |
 //! |---|---|

@@ -18,7 +18,7 @@ use seespot_sim::{BLOCK_COLORS, BLOCK_SIZE, Demo, Heightmaps, TaskId, Trial};
 use seespot_ssr::Decision;
 
 use crate::paths;
-use crate::session::Phase;
+use crate::phase::Phase;
 
 /// rerun application id of every seespot recording.
 pub const APPLICATION_ID: &str = "seespot";

@@ -2,12 +2,8 @@
 //! binary, so nothing else on disk can be served), a small JSON API and a
 //! WebSocket that steps the trial and answers click-to-query.
 //!
-//! WebSocket protocol (JSON text messages):
-//! - client -> server: `{"type": "next_phase" | "next_action" | "run" | "stop" | "state"}`,
-//!   `{"type": "reset", "task": "stack", "seed": 1}`,
-//!   `{"type": "query", "pair": 0, "policy": 1, "y": 40, "x": 60}`.
-//! - server -> every tab: `{"type": "state", ...}` after each change (see [`Session::state`]).
-//! - server -> the asking tab: `{"type": "query", ...}`, `{"type": "error", "message": ...}`.
+//! WebSocket protocol: the message types of [`crate::protocol`]; every tab gets
+//! `{"type": "state", ...}` after each change (see [`Session::state`]).
 //!
 //! A tab that disconnects changes nothing: stepping runs on blocking tasks that
 //! finish whether or not anyone still listens.
@@ -24,10 +20,10 @@ use axum::http::{StatusCode, Uri, header};
 use axum::response::{IntoResponse, Response};
 use axum::routing::get;
 use futures_util::{SinkExt, StreamExt};
-use seespot_sim::TaskId;
 use serde_json::{Value, json};
 use tokio::sync::{broadcast, mpsc};
 
+use crate::protocol::{ClientMessage, ServerMessage};
 use crate::session::Session;
 
 /// The page's files, embedded at compile time: `(url path, content type, body)`.
@@ -193,7 +189,11 @@ async fn ws(State(s): State<Arc<AppState>>, upgrade: WebSocketUpgrade) -> Respon
 }
 
 fn error(message: impl Into<String>, request: Option<&str>) -> String {
-    json!({"type": "error", "message": message.into(), "request": request}).to_string()
+    ServerMessage::Error {
+        message: message.into(),
+        request,
+    }
+    .to_text()
 }
 
 /// One tab: forwards broadcasts and direct replies, and handles its requests.
@@ -201,7 +201,7 @@ async fn client(socket: WebSocket, s: Arc<AppState>) {
     let (mut sink, mut stream) = socket.split();
     let mut rx = s.tx.subscribe();
     let (direct_tx, mut direct_rx) = mpsc::channel::<String>(16);
-    let hello = json!({"type": "info", "info": s.info}).to_string();
+    let hello = ServerMessage::Info { info: &s.info }.to_text();
     let st = s.clone();
     let state = tokio::task::spawn_blocking(move || st.session().state().to_string())
         .await
@@ -255,53 +255,31 @@ async fn client(socket: WebSocket, s: Arc<AppState>) {
 
 /// Handles one request; returns the direct reply, if any (state changes are broadcast).
 pub async fn handle(s: &Arc<AppState>, text: &str) -> Option<String> {
-    let v: Value = match serde_json::from_str(text) {
-        Ok(v) => v,
-        Err(e) => return Some(error(format!("malformed message (not JSON): {e}"), None)),
+    let msg = match ClientMessage::parse(text) {
+        Ok(m) => m,
+        Err((message, kind)) => return Some(error(message, kind.as_deref())),
     };
-    let Some(kind) = v.get("type").and_then(Value::as_str).map(str::to_owned) else {
-        return Some(error("message has no string field `type`", None));
-    };
-    let kind = kind.as_str();
-    if s.running.load(Ordering::SeqCst) && !matches!(kind, "stop" | "state" | "query" | "ping") {
+    let kind = msg.kind();
+    let read_only = matches!(
+        msg,
+        ClientMessage::Stop
+            | ClientMessage::State
+            | ClientMessage::Query { .. }
+            | ClientMessage::Ping
+    );
+    if s.running.load(Ordering::SeqCst) && !read_only {
         return Some(error(
             "a run to the end is in progress; send `stop` first",
             Some(kind),
         ));
     }
     let st = s.clone();
-    let reply = match kind {
-        "ping" => return Some(json!({"type": "pong"}).to_string()),
-        "state" => return Some(st.session().state().to_string()),
-        "next_phase" => step(st, |ses| ses.next_phase().map(|_| ())).await,
-        "next_action" => step(st, Session::next_action).await,
-        "reset" => {
-            let task = match v.get("task").and_then(Value::as_str) {
-                None => None,
-                Some(t) => match TaskId::parse(t) {
-                    Some(t) => Some(t),
-                    None => {
-                        return Some(error(
-                            format!(
-                                "unknown task `{t}`; expected one of stack, row, unstack, vertical-square"
-                            ),
-                            Some(kind),
-                        ));
-                    }
-                },
-            };
-            let seed = match v.get("seed") {
-                None | Some(Value::Null) => None,
-                Some(x) => match x.as_u64() {
-                    Some(x) => Some(x),
-                    None => {
-                        return Some(error(
-                            "field `seed` must be a non-negative integer",
-                            Some(kind),
-                        ));
-                    }
-                },
-            };
+    let reply = match msg {
+        ClientMessage::Ping => return Some(ServerMessage::Pong.to_text()),
+        ClientMessage::State => return Some(st.session().state().to_string()),
+        ClientMessage::NextPhase => step(st, |ses| ses.next_phase().map(|_| ())).await,
+        ClientMessage::NextAction => step(st, Session::next_action).await,
+        ClientMessage::Reset { task, seed } => {
             step(st, move |ses| {
                 let task = task.unwrap_or(ses.trial().task());
                 let seed = seed.unwrap_or(ses.trial().seed());
@@ -309,16 +287,7 @@ pub async fn handle(s: &Arc<AppState>, text: &str) -> Option<String> {
             })
             .await
         }
-        "query" => {
-            let field = |name: &str| v.get(name).and_then(Value::as_u64).map(|x| x as usize);
-            let (Some(pair), Some(policy), Some(y), Some(x)) =
-                (field("pair"), field("policy"), field("y"), field("x"))
-            else {
-                return Some(error(
-                    "query needs non-negative integers `pair`, `policy`, `y` and `x`",
-                    Some(kind),
-                ));
-            };
+        ClientMessage::Query { pair, policy, y, x } => {
             let r =
                 tokio::task::spawn_blocking(move || st.session().query(pair, policy, y, x)).await;
             return Some(match r {
@@ -327,48 +296,46 @@ pub async fn handle(s: &Arc<AppState>, text: &str) -> Option<String> {
                 Err(e) => error(format!("internal error: {e}"), Some(kind)),
             });
         }
-        "run" => {
+        ClientMessage::Run => {
             s.running.store(true, Ordering::SeqCst);
             s.broadcast_state();
-            tokio::task::spawn_blocking(move || {
-                while st.running.load(Ordering::SeqCst) {
-                    let r = {
-                        let mut ses = st.session();
-                        if ses.ended() {
-                            break;
-                        }
-                        ses.next_action()
-                    };
-                    st.broadcast_state();
-                    if r.is_err() {
-                        break;
-                    }
-                }
-                st.running.store(false, Ordering::SeqCst);
-                if let Some(r) = st.session().recorder() {
-                    r.flush();
-                }
-                st.broadcast_state();
-            });
+            tokio::task::spawn_blocking(move || run_to_end(&st));
             return None;
         }
-        "stop" => {
+        ClientMessage::Stop => {
             s.running.store(false, Ordering::SeqCst);
             return None;
-        }
-        other => {
-            return Some(error(
-                format!(
-                    "unknown message type `{other}`; expected next_phase, next_action, run, stop, reset, query, state or ping"
-                ),
-                Some(other),
-            ));
         }
     };
     match reply {
         Ok(()) => None,
         Err(e) => Some(error(e, Some(kind))),
     }
+}
+
+/// Runs actions until the trial ends, `stop` arrives or an action fails; a
+/// failure is kept as the session's last error (shown on every tab) rather
+/// than dropped.
+fn run_to_end(st: &AppState) {
+    while st.running.load(Ordering::SeqCst) {
+        let r = {
+            let mut ses = st.session();
+            if ses.ended() {
+                break;
+            }
+            ses.next_action()
+        };
+        st.broadcast_state();
+        if let Err(e) = r {
+            st.session().set_error(format!("run stopped: {e:#}"));
+            break;
+        }
+    }
+    st.running.store(false, Ordering::SeqCst);
+    if let Some(r) = st.session().recorder() {
+        r.flush();
+    }
+    st.broadcast_state();
 }
 
 /// Runs `f` on the session on a blocking thread, then broadcasts the new state.

@@ -1,6 +1,6 @@
 //! A live, steppable trial: the state machine behind the page and `seespot view`.
 //!
-//! Each action goes through four phases (DESIGN §4): **embed** (the decision
+//! Each action goes through four phases (docs/design.md §4): **embed** (the decision
 //! is computed and the live and demo heightmaps are shown), **match** (match
 //! heatmaps, L and F appear), **verify** (rematch heatmaps and C appear) and
 //! **act** (the chosen pair is marked and its F executed).
@@ -10,35 +10,13 @@ use std::path::PathBuf;
 use anyhow::{Context, bail};
 use seespot_sim::{Action, Heightmaps, TaskId, Trial, WorldConfig};
 use seespot_ssr::Decision;
-use serde::Serialize;
 use serde_json::{Value, json};
 
 use crate::b64;
 use crate::decider::Decider;
 use crate::recording::Recorder;
 
-/// One phase of an SSR decision.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Phase {
-    Embed,
-    Match,
-    Verify,
-    Act,
-}
-
-impl Phase {
-    pub const ALL: [Phase; 4] = [Phase::Embed, Phase::Match, Phase::Verify, Phase::Act];
-
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Phase::Embed => "embed",
-            Phase::Match => "match",
-            Phase::Verify => "verify",
-            Phase::Act => "act",
-        }
-    }
-}
+pub use crate::phase::Phase;
 
 /// Makes the decider for a task at a resolution; returns it and a note on
 /// what was loaded (shown on the page).
@@ -111,6 +89,7 @@ impl Session {
     }
 
     fn begin(&mut self) {
+        self.decider.begin_trial(&self.trial);
         let name = self.decider.name();
         if let Some(r) = &mut self.recorder {
             r.begin_trial(self.trial_index, &self.trial, &name);
@@ -127,6 +106,12 @@ impl Session {
 
     pub fn decision(&self) -> Option<&Decision> {
         self.decision.as_ref()
+    }
+
+    /// Shows `message` as the session's last error (on every tab's state).
+    pub fn set_error(&mut self, message: String) {
+        self.last_error = Some(message);
+        self.version += 1;
     }
 
     /// Milliseconds the decider took at the last embed phase.
@@ -199,18 +184,18 @@ impl Session {
             Phase::Embed => {
                 let hm = self.trial.world().render();
                 let t0 = std::time::Instant::now();
-                let decided = self.decider.decide(&self.trial, &hm);
+                let decided = self.decider.act(&self.trial, &hm);
                 self.last_decide_ms = t0.elapsed().as_secs_f64() * 1e3;
                 let choice = match decided {
                     Ok(c) => c,
                     Err(e) => {
-                        self.last_error = Some(format!("{e:#}"));
+                        self.last_error = Some(e.to_string());
                         self.version += 1;
-                        return Err(e);
+                        return Err(anyhow::anyhow!(e));
                     }
                 };
                 self.action = Some(choice.action);
-                self.decision = choice.decision;
+                self.decision = self.decider.decision().cloned();
                 self.decided_on = Some(hm);
             }
             Phase::Act => {

@@ -1,57 +1,13 @@
-//! Adapter from the shipped SSR policy ([`seespot_ssr::SsrPolicy`]) to
-//! [`crate::decider::Decider`].
+//! Loading See-SPOT-Run for the debugger (the [`crate::decider::Decider`]
+//! implementation of [`SsrPolicy`] is in `decider.rs`).
 
 use std::path::Path;
 
 use anyhow::Context;
-use seespot_sim::{Demo, Heightmaps, TaskId, Trial, WorldConfig};
+use seespot_sim::{TaskId, WorldConfig};
 use seespot_ssr::{SsrConfig, SsrPolicy};
 
-use crate::decider::{Choice, Decider};
-
-/// See-SPOT-Run with the shipped policies and demonstrations.
-pub struct SsrDecider {
-    policy: SsrPolicy,
-}
-
-impl Decider for SsrDecider {
-    fn name(&self) -> String {
-        format!(
-            "SSR ({:?}) with the shipped policies",
-            self.policy.config().method
-        )
-    }
-
-    fn demos(&self) -> &[Demo] {
-        self.policy.demos()
-    }
-
-    fn policies(&self) -> Vec<TaskId> {
-        self.policy.policy_tasks()
-    }
-
-    fn decide(&mut self, trial: &Trial, hm: &Heightmaps) -> anyhow::Result<Choice> {
-        let d = self
-            .policy
-            .decide(hm, trial.progress(), trial.world().next_primitive())?;
-        Ok(Choice {
-            action: d.action,
-            decision: Some(d),
-        })
-    }
-
-    fn query(
-        &mut self,
-        _hm: &Heightmaps,
-        policy: usize,
-        demo: usize,
-        demo_step: usize,
-        y: usize,
-        x: usize,
-    ) -> anyhow::Result<Option<Vec<f32>>> {
-        Ok(Some(self.policy.query(policy, demo, demo_step, y, x)?))
-    }
-}
+use crate::decider::Decider;
 
 /// Loads the SSR policy for `task`: the other tasks' models from
 /// `models_dir/<policy>.safetensors` and the demos from `demos_dir/<task>/{0,2}`,
@@ -90,5 +46,5 @@ pub fn load(
         models_dir.display(),
         demos_dir.join(task.as_str()).display()
     );
-    Ok((Box::new(SsrDecider { policy }), note))
+    Ok((Box::new(policy), note))
 }

@@ -14,10 +14,9 @@ fn one_rrd_per_trial_and_stop_ends_cleanly() {
         "/nonexistent".into(),
         "/nonexistent".into(),
     );
-    let opts = |seed0| live::RecordOptions {
+    let opts = |start| live::RecordOptions {
         task: TaskId::Row,
-        trials: 2,
-        seed0,
+        seeds: seespot_sim::Seeds::new(start, 2).expect("test seeds"),
         resolution: 64,
         out: out.clone(),
     };

@@ -35,7 +35,7 @@ fn ssr_decider_explains_and_answers_queries() {
     assert!(
         s.state()["decider"]
             .as_str()
-            .is_some_and(|d| d.starts_with("SSR")),
+            .is_some_and(|d| d.starts_with("See-SPOT-Run")),
         "{}",
         s.state()["decider"]
     );

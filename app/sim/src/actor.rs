@@ -1,0 +1,150 @@
+//! Whatever picks the next action of a trial — the scripted oracle, uniform
+//! random actions, a SPOT-Q policy, See-SPOT-Run, the debugger's deciders —
+//! implements one trait, [`Actor`], and [`run_trial`] is the one loop that runs
+//! a trial to its end with it and writes its [`TrialRecord`].
+//!
+//! ```no_run
+//! use seespot_sim::{Oracle, TaskId, Trial, WorldConfig, actor::run_trial};
+//! let mut oracle = Oracle::new(TaskId::Stack);
+//! let mut trial = Trial::new(WorldConfig::default(), TaskId::Stack, 1);
+//! let record = run_trial(&mut trial, &mut oracle, "oracle", 0, &mut |_| {})?;
+//! assert!(record.success);
+//! # Ok::<(), seespot_sim::actor::ActorError>(())
+//! ```
+
+use std::time::Instant;
+
+use crate::action::Action;
+use crate::heightmap::Heightmaps;
+use crate::record::{ActionLog, TrialRecord};
+use crate::seeds::Seeds;
+use crate::task::TaskId;
+use crate::trial::Trial;
+use crate::world::WorldConfig;
+
+/// Why an actor could not choose (a network failed, a demonstration does not
+/// match the live resolution, ...). Actors live in several crates, so the error
+/// is boxed; its message names what was wrong.
+pub type ActorError = Box<dyn std::error::Error + Send + Sync + 'static>;
+
+/// For See-SPOT-Run: the (policy, demo) pair whose match was executed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ChosenPair {
+    /// The task the policy was trained on.
+    pub policy: TaskId,
+    /// The demonstration's index (0 or 1).
+    pub demo: usize,
+    /// L: the embedding distance of the match (paper Eq. 4), squared L2.
+    pub l: f32,
+    /// C: the cycle consistency distance of the pair (Eq. 7), in pixels.
+    pub c: f32,
+}
+
+/// An actor's choice of the next action.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Choice {
+    /// The action to execute: primitive, rotation index and pixel `(y, x)` of
+    /// the live heightmaps.
+    pub action: Action,
+    /// The pair it came from, for actors that match demonstrations.
+    pub pair: Option<ChosenPair>,
+}
+
+impl From<Action> for Choice {
+    fn from(action: Action) -> Self {
+        Self { action, pair: None }
+    }
+}
+
+/// Something that picks the next action of a trial.
+pub trait Actor {
+    /// A short human-readable name (e.g. shown by the debugger).
+    fn name(&self) -> String;
+
+    /// Called once before the first action of each trial (the oracle forgets its
+    /// plan, a random actor reseeds from the trial's seed).
+    fn begin_trial(&mut self, _trial: &Trial) {}
+
+    /// Chooses the next action of `trial`, whose live scene is `hm` (the
+    /// heightmaps the world observes now; with sensor noise if the world has
+    /// any). The primitive to choose is `trial.world().next_primitive()`.
+    fn act(&mut self, trial: &Trial, hm: &Heightmaps) -> Result<Choice, ActorError>;
+}
+
+impl<A: Actor + ?Sized> Actor for Box<A> {
+    fn name(&self) -> String {
+        (**self).name()
+    }
+
+    fn begin_trial(&mut self, trial: &Trial) {
+        (**self).begin_trial(trial);
+    }
+
+    fn act(&mut self, trial: &Trial, hm: &Heightmaps) -> Result<Choice, ActorError> {
+        (**self).act(trial, hm)
+    }
+}
+
+/// Observes the live scene, lets `actor` choose, executes the choice and logs it
+/// (with the milliseconds the choice took).
+///
+/// # Panics
+/// When the trial has already ended.
+pub fn act_once(trial: &mut Trial, actor: &mut dyn Actor) -> Result<ActionLog, ActorError> {
+    let hm = trial.world_mut().observe();
+    let t0 = Instant::now();
+    let choice = actor.act(trial, &hm)?;
+    let decide_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let step = trial.step(choice.action);
+    Ok(ActionLog {
+        action: choice.action,
+        progress_before: step.progress_before,
+        progress_after: step.progress_after,
+        chosen_policy: choice.pair.map(|p| p.policy),
+        chosen_demo: choice.pair.map(|p| p.demo),
+        l: choice.pair.map(|p| p.l),
+        c: choice.pair.map(|p| p.c),
+        decide_ms,
+        primitive_success: Some(step.outcome.success),
+    })
+}
+
+/// Runs `trial` to its end with `actor` and returns its record, named `method`
+/// with trial number `index`; `on_action` sees each action as it is logged.
+pub fn run_trial(
+    trial: &mut Trial,
+    actor: &mut dyn Actor,
+    method: &str,
+    index: usize,
+    on_action: &mut dyn FnMut(&ActionLog),
+) -> Result<TrialRecord, ActorError> {
+    actor.begin_trial(trial);
+    let mut log = Vec::new();
+    while trial.end().is_none() {
+        let entry = act_once(trial, actor)?;
+        on_action(&entry);
+        log.push(entry);
+    }
+    Ok(TrialRecord::new(method, index, trial, log))
+}
+
+/// Runs one test trial (30-action limit, see [`Trial::new`]) per seed of
+/// `seeds` with `actor`, in order; `on_trial` sees each record as its trial
+/// ends.
+pub fn run_trials(
+    config: WorldConfig,
+    task: TaskId,
+    seeds: Seeds,
+    actor: &mut dyn Actor,
+    method: &str,
+    on_trial: &mut dyn FnMut(&TrialRecord),
+) -> Result<Vec<TrialRecord>, ActorError> {
+    let mut out = Vec::new();
+    for (index, seed) in seeds.iter().enumerate() {
+        let mut trial = Trial::new(config, task, seed);
+        let record = run_trial(&mut trial, actor, method, index, &mut |_| {})?;
+        on_trial(&record);
+        out.push(record);
+    }
+    Ok(out)
+}

@@ -1,0 +1,135 @@
+//! The WebSocket messages between the page (`web/app.js`) and the server, as
+//! serde types: one JSON text message each, tagged by its `type` field.
+//!
+//! Client -> server ([`ClientMessage`]):
+//! `{"type": "next_phase"}`, `{"type": "next_action"}`, `{"type": "run"}`,
+//! `{"type": "stop"}`, `{"type": "state"}`, `{"type": "ping"}`,
+//! `{"type": "reset", "task": "row", "seed": 3}` (both optional: the current
+//! trial's), `{"type": "query", "pair": 0, "policy": 1, "y": 40, "x": 60}`
+//! (pixel `(y, x)` of the demo heightmap of pair `pair`, under policy index
+//! `policy`).
+//!
+//! Server -> client ([`ServerMessage`], plus the `state` and `query` documents
+//! built by [`crate::session::Session`]): `{"type": "info", "info": {...}}` once
+//! on connect, `{"type": "pong"}`, and `{"type": "error", "message": "...",
+//! "request": "reset"}` naming the request type that failed (or null).
+
+use seespot_sim::TaskId;
+use serde::{Deserialize, Serialize};
+
+/// A request from a tab.
+#[derive(Clone, Debug, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum ClientMessage {
+    Ping,
+    /// Send the current state to this tab only.
+    State,
+    /// Advance one phase (embed, match, verify, act).
+    NextPhase,
+    /// Advance to the end of the current action.
+    NextAction,
+    /// Run actions until the trial ends or `stop` arrives.
+    Run,
+    Stop,
+    /// Start a new trial; missing fields keep the current trial's.
+    Reset {
+        #[serde(default)]
+        task: Option<TaskId>,
+        #[serde(default)]
+        seed: Option<u64>,
+    },
+    /// Click-to-query: the distance map of one demo pixel's ASE over the live scene.
+    Query {
+        pair: usize,
+        policy: usize,
+        y: usize,
+        x: usize,
+    },
+}
+
+impl ClientMessage {
+    /// The message's `type`, as sent.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Self::Ping => "ping",
+            Self::State => "state",
+            Self::NextPhase => "next_phase",
+            Self::NextAction => "next_action",
+            Self::Run => "run",
+            Self::Stop => "stop",
+            Self::Reset { .. } => "reset",
+            Self::Query { .. } => "query",
+        }
+    }
+
+    /// Parses one text message; the error says what was wrong and carries the
+    /// request's `type` when it had one.
+    pub fn parse(text: &str) -> Result<Self, (String, Option<String>)> {
+        let v: serde_json::Value = serde_json::from_str(text)
+            .map_err(|e| (format!("malformed message (not JSON): {e}"), None))?;
+        let kind = v.get("type").and_then(|t| t.as_str()).map(str::to_owned);
+        if kind.is_none() {
+            return Err(("message has no string field `type`".to_owned(), None));
+        }
+        serde_json::from_value(v).map_err(|e| {
+            (
+                format!("bad `{}` message: {e}", kind.as_deref().unwrap_or_default()),
+                kind,
+            )
+        })
+    }
+}
+
+/// A message the server builds itself.
+#[derive(Clone, Debug, Serialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum ServerMessage<'a> {
+    /// Sent once on connect: what the server runs (see `live::serve_view`).
+    Info {
+        info: &'a serde_json::Value,
+    },
+    Pong,
+    Error {
+        message: String,
+        /// The `type` of the request that failed, if known.
+        request: Option<&'a str>,
+    },
+}
+
+impl ServerMessage<'_> {
+    /// The message as JSON text.
+    pub fn to_text(&self) -> String {
+        serde_json::to_string(self).unwrap_or_else(|e| {
+            format!("{{\"type\":\"error\",\"message\":\"cannot serialize a reply: {e}\"}}")
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn messages_parse_and_bad_ones_are_named() {
+        assert_eq!(
+            ClientMessage::parse(r#"{"type":"reset","task":"row"}"#),
+            Ok(ClientMessage::Reset {
+                task: Some(TaskId::Row),
+                seed: None
+            })
+        );
+        assert_eq!(
+            ClientMessage::parse(r#"{"type":"next_phase"}"#),
+            Ok(ClientMessage::NextPhase)
+        );
+        let (msg, kind) =
+            ClientMessage::parse(r#"{"type":"reset","task":"juggle"}"#).expect_err("unknown task");
+        assert!(msg.contains("juggle"), "{msg}");
+        assert_eq!(kind.as_deref(), Some("reset"));
+        let (msg, kind) = ClientMessage::parse(r#"{"type":"fly"}"#).expect_err("unknown type");
+        assert!(msg.contains("fly"), "{msg}");
+        assert_eq!(kind.as_deref(), Some("fly"));
+        assert!(ClientMessage::parse("[1,2]").is_err());
+        assert!(ClientMessage::parse(r#"{"type":"query","pair":"x"}"#).is_err());
+    }
+}
