@@ -18,7 +18,7 @@ pub struct RunArgs {
     /// Task id (stack, row, unstack, vertical-square); overrides the scene's.
     #[arg(long)]
     task: Option<TaskId>,
-    /// `oracle`, `random`, or a policy weights file (models/<task>.safetensors),
+    /// `oracle`, `random`, or a policy weights file (`models/<task>.safetensors`),
     /// run greedily.
     #[arg(long, default_value = "oracle")]
     policy: String,

@@ -21,10 +21,10 @@ pub struct TrainArgs {
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Run directory for checkpoints, the learning curve and logs
-    /// (default runs/train-<task>); an existing run there is resumed.
+    /// (default `runs/train-<task>`); an existing run there is resumed.
     #[arg(long)]
     pub run_dir: Option<PathBuf>,
-    /// Output weights (default models/<task>.safetensors); the model card goes
+    /// Output weights (default `models/<task>.safetensors`); the model card goes
     /// next to it with extension .md.
     #[arg(long)]
     pub out: Option<PathBuf>,

@@ -85,7 +85,7 @@ pub struct TensorFile {
     pub tensors: BTreeMap<String, F32Tensor>,
 }
 
-/// Reads and verifies a file written by [`write`]: header, dtypes (F32 only),
+/// Reads and verifies a file written by [`write()`]: header, dtypes (F32 only),
 /// offsets, checksums and finiteness of every tensor.
 pub fn read(path: &Path) -> Result<TensorFile, PolicyError> {
     let buf = std::fs::read(path).map_err(|e| PolicyError::io(path, e))?;

@@ -37,7 +37,7 @@ pub enum Split {
 impl Split {
     /// The split a seed belongs to.
     pub fn of(seed: u64) -> Self {
-        if seed % 2 == 0 {
+        if seed.is_multiple_of(2) {
             Self::Train
         } else if seed < VALIDATION_START {
             Self::Test
@@ -164,7 +164,7 @@ impl Seeds {
     /// Whether `seed` is one of these seeds.
     pub fn contains(&self, seed: u64) -> bool {
         seed >= self.start
-            && (seed - self.start) % SEED_STEP == 0
+            && (seed - self.start).is_multiple_of(SEED_STEP)
             && (seed - self.start) / SEED_STEP < self.count
     }
 
