@@ -1,7 +1,10 @@
 // Drives the seespot page in headless Chromium (playwright-core, Debian's
 // /usr/bin/chromium): steps through the phases, checks the L / C table against
 // the backend's explanation record, makes a click-to-query, checks bad input,
-// two tabs, a tab closed mid-run, and saves screenshots into ../screenshots.
+// two tabs, a tab closed mid-run, checks that the rerun web viewer shows the
+// recording, and saves screenshots into $SEESPOT_SCREENSHOTS, else into a new
+// temporary folder (printed). scripts/screenshots refreshes the committed
+// ../screenshots with SEESPOT_SCREENSHOTS=screenshots.
 //
 // Server: $SEESPOT_BIN (default ../target/release/seespot) run as
 // `$SEESPOT_BIN view --port 0 ...`; $SEESPOT_DECIDER and $SEESPOT_MODELS pass
@@ -9,16 +12,20 @@
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import { spawn, spawnSync } from 'node:child_process';
-import { mkdtempSync, mkdirSync, rmSync, statSync, existsSync } from 'node:fs';
+import { mkdtempSync, mkdirSync, rmSync, statSync, existsSync, writeFileSync, renameSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join, dirname, resolve } from 'node:path';
 import { fileURLToPath } from 'node:url';
 import net from 'node:net';
 import { chromium } from 'playwright-core';
+import { decodePng, colourStats, showsBlocks } from './png.js';
 
 const here = dirname(fileURLToPath(import.meta.url));
 const root = resolve(here, '..', '..');
-const shots = join(root, 'screenshots');
+// Screenshots never go into the work tree unless asked for (scripts/screenshots).
+const shots = process.env.SEESPOT_SCREENSHOTS
+  ? resolve(process.env.SEESPOT_SCREENSHOTS)
+  : mkdtempSync(join(tmpdir(), 'seespot-screenshots-'));
 const BIN = process.env.SEESPOT_BIN || join(root, 'target', 'release', 'seespot');
 const CHROMIUM = process.env.CHROMIUM || '/usr/bin/chromium';
 const RES = Number(process.env.SEESPOT_TEST_RESOLUTION || 112);
@@ -51,6 +58,7 @@ function startServer() {
 before(async () => {
   assert.ok(existsSync(BIN), `no server binary at ${BIN}; build it with cargo build --release`);
   mkdirSync(shots, { recursive: true });
+  console.log(`screenshots go to ${shots}`);
   tmp = mkdtempSync(join(tmpdir(), 'seespot-web-'));
   rrd = join(tmp, 'trial.rrd');
   profile = join(tmp, 'profile');
@@ -83,10 +91,38 @@ async function stepAndWait(testid) {
   await page.waitForFunction((v) => window.seespot.state.version > v && window.seespot.frameVersion === window.seespot.state.version, v0, { timeout: 120_000 });
 }
 
-async function tableRows() {
-  return page.$$eval('[data-testid=pairs] tbody tr', (trs) => trs.map((tr) => ({
+async function tableRows(selector = '[data-testid=pairs] tbody tr') {
+  return page.$$eval(selector, (trs) => trs.map((tr) => ({
     cells: [...tr.children].map((td) => td.textContent), chosen: tr.classList.contains('chosen'),
   })));
+}
+
+/** The table's rows that show a (policy, demo) pair: not the placeholder row
+ * ("step to the embed phase", one cell spanning the table) app.js draws when
+ * there are no pairs. */
+const pairRows = () => tableRows('[data-testid=pairs] tbody tr[data-pair]');
+
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+
+/** Screenshots `target` (a page or an element) until it shows the recording's
+ * blocks, or fails after `ms`; returns the last screenshot (PNG). */
+async function waitForBlocks(target, what, ms) {
+  const deadline = Date.now() + ms;
+  for (;;) {
+    let last;
+    try {
+      const png = await target.screenshot({ timeout: 30_000 });
+      const stats = colourStats(decodePng(png));
+      if (showsBlocks(stats)) return png;
+      last = JSON.stringify(stats);
+    } catch (e) {
+      last = `screenshot failed: ${e}`;
+    }
+    if (Date.now() > deadline) {
+      assert.fail(`${what} does not show the recording (no blocks in its screenshot after ${ms / 1000} s): ${last}`);
+    }
+    await sleep(2_000);
+  }
 }
 
 test('the page loads and shows the trial the backend runs', async () => {
@@ -207,7 +243,19 @@ test('a tab closed mid-run stops nothing; the run finishes and every tab sees it
   await page.waitForFunction(() => window.seespot.frameVersion === window.seespot.state.version);
   const s = await api('/api/state');
   assert.ok(s.end);
-  assert.equal((await tableRows()).length > 0 || s.pairs.length === 0, true);
+  // The table shows the last decision's pairs (the placeholder row is not one).
+  const d = await api('/api/decision');
+  assert.ok(d && d.pairs.length > 0, 'no explanation record at the end of the run');
+  const rows = await pairRows();
+  assert.equal(rows.length, d.pairs.length, 'pair rows in the table');
+  assert.equal((await tableRows()).length, rows.length, 'rows that are not pairs');
+  rows.forEach((r, i) => {
+    assert.equal(r.cells[1], d.pairs[i].policy, `policy of pair ${i}`);
+    assert.equal(r.cells[2], `${d.pairs[i].demo}·${d.pairs[i].demo_step}`, `demo of pair ${i}`);
+    assert.equal(r.cells[3], d.pairs[i].l.toFixed(3), `L of pair ${i}`);
+    assert.equal(r.cells[4], d.pairs[i].c.toFixed(1), `C of pair ${i}`);
+  });
+  assert.deepEqual(rows.map((r) => r.chosen), d.pairs.map((_, i) => i === d.chosen));
   assert.equal(await page.locator('[data-testid=history] li').count(), s.steps.length);
   await page.screenshot({ path: join(shots, 'trial-end.png'), fullPage: true });
 });
@@ -229,11 +277,17 @@ test('the rerun web viewer loads and shows the recording', async () => {
   // The viewer's wasm takes several seconds to compile: wait for its canvas, then let it draw.
   await viewer.waitForSelector('canvas', { timeout: 120_000 });
   await viewer.waitForTimeout(Number(process.env.SEESPOT_VIEWER_WAIT_MS || 20_000));
-  await viewer.screenshot({ path: join(shots, 'rerun-viewer.png') });
+  // It has loaded the recording when its screenshot shows the blocks.
+  // (Written whole, then renamed: png.test.js may be reading the committed one.)
+  const shot = await waitForBlocks(viewer, 'the rerun web viewer', 120_000);
+  writeFileSync(join(shots, '.rerun-viewer.png.tmp'), shot);
+  renameSync(join(shots, '.rerun-viewer.png.tmp'), join(shots, 'rerun-viewer.png'));
   await viewer.close();
   // And the page's own embed.
   await page.getByTestId('toggle-viewer').click();
   assert.equal(await page.getByTestId('viewer').getAttribute('src'), urls.viewer);
+  await page.frameLocator('[data-testid=viewer]').locator('canvas').first().waitFor({ timeout: 120_000 });
+  await waitForBlocks(page.getByTestId('viewer'), 'the viewer embedded in the page', 120_000);
 });
 
 test('the page raised no script errors', () => {
