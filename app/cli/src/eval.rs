@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use seespot_sim::TaskId;
-use seespot_sim::metrics::summarize_all;
+use seespot_sim::metrics::{annotated_actions, summarize_all};
 use seespot_sim::record::read_records;
 use seespot_sim::{Seeds, Summary};
 use seespot_ssr::CorrespondOptions;
@@ -87,13 +87,26 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         .with_context(|| format!("evaluating {name} on {task}"))?;
     }
     bar.finish_and_clear();
-    let summary = write_report(&args.out, &args.models, args.finetune_steps.max(333))?;
-    let ours: Vec<&Summary> = summary.iter().filter(|s| s.method == name).collect();
+    let summary = write_report(
+        &args.out,
+        &args.models,
+        &args.demos,
+        args.finetune_steps.max(333),
+    )?;
+    let ours: Vec<&Summary> = summary
+        .summaries
+        .iter()
+        .filter(|s| s.method == name)
+        .collect();
     if args.json {
         return crate::print_json(&serde_json::json!({
             "method": name,
             "out": args.out,
+            "seeds": seeds,
             "summaries": ours,
+            "ccd_vs_l2cd": summary.ccd_vs_l2cd,
+            "c_histogram_buckets": report::C_BUCKETS,
+            "c_histograms": summary.c_histograms,
         }));
     }
     for s in ours {
@@ -118,11 +131,15 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
 ///
 /// Train steps on the test task: 0 for SSR, oracle and random; the model's
 /// recorded SPOT-Q steps for `spot-q`; 3 x `finetune_steps` for finetuned rows.
+/// Annotated actions: for the methods that see the test task's demonstrations
+/// (SSR and the finetuned rows) the actions they hold, counted as at least the
+/// paper's 12; 0 for the others.
 pub fn write_report(
     out: &Path,
     models: &Path,
+    demos: &Path,
     finetune_steps: usize,
-) -> anyhow::Result<Vec<Summary>> {
+) -> anyhow::Result<Report> {
     let mut records = Vec::new();
     let trials = out.join("trials");
     let mut files = Vec::new();
@@ -155,13 +172,50 @@ pub fn write_report(
             .and_then(|p| p.meta.extra.get("train_steps").and_then(|s| s.parse().ok()))
             .unwrap_or(0)
     };
-    let summaries = summarize_all(&records, 2, train_steps);
-    let table = report::markdown_table(&summaries, true);
+    let mut demo_actions = std::collections::BTreeMap::new();
+    for task in TaskId::ALL {
+        let mut n = 0;
+        for dir in seespot_ssr::policy::demo_dirs(demos, task) {
+            if dir.exists() {
+                n += seespot_sim::Demo::read(&dir)
+                    .with_context(|| format!("counting the actions of {}", dir.display()))?
+                    .steps
+                    .len();
+            }
+        }
+        demo_actions.insert(task, n);
+    }
+    let annotated = |method: &str, task: TaskId| -> usize {
+        if method.starts_with("ssr") || method.ends_with("-finetuned") {
+            annotated_actions(demo_actions.get(&task).copied().unwrap_or(0))
+        } else {
+            0
+        }
+    };
+    let summaries = summarize_all(&records, train_steps, annotated);
+    let mut table = report::markdown_table(&summaries, true);
+    table.push_str(&report::statistics_markdown(&records));
     std::fs::write(out.join("summary.md"), &table)?;
     std::fs::write(
         out.join("summary.csv"),
         report::csv(&report::with_means(&summaries)),
     )?;
     report::plot_figure4(&summaries, &out.join("figure4.png"))?;
-    Ok(report::with_means(&summaries))
+    Ok(Report {
+        summaries: report::with_means(&summaries),
+        ccd_vs_l2cd: report::compare(&records, "ssr-ccd", "ssr-l2cd"),
+        c_histograms: ["ssr-ccd", "ssr-l2cd"]
+            .into_iter()
+            .map(|m| (m.to_owned(), report::c_histograms(&records, m)))
+            .collect(),
+    })
+}
+
+/// What `write_report` wrote, for `--json`.
+pub struct Report {
+    pub summaries: Vec<Summary>,
+    /// Exact McNemar tests of SSR CCD against SSR L2CD, per fold and pooled.
+    pub ccd_vs_l2cd: Vec<report::Comparison>,
+    /// Per method, per fold: decisions per bucket of `report::C_BUCKETS`.
+    pub c_histograms: Vec<(String, report::CHistogram)>,
 }

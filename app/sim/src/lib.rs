@@ -36,6 +36,7 @@ pub mod progress;
 pub mod record;
 pub mod scene;
 pub mod seeds;
+pub mod stats;
 pub mod task;
 pub mod trial;
 pub mod workspace;

@@ -12,10 +12,15 @@ use serde::{Deserialize, Serialize};
 use crate::record::TrialRecord;
 use crate::task::{MAX_PROGRESS, TaskId};
 
-/// Annotated actions of a demonstration set: `demos x ideal actions` (2 x 6 = 12;
-/// 2 x 4 = 8 for `row`).
-pub fn annotated_actions(task: TaskId, demos: usize) -> usize {
-    demos * task.ideal_actions()
+/// Annotated actions the paper counts for two demonstrations, for every task
+/// (Table 1: 2 demonstrations x 6 actions).
+pub const PAPER_ANNOTATED_ACTIONS: usize = 12;
+
+/// Annotated actions of a method that sees demonstrations holding
+/// `demo_actions` actions in all: the paper's 12, or more if the demonstrations
+/// hold more (seespot's row demonstrations hold 8, counted as 12 like the paper).
+pub fn annotated_actions(demo_actions: usize) -> usize {
+    demo_actions.max(PAPER_ANNOTATED_ACTIONS)
 }
 
 /// The metrics of one (method, task), or of a method's mean over tasks
@@ -42,6 +47,12 @@ pub struct Summary {
     /// Standard error of `progress`: sample standard deviation / sqrt(trials)
     /// (0 with fewer than 2 trials).
     pub progress_se: f64,
+    /// Progress gain: mean over trials of the fraction of the way from the
+    /// start's progress to 4 that the trial reached, `(max P - start P) /
+    /// (4 - start P)`, in [0, 1] (trials that start solved count as 1). Unlike
+    /// `progress`, it does not credit the start (random starts are often at P = 2).
+    #[serde(default)]
+    pub progress_gain: f64,
     /// Trials with a progress reversal, and those of them that succeeded.
     pub reversal_trials: usize,
     pub recovered_trials: usize,
@@ -49,11 +60,14 @@ pub struct Summary {
     pub recoveries: Option<f64>,
     /// Training steps on the test task (0 for SSR).
     pub train_steps: u64,
-    /// Annotated (demonstrated) actions used (2 x ideal = 12; 8 for `row`).
+    /// Annotated (demonstrated) actions the method used (see
+    /// [`annotated_actions`]; 0 for methods that see no demonstration).
     pub annotated_actions: usize,
-    /// Compute efficiency: trials / (train steps + 1).
+    /// Compute efficiency (paper Sec. 5.1): trial success rate / (train steps
+    /// + 1). SSR CCD in Table 1: 36% / (0 + 1) = 36%.
     pub compute_efficiency: f64,
-    /// Sample efficiency: trials / annotated actions; `None` with no annotations.
+    /// Sample efficiency (Sec. 5.1): trial success rate / annotated actions;
+    /// `None` with no annotations. SSR CCD in Table 1: 36% / 12 = 3.0%.
     pub sample_efficiency: Option<f64>,
 }
 
@@ -70,6 +84,11 @@ pub fn summarize(
     let trials = records.len();
     let n = trials as f64;
     let successes = records.iter().filter(|r| r.success).count();
+    let success_rate = if trials > 0 {
+        successes as f64 / n
+    } else {
+        0.0
+    };
     let success_actions: usize = records
         .iter()
         .filter(|r| r.success)
@@ -97,6 +116,19 @@ pub fn summarize(
     } else {
         0.0
     };
+    let gains = records.iter().map(|r| {
+        let left = MAX_PROGRESS.saturating_sub(r.start_progress);
+        if left == 0 {
+            1.0
+        } else {
+            f64::from(r.max_progress.saturating_sub(r.start_progress)) / f64::from(left)
+        }
+    });
+    let progress_gain = if trials > 0 {
+        gains.sum::<f64>() / n
+    } else {
+        0.0
+    };
     let reversal_trials = records.iter().filter(|r| r.reversal).count();
     let recovered_trials = records.iter().filter(|r| r.reversal && r.success).count();
     let task = match records.first() {
@@ -111,11 +143,7 @@ pub fn summarize(
         task,
         trials,
         successes,
-        success_rate: if trials > 0 {
-            successes as f64 / n
-        } else {
-            0.0
-        },
+        success_rate,
         ideal_actions: ideal_actions as f64,
         mean_actions: if trials > 0 {
             records.iter().map(|r| r.actions as f64).sum::<f64>() / n
@@ -125,23 +153,24 @@ pub fn summarize(
         action_efficiency,
         progress,
         progress_se,
+        progress_gain,
         reversal_trials,
         recovered_trials,
         recoveries: (reversal_trials > 0).then(|| recovered_trials as f64 / reversal_trials as f64),
         train_steps,
         annotated_actions,
-        compute_efficiency: n / (train_steps as f64 + 1.0),
-        sample_efficiency: (annotated_actions > 0).then(|| n / annotated_actions as f64),
+        compute_efficiency: success_rate / (train_steps as f64 + 1.0),
+        sample_efficiency: (annotated_actions > 0).then(|| success_rate / annotated_actions as f64),
     }
 }
 
 /// Groups records by (method, task), sorted, and summarizes each group with the
-/// task's ideal length, `train_steps(method, task)` and `2 x ideal` annotated
-/// actions (`demos` demonstrations).
+/// task's ideal length, `train_steps(method, task)` and
+/// `annotated(method, task)` annotated actions.
 pub fn summarize_all(
     records: &[TrialRecord],
-    demos: usize,
     train_steps: impl Fn(&str, TaskId) -> u64,
+    annotated: impl Fn(&str, TaskId) -> usize,
 ) -> Vec<Summary> {
     let mut groups: BTreeMap<(String, TaskId), Vec<TrialRecord>> = BTreeMap::new();
     for r in records {
@@ -157,7 +186,7 @@ pub fn summarize_all(
                 &rs,
                 task.ideal_actions(),
                 train_steps(&method, task),
-                annotated_actions(task, demos),
+                annotated(&method, task),
             );
             s.method = method;
             s
@@ -191,6 +220,7 @@ pub fn mean_over_tasks(summaries: &[Summary]) -> Option<Summary> {
         mean_actions: mean(&|s| s.mean_actions),
         action_efficiency: mean_opt(&|s| s.action_efficiency),
         progress: mean(&|s| s.progress),
+        progress_gain: mean(&|s| s.progress_gain),
         progress_se: summaries
             .iter()
             .map(|s| s.progress_se.powi(2))
@@ -244,8 +274,28 @@ mod tests {
         assert_eq!((s.reversal_trials, s.recovered_trials), (2, 1));
         assert_eq!(s.recoveries, Some(0.5));
         assert!((s.mean_actions - 21.2).abs() < 1e-12);
-        assert_eq!(s.compute_efficiency, 5.0);
-        assert!((s.sample_efficiency.unwrap_or(0.0) - 5.0 / 12.0).abs() < 1e-12);
+        // Efficiencies from the success *rate* (Sec. 5.1): 0.4 / 1 and 0.4 / 12.
+        assert!((s.compute_efficiency - 0.4).abs() < 1e-12);
+        assert!((s.sample_efficiency.unwrap_or(0.0) - 0.4 / 12.0).abs() < 1e-12);
+        // Gains: starts at P = 1, so (3 + 3 + 2 + 1 + 0) / 3 / 5.
+        assert!((s.progress_gain - 9.0 / 15.0).abs() < 1e-12);
+    }
+
+    /// Table 1's own arithmetic: SSR CCD 36% -> compute efficiency 36% / (0 + 1)
+    /// = 36% and sample efficiency 36% / 12 = 3.0%; TransporterNet 30% after
+    /// 40k steps -> 30% / 40001 = 0.00075%.
+    #[test]
+    fn table_1_efficiencies() {
+        let runs = |ok: usize| -> Vec<TrialRecord> {
+            (0..50).map(|k| rec(k, k < ok, 6, 4, false)).collect()
+        };
+        let ccd = summarize(&runs(18), 6, 0, annotated_actions(12));
+        assert!((ccd.success_rate - 0.36).abs() < 1e-12);
+        assert!((ccd.compute_efficiency - 0.36).abs() < 1e-12);
+        assert!((ccd.sample_efficiency.unwrap_or(0.0) - 0.03).abs() < 1e-12);
+        let tn = summarize(&runs(15), 6, 40_000, annotated_actions(12));
+        assert!((100.0 * tn.compute_efficiency - 0.00075).abs() < 5e-6);
+        assert!((tn.sample_efficiency.unwrap_or(0.0) - 0.025).abs() < 1e-12);
     }
 
     #[test]
@@ -256,7 +306,7 @@ mod tests {
         assert_eq!(s.action_efficiency, None);
         assert_eq!(s.recoveries, None);
         assert_eq!(s.progress_se, 0.0);
-        assert_eq!(s.compute_efficiency, 1.0 / 1000.0);
+        assert_eq!(s.compute_efficiency, 0.0);
         assert_eq!(s.sample_efficiency, None);
         // Faster than ideal (a lucky start) is capped at 1.
         let r = vec![rec(0, true, 2, 4, false)];
@@ -272,11 +322,17 @@ mod tests {
         let mut row = rec(0, true, 4, 4, false);
         row.task = TaskId::Row;
         all.push(row);
-        let s = summarize_all(&all, 2, |_, _| 0);
+        let s = summarize_all(
+            &all,
+            |_, _| 0,
+            |_, t| annotated_actions(4 + 2 * t.ideal_actions()),
+        );
         assert_eq!(s.len(), 2);
         // BTreeMap order follows TaskId's derive order: Stack before Row.
         assert_eq!(s[0].task, Some(TaskId::Stack));
-        assert_eq!(s[1].annotated_actions, 8);
+        // Row demos hold 8 actions: counted as the paper's 12; stack's 12 + 4 = 16.
+        assert_eq!(s[1].annotated_actions, 12);
+        assert_eq!(s[0].annotated_actions, 16);
         assert_eq!(s[1].action_efficiency, Some(1.0));
         let m = mean_over_tasks(&s).expect("two summaries");
         assert_eq!(m.task, None);
@@ -285,6 +341,6 @@ mod tests {
         assert!((m.action_efficiency.unwrap_or(0.0) - 0.875).abs() < 1e-12);
         assert_eq!(m.trials, 6);
         assert_eq!(m.recoveries, Some(0.5));
-        assert_eq!(m.annotated_actions, 10);
+        assert_eq!(m.annotated_actions, 14);
     }
 }

@@ -7,10 +7,11 @@ use std::sync::OnceLock;
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use seespot_sim::TaskId;
+use seespot_sim::stats::paired_success;
+use seespot_sim::{TaskId, TrialRecord};
 use serde::Serialize;
 
-use seespot_sim::metrics::{Summary, mean_over_tasks};
+use seespot_sim::metrics::{PAPER_ANNOTATED_ACTIONS, Summary, mean_over_tasks};
 
 /// Trials per task in the paper's evaluation.
 pub const PAPER_TRIALS: usize = 50;
@@ -28,25 +29,25 @@ pub struct PaperResult {
     pub progress: f64,
     /// Training steps on the test task under the paper's protocol.
     pub train_steps: u64,
-    /// Annotated actions (2 demos x ideal actions); `None` for SPOT-Q, which
-    /// learns from rewards and no demonstration.
+    /// Annotated actions (12 for every task, as Table 1 counts them); `None`
+    /// for SPOT-Q, which learns from rewards and no demonstration.
     pub annotated_actions: Option<usize>,
 }
 
 impl PaperResult {
-    /// trials / (train steps + 1), with the paper's 50 trials.
+    /// Compute efficiency (Sec. 5.1): success rate / (train steps + 1).
     pub fn compute_efficiency(&self) -> f64 {
-        PAPER_TRIALS as f64 / (self.train_steps as f64 + 1.0)
+        self.success / (self.train_steps as f64 + 1.0)
     }
 
-    /// trials / annotated actions; for SPOT-Q (no annotations) its training
-    /// actions count as its samples: trials / train steps.
+    /// Sample efficiency (Sec. 5.1): success rate / annotated actions; for
+    /// SPOT-Q (no annotations) its training actions count as its samples.
     pub fn sample_efficiency(&self) -> f64 {
         let samples = self
             .annotated_actions
             .unwrap_or(self.train_steps as usize)
             .max(1);
-        PAPER_TRIALS as f64 / samples as f64
+        self.success / samples as f64
     }
 }
 
@@ -80,16 +81,6 @@ pub fn paper_results() -> Vec<PaperResult> {
             [(58., 90.), (72., 87.), (40., 84.), (34., 83.), (51., 86.)],
         ),
     ];
-    let annotated = |task: Option<TaskId>| match task {
-        Some(t) => 2 * t.ideal_actions(),
-        None => {
-            TaskId::ALL
-                .iter()
-                .map(|t| 2 * t.ideal_actions())
-                .sum::<usize>()
-                / TaskId::ALL.len()
-        }
-    };
     let mut out = Vec::new();
     for (method, train_steps, cells) in rows {
         let tasks = TaskId::ALL.iter().map(|&t| Some(t)).chain([None]);
@@ -100,7 +91,7 @@ pub fn paper_results() -> Vec<PaperResult> {
                 success: s / 100.0,
                 progress: p / 100.0,
                 train_steps,
-                annotated_actions: Some(annotated(task)),
+                annotated_actions: Some(PAPER_ANNOTATED_ACTIONS),
             });
         }
     }
@@ -254,9 +245,9 @@ pub fn markdown_table(summaries: &[Summary], include_paper: bool) -> String {
     }
     md.push_str(
         "\n### All metrics (paper Sec. 5.1)\n\n\
-         | method | task | trials | success | progress ± SE | action eff. | recoveries | \
+         | method | task | trials | success | progress ± SE | progress gain | action eff. | recoveries | \
          mean actions | train steps | annotated | compute eff. | sample eff. |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|---|\n",
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for s in &rows {
         let rec = match s.recoveries {
@@ -264,28 +255,30 @@ pub fn markdown_table(summaries: &[Summary], include_paper: bool) -> String {
             None => "—".into(),
         };
         md.push_str(&format!(
-            "| {} | {} | {} | {} | {} ± {} | {} | {} | {:.1} | {} | {} | {:.3} | {} |\n",
+            "| {} | {} | {} | {} | {} ± {} | {} | {} | {} | {:.1} | {} | {} | {} | {} |\n",
             display_method(&s.method),
             task_name(s.task),
             s.trials,
             pct(s.success_rate),
             pct(s.progress),
             pct(s.progress_se),
+            pct(s.progress_gain),
             opt_pct(s.action_efficiency),
             rec,
             s.mean_actions,
             s.train_steps,
             s.annotated_actions,
-            s.compute_efficiency,
-            s.sample_efficiency
-                .map_or("—".into(), |e| format!("{e:.2}")),
+            efficiency(s.compute_efficiency),
+            s.sample_efficiency.map_or("—".into(), efficiency),
         ));
     }
     md.push_str(
         "\nAction efficiency = min(1, ideal actions x successes / actions of the successful \
-         trials); progress = mean of max P / 4; recoveries = successful trials with a \
-         reversal / trials with a reversal; compute eff. = trials / (train steps + 1); \
-         sample eff. = trials / annotated actions. Mean rows average the tasks.\n",
+         trials); progress = mean of max P / 4; progress gain = mean of (max P - start P) / \
+         (4 - start P); recoveries = successful trials with a reversal / trials with a \
+         reversal; compute eff. = success rate / (train steps + 1); sample eff. = success \
+         rate / annotated actions (12 for two demonstrations, as Table 1 counts them; — for \
+         methods that see none). Mean rows average the tasks.\n",
     );
     md
 }
@@ -367,6 +360,128 @@ fn register_font() -> bool {
     })
 }
 
+/// A paired comparison of two methods' trial success on shared seeds.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Comparison {
+    pub a: String,
+    pub b: String,
+    /// The fold; `None` for all folds pooled.
+    pub task: Option<TaskId>,
+    pub paired: seespot_sim::stats::Paired,
+}
+
+/// Exact McNemar tests of `a` against `b` on the seeds both ran, per task and
+/// pooled over tasks; empty when they share no seed.
+pub fn compare(records: &[TrialRecord], a: &str, b: &str) -> Vec<Comparison> {
+    let of = |m: &str| -> Vec<TrialRecord> {
+        records.iter().filter(|r| r.method == m).cloned().collect()
+    };
+    let (ra, rb) = (of(a), of(b));
+    TaskId::ALL
+        .into_iter()
+        .map(Some)
+        .chain([None])
+        .map(|task| Comparison {
+            a: a.to_owned(),
+            b: b.to_owned(),
+            task,
+            paired: paired_success(&ra, &rb, task),
+        })
+        .filter(|c| c.paired.pairs > 0)
+        .collect()
+}
+
+/// Bucket edges of the C histogram (pixels; the last bucket is open).
+pub const C_BUCKETS: [f32; 6] = [0.0, 1.0, 2.0, 4.0, 8.0, 16.0];
+
+/// Per fold: decisions per bucket of [`C_BUCKETS`].
+pub type CHistogram = Vec<(TaskId, Vec<usize>)>;
+
+/// Per fold, how often the chosen pair's C fell in each bucket of
+/// [`C_BUCKETS`] (`[0, 1)`, `[1, 2)`, ..., `[16, inf)`) over the decisions of
+/// `method`'s trials.
+pub fn c_histograms(records: &[TrialRecord], method: &str) -> CHistogram {
+    TaskId::ALL
+        .into_iter()
+        .filter_map(|task| {
+            let mut counts = vec![0; C_BUCKETS.len()];
+            let mut any = false;
+            for r in records
+                .iter()
+                .filter(|r| r.method == method && r.task == task)
+            {
+                for c in r.actions_log.iter().filter_map(|a| a.c) {
+                    any = true;
+                    let k = C_BUCKETS.iter().rposition(|&e| c >= e).unwrap_or(0);
+                    counts[k] += 1;
+                }
+            }
+            any.then_some((task, counts))
+        })
+        .collect()
+}
+
+/// The statistics section of the report: CCD against L2CD on paired seeds
+/// (exact McNemar), and the chosen C's distribution per fold.
+pub fn statistics_markdown(records: &[TrialRecord]) -> String {
+    let mut md = String::from("\n### SSR CCD vs SSR L2CD on paired seeds (exact McNemar)\n\n");
+    let comps = compare(records, "ssr-ccd", "ssr-l2cd");
+    if comps.is_empty() {
+        md.push_str("No seeds were run with both methods.\n");
+    } else {
+        md.push_str("| fold | paired trials | only CCD succeeded | only L2CD succeeded | p |\n|---|---|---|---|---|\n");
+        for c in &comps {
+            md.push_str(&format!(
+                "| {} | {} | {} | {} | {:.3} |\n",
+                c.task.map_or("pooled", |t| t.as_str()),
+                c.paired.pairs,
+                c.paired.only_a,
+                c.paired.only_b,
+                c.paired.p_value
+            ));
+        }
+    }
+    let buckets: Vec<String> = C_BUCKETS
+        .iter()
+        .enumerate()
+        .map(|(i, lo)| match C_BUCKETS.get(i + 1) {
+            Some(hi) => format!("[{lo}, {hi})"),
+            None => format!(">= {lo}"),
+        })
+        .collect();
+    for method in ["ssr-ccd", "ssr-l2cd"] {
+        let hist = c_histograms(records, method);
+        if hist.is_empty() {
+            continue;
+        }
+        md.push_str(&format!(
+            "\n### C of the chosen pair, {} (decisions per bucket, pixels)\n\n| fold | {} |\n|---|{}\n",
+            display_method(method),
+            buckets.join(" | "),
+            "---|".repeat(buckets.len())
+        ));
+        for (task, counts) in hist {
+            let total: usize = counts.iter().sum();
+            let cells: Vec<String> = counts
+                .iter()
+                .map(|&k| format!("{k} ({:.0}%)", 100.0 * k as f64 / total.max(1) as f64))
+                .collect();
+            md.push_str(&format!("| {task} | {} |\n", cells.join(" | ")));
+        }
+    }
+    md
+}
+
+/// An efficiency (a rate, possibly tiny) as a percentage with 3 significant digits.
+fn efficiency(e: f64) -> String {
+    if e == 0.0 {
+        "0%".into()
+    } else {
+        let digits = (2 - (100.0 * e).abs().log10().floor() as i32).max(0) as usize;
+        format!("{:.*}%", digits, 100.0 * e)
+    }
+}
+
 /// One marker of the plot.
 struct Point {
     label: String,
@@ -384,9 +499,13 @@ fn plot_points(summaries: &[Summary]) -> Vec<Point> {
             label: display_method(&s.method),
             success: s.success_rate,
             compute: s.compute_efficiency,
-            sample: s
-                .sample_efficiency
-                .unwrap_or(s.trials as f64 / (s.train_steps.max(1)) as f64),
+            // Methods without demonstrations: training actions are their samples
+            // (0, and so off the log axis, for oracle and random).
+            sample: s.sample_efficiency.unwrap_or(if s.train_steps > 0 {
+                s.success_rate / s.train_steps as f64
+            } else {
+                0.0
+            }),
             paper: false,
         })
         .collect();
@@ -418,12 +537,14 @@ fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, points: &[Point]) -> R
     let panels = root.split_evenly((1, 2));
     type Axis = (&'static str, fn(&Point) -> f64);
     let axes: [Axis; 2] = [
-        ("compute efficiency = trials / (train steps + 1)", |p| {
-            p.compute
-        }),
-        ("sample efficiency = trials / annotated actions", |p| {
-            p.sample
-        }),
+        (
+            "compute efficiency = success rate / (train steps + 1)",
+            |p| p.compute,
+        ),
+        (
+            "sample efficiency = success rate / annotated actions",
+            |p| p.sample,
+        ),
     ];
     for (panel, (xdesc, xof)) in panels.iter().zip(axes) {
         let xs: Vec<f64> = points
@@ -517,7 +638,6 @@ pub fn plot_figure4(summaries: &[Summary], path: &Path) -> Result<PathBuf, Repor
 #[cfg(test)]
 mod tests {
     use super::*;
-    use seespot_sim::TrialRecord;
     use seespot_sim::metrics::summarize_all;
 
     fn records() -> Vec<TrialRecord> {
@@ -546,6 +666,18 @@ mod tests {
         out
     }
 
+    /// The paper's own efficiency arithmetic (Table 1, Sec. 5.1).
+    #[test]
+    fn paper_efficiencies_follow_table_1() {
+        let ccd = paper_result("ssr-ccd", None).expect("SSR CCD mean");
+        assert!((ccd.compute_efficiency() - 0.36).abs() < 1e-12);
+        assert!((ccd.sample_efficiency() - 0.03).abs() < 1e-12);
+        let tn = paper_result("transporternet", None).expect("TransporterNet mean");
+        assert_eq!(efficiency(tn.compute_efficiency()), "0.000750%");
+        assert_eq!(efficiency(tn.sample_efficiency()), "2.50%");
+        assert_eq!(efficiency(ccd.compute_efficiency()), "36.0%");
+    }
+
     #[test]
     fn paper_numbers_are_complete() {
         let p = paper_results();
@@ -555,7 +687,7 @@ mod tests {
         assert_eq!(paper_result("spot-q", None).map(|r| r.success), Some(0.91));
         assert_eq!(
             paper_result("ssr-ccd", Some(TaskId::Row)).map(|r| r.annotated_actions),
-            Some(Some(8))
+            Some(Some(12))
         );
         assert_eq!(
             paper_result("transporternet", Some(TaskId::Unstack)).map(|r| r.success),
@@ -565,7 +697,7 @@ mod tests {
 
     #[test]
     fn tables_have_every_row() {
-        let s = summarize_all(&records(), 2, |_, _| 0);
+        let s = summarize_all(&records(), |_, _| 0, |_, _| 12);
         let md = markdown_table(&s, true);
         assert!(md.contains("| SSR CCD (seespot) | 75% / 88% ± 1"), "{md}");
         assert!(md.contains("| *SSR CCD (paper)* | *24% / 75%* |"));
@@ -584,7 +716,7 @@ mod tests {
 
     #[test]
     fn plot_is_written() {
-        let s = summarize_all(&records(), 2, |_, _| 0);
+        let s = summarize_all(&records(), |_, _| 0, |_, _| 12);
         let dir = tempfile::tempdir().expect("tempdir");
         let out = plot_figure4(&s, &dir.path().join("figure4.png")).expect("plot");
         let len = std::fs::metadata(&out).map(|m| m.len()).unwrap_or(0);
