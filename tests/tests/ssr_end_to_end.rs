@@ -2,6 +2,7 @@
 
 use seespot_policy::PolicyNet;
 use seespot_sim::{Demo, Primitive, Seeds, TaskId, TrialRecord};
+use seespot_ssr::correspond::Correspondence;
 use seespot_ssr::eval::{EvalConfig, EvalMethod, records_path, run_task, world_config};
 use seespot_ssr::policy::{SsrConfig, SsrPolicy, choose, demo_dirs};
 use seespot_ssr::{CorrespondOptions, Method};
@@ -105,13 +106,20 @@ fn ties_are_broken_in_the_documented_order() {
         pair(1.0, 5.0),
         pair(1.0, 2.0),
     ];
-    // CCD: smallest C (2.0, pairs 0, 1, 3), then smallest L (pairs 1, 3), then first.
-    assert_eq!(choose(&pairs, Method::SsrCcd), 1);
-    // L2CD: smallest L (1, 2, 3), then smallest C (1, 3), then first.
-    assert_eq!(choose(&pairs, Method::SsrL2cd), 1);
+    let plain = Correspondence::Plain;
+    // Plain, CCD: smallest C (2.0, pairs 0, 1, 3), then smallest L (pairs 1, 3), then first.
+    assert_eq!(choose(&pairs, Method::SsrCcd, plain), 1);
+    // Plain, L2CD: smallest L (1, 2, 3), then smallest C (1, 3), then first.
+    assert_eq!(choose(&pairs, Method::SsrL2cd, plain), 1);
+    // Reference: the smallest C (or L), ties to the first pair (numpy argmin).
+    let reference = Correspondence::Reference;
+    assert_eq!(choose(&pairs, Method::SsrCcd, reference), 0);
+    assert_eq!(choose(&pairs, Method::SsrL2cd, reference), 1);
     let pairs = vec![pair(2.0, 0.0), pair(1.0, 4.0)];
-    assert_eq!(choose(&pairs, Method::SsrCcd), 0);
-    assert_eq!(choose(&pairs, Method::SsrL2cd), 1);
+    for mode in [plain, reference] {
+        assert_eq!(choose(&pairs, Method::SsrCcd, mode), 0);
+        assert_eq!(choose(&pairs, Method::SsrL2cd, mode), 1);
+    }
 }
 
 #[test]
@@ -180,6 +188,25 @@ fn evaluation_writes_records_and_resumes_after_interruption() {
         other.iter().map(|r| r.seed).collect::<Vec<_>>(),
         vec![101, 103, 105]
     );
+    // Every record names what it was made with, and a run with other settings
+    // is refused instead of mixed into the same file.
+    assert!(other.iter().all(|r| {
+        r.provenance
+            .as_ref()
+            .is_some_and(|p| p.settings.contains("correspond=reference"))
+    }));
+    let mixed = EvalConfig {
+        correspond: CorrespondOptions {
+            mode: Correspondence::Plain,
+            ..CorrespondOptions::default()
+        },
+        ..config.clone()
+    };
+    let refused = run_task(&mixed, TaskId::Row, &mut |_| {})
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+    assert!(refused.contains("another --out"), "{refused}");
     // And a longer run reuses the three recorded seeds and adds the rest.
     let longer = EvalConfig {
         seeds: Seeds::new(1, 4).expect("test seeds"),

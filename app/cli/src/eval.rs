@@ -8,6 +8,7 @@ use seespot_sim::metrics::{annotated_actions, summarize_all};
 use seespot_sim::record::read_records;
 use seespot_sim::{Seeds, Summary};
 use seespot_ssr::CorrespondOptions;
+use seespot_ssr::correspond::Correspondence;
 use seespot_ssr::eval::{EvalConfig, EvalMethod, run_task, world_config};
 use seespot_ssr::report;
 
@@ -36,9 +37,15 @@ pub struct EvalArgs {
     /// Heightmap pixels per side (must match the demonstrations).
     #[arg(long, default_value_t = 112)]
     resolution: usize,
-    /// Gaussian smoothing of the distance maps before the argmin, sigma in pixels
-    /// (the reference used 3); off by default.
-    #[arg(long)]
+    /// How SSR computes Correspond: `reference` (the default: the reference
+    /// code's masks, smoothing, rematch window and tie order; see
+    /// `seespot_ssr::correspond::reference`) or `plain` (seespot's first
+    /// formulation, recorded as `ssr-ccd-plain` / `ssr-l2cd-plain`).
+    #[arg(long, default_value = "reference")]
+    correspond: Correspondence,
+    /// With `--correspond plain` only: Gaussian smoothing of the distance maps
+    /// before the argmin, sigma in pixels; off by default.
+    #[arg(long, value_parser = parse_sigma)]
     smooth_sigma: Option<f32>,
     /// Finetune on the two demonstrations first: steps per policy (333 = the
     /// paper's 1k in all). With `--method spot-q` this gives "Good Robot finetuned".
@@ -47,6 +54,15 @@ pub struct EvalArgs {
     /// Print one machine-readable summary object on stdout.
     #[arg(long)]
     json: bool,
+}
+
+fn parse_sigma(s: &str) -> Result<f32, String> {
+    let v: f32 = s.parse().map_err(|e| format!("not a number: {e}"))?;
+    if v.is_finite() && (0.0..=20.0).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!("{s} is out of range (0..=20 pixels)"))
+    }
 }
 
 fn parse_method(s: &str) -> Result<EvalMethod, String> {
@@ -70,11 +86,19 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         demos_dir: args.demos.clone(),
         world: world_config(args.resolution),
         correspond: CorrespondOptions {
+            mode: args.correspond,
             smooth_sigma: args.smooth_sigma,
         },
         finetune_steps: args.finetune_steps,
     };
-    let name = args.method.record_name(args.finetune_steps);
+    if args.smooth_sigma.is_some() && args.correspond != Correspondence::Plain {
+        anyhow::bail!(
+            "--smooth-sigma applies to --correspond plain only (the reference smooths at 6 mm)"
+        );
+    }
+    let name = args
+        .method
+        .record_name(args.finetune_steps, args.correspond);
     let bar = crate::progress_bar(tasks.len() as u64 * args.trials, false);
     for task in &tasks {
         let (mut ok, mut n) = (0, 0);
@@ -204,7 +228,7 @@ pub fn write_report(
     Ok(Report {
         summaries: report::with_means(&summaries),
         ccd_vs_l2cd: report::compare(&records, "ssr-ccd", "ssr-l2cd"),
-        c_histograms: ["ssr-ccd", "ssr-l2cd"]
+        c_histograms: ["ssr-ccd", "ssr-l2cd", "ssr-ccd-plain", "ssr-l2cd-plain"]
             .into_iter()
             .map(|m| (m.to_owned(), report::c_histograms(&records, m)))
             .collect(),

@@ -42,6 +42,30 @@ impl AseMap {
         &self.features[index * self.dim..(index + 1) * self.dim]
     }
 
+    /// Replaces the mask by `pixel_mask` (`H x W`, the same for every rotation)
+    /// and recomputes the norms; the features are untouched.
+    ///
+    /// # Panics
+    /// If `pixel_mask` is not `H x W`.
+    pub fn set_pixel_mask(&mut self, pixel_mask: &[bool]) {
+        let plane = self.resolution * self.resolution;
+        assert_eq!(pixel_mask.len(), plane, "pixel mask is not H x W");
+        for (i, (norm, f)) in self
+            .norms_sq
+            .iter_mut()
+            .zip(self.features.chunks_exact(self.dim))
+            .enumerate()
+        {
+            let ok = pixel_mask[i % plane];
+            self.mask[i] = ok;
+            *norm = if ok {
+                f.iter().map(|v| v * v).sum()
+            } else {
+                f32::INFINITY
+            };
+        }
+    }
+
     /// Builds a map from features and a mask, computing the norms.
     pub fn new(
         primitive: Primitive,

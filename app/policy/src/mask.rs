@@ -22,8 +22,9 @@ pub fn object_mask(hm: &Heightmaps) -> Vec<bool> {
     hm.depth.iter().map(|&d| d > OBJECT_HEIGHT).collect()
 }
 
-/// Square dilation of an `n x n` mask by `k` pixels (separable max).
-fn dilate(mask: &[bool], n: usize, k: usize) -> Vec<bool> {
+/// Square dilation of an `n x n` mask by `k` pixels (separable max): a pixel is
+/// set when any pixel within Chebyshev distance `k` is.
+pub fn dilate(mask: &[bool], n: usize, k: usize) -> Vec<bool> {
     let mut rows = vec![false; n * n];
     for y in 0..n {
         for x in 0..n {

@@ -49,7 +49,7 @@ pub use heightmap::Heightmaps;
 pub use metrics::{Summary, summarize};
 pub use noise::SensorNoise;
 pub use oracle::Oracle;
-pub use record::{ActionLog, TrialRecord};
+pub use record::{ActionLog, Provenance, TrialRecord};
 pub use scene::{Scene, SceneError};
 pub use seeds::{Seeds, Split};
 pub use task::TaskId;

@@ -59,9 +59,31 @@ pub struct TrialRecord {
     pub final_progress: u8,
     /// Progress dropped below a value it had earlier in the trial.
     pub reversal: bool,
+    /// Starts redrawn before this one because they had already ended (see
+    /// [`Trial::new`]).
+    #[serde(default)]
+    pub start_redraws: u32,
     /// Why the trial ended; `None` for a trial stopped before its end.
     pub end: Option<TrialEnd>,
     pub actions_log: Vec<ActionLog>,
+    /// What the trial was made with (absent in records written before seespot
+    /// recorded it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub provenance: Option<Provenance>,
+}
+
+/// The files and the seespot version a trial was made with.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Provenance {
+    /// The seespot version that ran the trial.
+    pub seespot_version: String,
+    /// The method's settings, as text (e.g. the correspondence), so runs with
+    /// different settings are never mixed in one file.
+    #[serde(default)]
+    pub settings: String,
+    /// sha256 (hex) of every file the method read (models, demonstration files),
+    /// by path relative to where it was run.
+    pub files: std::collections::BTreeMap<String, String>,
 }
 
 impl TrialRecord {
@@ -79,8 +101,10 @@ impl TrialRecord {
             start_progress: trial.start_progress(),
             final_progress: trial.progress(),
             reversal: trial.had_reversal(),
+            start_redraws: trial.start_redraws(),
             end: trial.end(),
             actions_log: log,
+            provenance: None,
         }
     }
 
@@ -199,12 +223,14 @@ pub(crate) mod tests {
             start_progress: 1,
             final_progress: if success { 4 } else { 1 },
             reversal,
+            start_redraws: 0,
             end: Some(if success {
                 TrialEnd::Success
             } else {
                 TrialEnd::ActionLimit
             }),
             actions_log: Vec::new(),
+            provenance: None,
         }
     }
 

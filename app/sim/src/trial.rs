@@ -41,18 +41,50 @@ pub struct Trial {
     start_progress: u8,
     steps: Vec<StepRecord>,
     end: Option<TrialEnd>,
+    start_redraws: u32,
+}
+
+/// Redraws of a start before [`Trial::new`] gives up and keeps the last one.
+pub const MAX_START_REDRAWS: u32 = 16;
+
+/// The world seed of redraw `attempt` of trial seed `seed` (attempt 0 is the
+/// seed itself): deterministic, and far from every other trial's seed.
+pub fn start_seed(seed: u64, attempt: u32) -> u64 {
+    if attempt == 0 {
+        seed
+    } else {
+        seed ^ (u64::from(attempt) << 48) ^ 0x5EE5_0000_0000_0000
+    }
 }
 
 impl Trial {
     /// A test trial (30-action limit) from the task's start: the tower for
-    /// `unstack`, a random drop otherwise.
+    /// `unstack`, a random drop otherwise. A start that has already ended (solved,
+    /// or a block out of the workspace before any action) is redrawn from
+    /// [`start_seed`]`(seed, 1)`, `(seed, 2)`, ... (at most
+    /// [`MAX_START_REDRAWS`] times); [`Trial::start_redraws`] counts them and the
+    /// trial keeps `seed` as its seed.
     pub fn new(config: WorldConfig, task: TaskId, seed: u64) -> Self {
-        let world = if task.starts_from_tower() {
-            World::tower(config, seed)
-        } else {
-            World::random(config, seed)
-        };
-        Self::from_world(world, task, seed, MAX_TRIAL_ACTIONS)
+        let mut attempt = 0;
+        loop {
+            let world_seed = start_seed(seed, attempt);
+            let world = if task.starts_from_tower() {
+                World::tower(config, world_seed)
+            } else {
+                World::random(config, world_seed)
+            };
+            let mut trial = Self::from_world(world, task, seed, MAX_TRIAL_ACTIONS);
+            trial.start_redraws = attempt;
+            if trial.end.is_none() || attempt >= MAX_START_REDRAWS {
+                return trial;
+            }
+            attempt += 1;
+        }
+    }
+
+    /// How many times [`Trial::new`] redrew the start (0 for most seeds).
+    pub fn start_redraws(&self) -> u32 {
+        self.start_redraws
     }
 
     /// A trial over an existing world with its own action limit.
@@ -68,6 +100,7 @@ impl Trial {
             start_progress: progress,
             steps: Vec::new(),
             end: None,
+            start_redraws: 0,
         };
         trial.end = trial.check_end();
         trial

@@ -36,6 +36,7 @@ fn main() {
     });
     let smoothed = CorrespondOptions {
         smooth_sigma: Some(3.0),
+        ..CorrespondOptions::default()
     };
     g.bench_function(format!("step_{res}px_3x2_smoothed_sigma3"), |b| {
         b.iter(|| black_box(correspond_step(&input, &smoothed)))

@@ -10,9 +10,11 @@ use std::path::{Path, PathBuf};
 
 use seespot_policy::{PolicyNet, RandomActor, finetune};
 use seespot_sim::record::{RecordError, append_record, read_records};
-use seespot_sim::{Actor, Demo, Grid, Oracle, Seeds, TaskId, Trial, TrialRecord, WorldConfig};
+use seespot_sim::{
+    Actor, Demo, Grid, Oracle, Provenance, Seeds, TaskId, Trial, TrialRecord, WorldConfig,
+};
 
-use crate::correspond::CorrespondOptions;
+use crate::correspond::{CorrespondOptions, Correspondence};
 use crate::explain::Method;
 use crate::policy::{SsrConfig, SsrError, SsrPolicy, demo_dirs, model_path};
 
@@ -55,10 +57,17 @@ impl EvalMethod {
     }
 
     /// The method id written in records: finetuned variants carry a suffix.
-    pub fn record_name(self, finetune_steps: usize) -> String {
+    /// SSR with the plain correspondence carries `-plain`.
+    pub fn record_name(self, finetune_steps: usize, correspondence: Correspondence) -> String {
+        let ssr = matches!(self, Self::SsrCcd | Self::SsrL2cd);
+        let plain = if ssr && correspondence == Correspondence::Plain {
+            "-plain"
+        } else {
+            ""
+        };
         match (self, finetune_steps) {
-            (_, 0) => self.as_str().to_owned(),
-            (Self::SsrCcd | Self::SsrL2cd, _) => format!("{}-finetuned", self.as_str()),
+            (_, 0) => format!("{}{plain}", self.as_str()),
+            (Self::SsrCcd | Self::SsrL2cd, _) => format!("{}{plain}-finetuned", self.as_str()),
             (Self::SpotQ, _) => "good-robot-finetuned".to_owned(),
             _ => self.as_str().to_owned(),
         }
@@ -109,22 +118,125 @@ pub fn records_path(out_dir: &Path, method: &str, task: TaskId) -> PathBuf {
         .join(format!("{}.jsonl", task.as_str()))
 }
 
+/// sha256 (hex) of a file's bytes.
+fn sha256_file(path: &Path) -> Result<String, EvalError> {
+    use sha2::{Digest, Sha256};
+    let bytes = std::fs::read(path)
+        .map_err(|e| EvalError::Invalid(format!("{}: cannot read: {e}", path.display())))?;
+    Ok(Sha256::digest(&bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect())
+}
+
+/// The files `config.method` reads for fold `task` (the models of the other
+/// tasks or of the task itself, every file of the two demonstrations), with
+/// their sha256, the seespot version and the method's settings.
+pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalError> {
+    let mut paths: Vec<PathBuf> = Vec::new();
+    let demos = || -> Result<Vec<PathBuf>, EvalError> {
+        let mut out = Vec::new();
+        for dir in demo_dirs(&config.demos_dir, task) {
+            let entries = std::fs::read_dir(&dir)
+                .map_err(|e| EvalError::Invalid(format!("{}: {e}", dir.display())))?;
+            for e in entries {
+                let e = e.map_err(|e| EvalError::Invalid(format!("{}: {e}", dir.display())))?;
+                if e.path().is_file() {
+                    out.push(e.path());
+                }
+            }
+        }
+        Ok(out)
+    };
+    match (config.method, config.finetune_steps) {
+        (EvalMethod::SsrCcd | EvalMethod::SsrL2cd, _) => {
+            for t in TaskId::ALL.into_iter().filter(|t| *t != task) {
+                paths.push(model_path(&config.models_dir, t));
+            }
+            paths.extend(demos()?);
+        }
+        (EvalMethod::SpotQ, 0) => paths.push(model_path(&config.models_dir, task)),
+        (EvalMethod::SpotQ, _) => {
+            if let Some(base) = TaskId::ALL.into_iter().find(|t| *t != task) {
+                paths.push(model_path(&config.models_dir, base));
+            }
+            paths.extend(demos()?);
+        }
+        (EvalMethod::Oracle | EvalMethod::Random, _) => {}
+    }
+    let mut files = std::collections::BTreeMap::new();
+    for p in paths {
+        files.insert(p.display().to_string(), sha256_file(&p)?);
+    }
+    Ok(Provenance {
+        seespot_version: seespot_sim::VERSION.to_owned(),
+        settings: format!(
+            "correspond={}, smooth_sigma={:?}, finetune_steps={}, resolution={}, noise={:?}",
+            config.correspond.mode.as_str(),
+            config.correspond.smooth_sigma,
+            config.finetune_steps,
+            config.world.grid.resolution,
+            config.world.noise
+        ),
+        files,
+    })
+}
+
 /// Runs (or resumes) the evaluation of one task; `on_trial` sees every trial
 /// record as it is written (also the ones already on disk, first). A record on
 /// disk counts for the seed it names; records of seeds outside `config.seeds`
-/// are kept in the file and left out of the result.
+/// are kept in the file and left out of the result. Every new record carries
+/// the run's [`Provenance`]; a file holding records made with other files or
+/// settings (or without provenance) is refused rather than appended to.
 pub fn run_task(
     config: &EvalConfig,
     task: TaskId,
     on_trial: &mut dyn FnMut(&TrialRecord),
 ) -> Result<Vec<TrialRecord>, EvalError> {
-    let name = config.method.record_name(config.finetune_steps);
+    let name = config
+        .method
+        .record_name(config.finetune_steps, config.correspond.mode);
     let path = records_path(&config.out_dir, &name, task);
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir)
             .map_err(|e| EvalError::Invalid(format!("{}: {e}", dir.display())))?;
     }
+    let prov = provenance(config, task)?;
     let mut records = read_records(&path)?;
+    if let Some(other) = records
+        .iter()
+        .find(|r| r.provenance.as_ref() != Some(&prov))
+    {
+        let what = match &other.provenance {
+            None => "records without provenance (made before seespot recorded it)".to_owned(),
+            Some(p) => {
+                let mut diff: Vec<String> = p
+                    .files
+                    .iter()
+                    .filter(|(k, v)| prov.files.get(*k) != Some(*v))
+                    .map(|(k, _)| k.clone())
+                    .chain(
+                        prov.files
+                            .keys()
+                            .filter(|k| !p.files.contains_key(*k))
+                            .cloned(),
+                    )
+                    .collect();
+                if p.settings != prov.settings {
+                    diff.push(format!("settings `{}`", p.settings));
+                }
+                if p.seespot_version != prov.seespot_version {
+                    diff.push(format!("seespot {}", p.seespot_version));
+                }
+                format!("records made with other inputs ({})", diff.join(", "))
+            }
+        };
+        return Err(EvalError::Invalid(format!(
+            "{}: holds {what} (seed {}); evaluate into another --out so runs never mix",
+            path.display(),
+            other.seed
+        )));
+    }
     records.retain(|r| r.task == task && config.seeds.contains(r.seed));
     records.sort_by_key(|r| r.seed);
     records.dedup_by_key(|r| r.seed);
@@ -141,8 +253,10 @@ pub fn run_task(
             continue;
         }
         let mut trial = Trial::new(config.world, task, seed);
-        let record = seespot_sim::run_trial(&mut trial, actor.as_mut(), &name, index, &mut |_| {})
-            .map_err(EvalError::Actor)?;
+        let mut record =
+            seespot_sim::run_trial(&mut trial, actor.as_mut(), &name, index, &mut |_| {})
+                .map_err(EvalError::Actor)?;
+        record.provenance = Some(prov.clone());
         append_record(&path, &record)?;
         on_trial(&record);
         records.push(record);

@@ -12,10 +12,13 @@
 //! 4. **Act**: execute `F` of the pair with the smallest C (SSR CCD, Eq. 8) or the
 //!    smallest L (SSR L2CD, Eq. 9).
 //!
-//! Ties are broken in a fixed order: for CCD the smaller L, then the earlier pair;
-//! for L2CD the smaller C, then the earlier pair. Pairs are ordered by policy (in
-//! `TaskId::ALL` order) then demo. Masked actions never match (their norms are
-//! infinite in the [`AseMap`]).
+//! By default Correspond is computed as the reference code did
+//! ([`correspond::reference`]: test-time masks per task, smoothed squared
+//! distances, a windowed unmasked rematch, C in squared 2 mm pixels, ties to the
+//! first pair); [`Correspondence::Plain`] keeps seespot's first formulation (ties
+//! broken by the other distance). Pairs are ordered by policy (in `TaskId::ALL`
+//! order) then demo. Masked actions never match (their norms are infinite in the
+//! [`AseMap`]).
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -25,7 +28,7 @@ use seespot_policy::{AseMap, PolicyError, PolicyNet};
 use seespot_sim::actor::{Actor, ActorError, Choice, ChosenPair};
 use seespot_sim::{Action, Demo, DemoError, Heightmaps, Primitive, TaskId, Trial};
 
-use crate::correspond::{self, CorrespondOptions};
+use crate::correspond::{self, CorrespondOptions, Correspondence};
 use crate::explain::{Decision, Method, PairExplanation};
 
 /// Demonstrations SSR uses per task: `demos/<task>/{0,2}` (even seeds).
@@ -260,6 +263,14 @@ impl SsrPolicy {
             .iter()
             .map(|(_, p)| p.embed(hm, primitive))
             .collect::<Result<Vec<_>, _>>()?;
+        let opts = self.config.correspond;
+        let reference = opts.mode == Correspondence::Reference;
+        if reference {
+            let mask = correspond::reference::ssr_mask(hm, primitive, self.task);
+            for live in &mut self.live {
+                live.set_pixel_mask(&mask);
+            }
+        }
         let embed_ms = t.elapsed().as_secs_f64() * 1e3;
         let steps: Vec<usize> = (0..self.demos.len())
             .map(|d| {
@@ -275,7 +286,9 @@ impl SsrPolicy {
         }
         // Correspond.
         let t = Instant::now();
-        let opts = self.config.correspond;
+        let pixel = hm.grid.pixel_size();
+        let sigma_px = correspond::reference::sigma_pixels(pixel);
+        let half_window = correspond::reference::half_window_pixels(pixel);
         let mut pairs = Vec::with_capacity(self.policies.len() * self.demos.len());
         for m in 0..self.policies.len() {
             let live = &self.live[m];
@@ -289,14 +302,33 @@ impl SsrPolicy {
                 .enumerate()
                 .map(|(d, a)| self.demo_cache[&(m, d, steps[d])].feature(a.flat_index(n)))
                 .collect();
-            let matches = correspond::match_queries_with(live, &queries, &opts);
+            let matches = if reference {
+                correspond::reference::match_reference(live, &queries, sigma_px)
+            } else {
+                correspond::match_queries_with(live, &queries, &opts)
+            };
             for (d, found) in matches.into_iter().enumerate() {
                 let demo_map = &self.demo_cache[&(m, d, steps[d])];
                 let demo_action = demo_actions[d];
                 let matched = found.action(primitive, n);
                 let f = live.feature(found.index);
-                let re = correspond::rematch_with(demo_map, f, Some(demo_action.rotation), &opts);
+                let re = if reference {
+                    correspond::reference::rematch_reference(
+                        demo_map,
+                        f,
+                        &demo_action,
+                        half_window,
+                        sigma_px,
+                    )
+                } else {
+                    correspond::rematch_with(demo_map, f, Some(demo_action.rotation), &opts)
+                };
                 let rematch = re.action(primitive, n);
+                let c = if reference {
+                    correspond::reference::ccd_reference(&demo_action, &rematch, pixel)
+                } else {
+                    correspond::ccd(&demo_action, &rematch)
+                };
                 pairs.push(PairExplanation {
                     policy: self.policies[m].0,
                     demo: d,
@@ -306,7 +338,7 @@ impl SsrPolicy {
                     matched,
                     rematch,
                     rematch_l: re.distance,
-                    c: correspond::ccd(&demo_action, &rematch),
+                    c,
                     match_map: Vec::new(),
                     rematch_map: Vec::new(),
                 });
@@ -314,7 +346,7 @@ impl SsrPolicy {
         }
         let correspond_ms = t.elapsed().as_secs_f64() * 1e3;
         // Act.
-        let chosen = choose(&pairs, self.config.method);
+        let chosen = choose(&pairs, self.config.method, opts.mode);
         // The explanation's heatmaps (not part of the timed Correspond step).
         for p in &mut pairs {
             let m = self
@@ -428,11 +460,17 @@ impl Actor for SsrPolicy {
     }
 }
 
-/// The pair SSR acts on (Eq. 8 for CCD, Eq. 9 for L2CD), with the fixed tie order.
-pub fn choose(pairs: &[PairExplanation], method: Method) -> usize {
+/// The pair SSR acts on (Eq. 8 for CCD, Eq. 9 for L2CD). Ties: with the
+/// reference correspondence the first pair in (policy, demo) order (numpy's
+/// argmin); with the plain one the other distance first, then the first pair.
+pub fn choose(pairs: &[PairExplanation], method: Method, mode: Correspondence) -> usize {
+    let second = |x: f32| match mode {
+        Correspondence::Reference => 0.0,
+        Correspondence::Plain => x,
+    };
     let key = |p: &PairExplanation| match method {
-        Method::SsrCcd => (p.c, p.l),
-        Method::SsrL2cd => (p.l, p.c),
+        Method::SsrCcd => (p.c, second(p.l)),
+        Method::SsrL2cd => (p.l, second(p.c)),
     };
     let mut best = 0;
     for (i, p) in pairs.iter().enumerate() {

@@ -118,6 +118,8 @@ pub fn display_method(id: &str) -> String {
         "ssrl2cd" => "SSR L2CD".into(),
         "ssrccdfinetuned" => "SSR CCD finetuned".into(),
         "ssrl2cdfinetuned" => "SSR L2CD finetuned".into(),
+        "ssrccdplain" => "SSR CCD, plain correspondence (seespot's)".into(),
+        "ssrl2cdplain" => "SSR L2CD, plain correspondence (seespot's)".into(),
         "spotq" => "SPOT-Q".into(),
         "goodrobotfinetuned" => "Good Robot finetuned".into(),
         "transporternet" | "transporter" => "TransporterNet".into(),
@@ -391,8 +393,10 @@ pub fn compare(records: &[TrialRecord], a: &str, b: &str) -> Vec<Comparison> {
         .collect()
 }
 
-/// Bucket edges of the C histogram (pixels; the last bucket is open).
-pub const C_BUCKETS: [f32; 6] = [0.0, 1.0, 2.0, 4.0, 8.0, 16.0];
+/// Bucket edges of the C histogram (the last bucket is open). C is in squared
+/// 2 mm pixels with the reference correspondence (one 4 mm pixel away = 4), in
+/// pixels with the plain one.
+pub const C_BUCKETS: [f32; 8] = [0.0, 1.0, 2.0, 4.0, 8.0, 16.0, 64.0, 256.0];
 
 /// Per fold: decisions per bucket of [`C_BUCKETS`].
 pub type CHistogram = Vec<(TaskId, Vec<usize>)>;
@@ -449,13 +453,13 @@ pub fn statistics_markdown(records: &[TrialRecord]) -> String {
             None => format!(">= {lo}"),
         })
         .collect();
-    for method in ["ssr-ccd", "ssr-l2cd"] {
+    for method in ["ssr-ccd", "ssr-l2cd", "ssr-ccd-plain", "ssr-l2cd-plain"] {
         let hist = c_histograms(records, method);
         if hist.is_empty() {
             continue;
         }
         md.push_str(&format!(
-            "\n### C of the chosen pair, {} (decisions per bucket, pixels)\n\n| fold | {} |\n|---|{}\n",
+            "\n### C of the chosen pair, {} (decisions per bucket)\n\n| fold | {} |\n|---|{}\n",
             display_method(method),
             buckets.join(" | "),
             "---|".repeat(buckets.len())
@@ -657,8 +661,10 @@ mod tests {
                         start_progress: 1,
                         final_progress: if success { 4 } else { 1 },
                         reversal: trial == 1,
+                        start_redraws: 0,
                         end: Some(seespot_sim::TrialEnd::Success),
                         actions_log: Vec::new(),
+                        provenance: None,
                     });
                 }
             }

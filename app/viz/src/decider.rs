@@ -11,6 +11,7 @@ use std::time::Instant;
 use anyhow::Context;
 use seespot_sim::actor::{Actor, ActorError, Choice, ChosenPair};
 use seespot_sim::{Action, Demo, Heightmaps, Oracle, Primitive, Seeds, TaskId, Trial, WorldConfig};
+use seespot_ssr::correspond::Correspondence;
 use seespot_ssr::policy::{DEMO_SEEDS, choose, demo_step};
 use seespot_ssr::{Decision, Method, PairExplanation, SsrPolicy};
 
@@ -325,7 +326,7 @@ impl Actor for FeatureDecider {
                     .into(),
             );
         }
-        let chosen = choose(&pairs, self.method);
+        let chosen = choose(&pairs, self.method, Correspondence::Plain);
         let p = &pairs[chosen];
         let choice = Choice {
             action: p.matched,

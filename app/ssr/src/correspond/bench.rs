@@ -245,6 +245,7 @@ pub fn bench_correspond(resolution: usize, iterations: usize) -> serde_json::Val
     let plain = CorrespondOptions::default();
     let smoothed = CorrespondOptions {
         smooth_sigma: Some(3.0),
+        ..CorrespondOptions::default()
     };
     // Warm-up (page faults, thread pool).
     let fast = correspond_step(&input, &plain);

@@ -21,6 +21,7 @@
 //! `(r * H + y) * W + x` wins, independent of how the scan was split over threads.
 
 mod bench;
+pub mod reference;
 mod smooth;
 
 pub use bench::{
@@ -55,10 +56,49 @@ impl Match {
     }
 }
 
+/// Which formulation of Correspond SSR uses.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Correspondence {
+    /// The reference code's choices ([`reference`]): test-time masks per task,
+    /// squared distances smoothed at 6 mm, the rematch unmasked in a 3 cm window
+    /// at the demo's rotation, C in squared 2 mm pixels, ties to the first pair.
+    /// The faithful default, named `ssr-ccd` / `ssr-l2cd` in records.
+    #[default]
+    Reference,
+    /// seespot's first formulation, kept for comparison (records `ssr-ccd-plain`,
+    /// `ssr-l2cd-plain`): the training-time common-sense masks, unsquared
+    /// distances (smoothed only with `smooth_sigma`), the rematch over the whole
+    /// masked demo rotation plane, C in pixels, ties broken by the other distance.
+    Plain,
+}
+
+impl Correspondence {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Reference => "reference",
+            Self::Plain => "plain",
+        }
+    }
+}
+
+impl std::str::FromStr for Correspondence {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        [Self::Reference, Self::Plain]
+            .into_iter()
+            .find(|c| c.as_str() == s)
+            .ok_or_else(|| format!("unknown correspondence '{s}' (expected reference or plain)"))
+    }
+}
+
 /// Options of the Correspond step.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CorrespondOptions {
-    /// Gaussian smoothing of each per-rotation `H x W` distance map before the
+    /// The formulation SSR uses (the scan functions of this module are the
+    /// plain formulation's; [`reference`] holds the reference's).
+    pub mode: Correspondence,
+    /// [`Correspondence::Plain`] only: Gaussian smoothing of each per-rotation `H x W` distance map before the
     /// argmin, sigma in pixels (the reference code used 3 px). `None` = off.
     ///
     /// Cost: smoothing needs the full distance maps instead of a running minimum,
@@ -354,6 +394,7 @@ pub fn match_queries_smoothed(test: &AseMap, queries: &[&[f32]], sigma: f32) -> 
         queries,
         &CorrespondOptions {
             smooth_sigma: Some(sigma),
+            ..CorrespondOptions::default()
         },
     )
 }
@@ -658,6 +699,7 @@ mod tests {
             Some(0),
             &CorrespondOptions {
                 smooth_sigma: Some(1.0),
+                ..CorrespondOptions::default()
             },
         );
         assert_eq!(r.index, 10 * n + 10);
