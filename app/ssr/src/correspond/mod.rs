@@ -59,7 +59,7 @@ impl Match {
 /// Which formulation of Correspond SSR uses.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Correspondence {
-    /// The reference code's choices ([`reference`]): test-time masks per task,
+    /// The reference code's choices ([`mod@reference`]): test-time masks per task,
     /// squared distances smoothed at 6 mm, the rematch unmasked in a 3 cm window
     /// at the demo's rotation, C in squared 2 mm pixels, ties to the first pair.
     /// The faithful default, named `ssr-ccd` / `ssr-l2cd` in records.
@@ -96,7 +96,7 @@ impl std::str::FromStr for Correspondence {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CorrespondOptions {
     /// The formulation SSR uses (the scan functions of this module are the
-    /// plain formulation's; [`reference`] holds the reference's).
+    /// plain formulation's; [`mod@reference`] holds the reference's).
     pub mode: Correspondence,
     /// [`Correspondence::Plain`] only: Gaussian smoothing of each per-rotation `H x W` distance map before the
     /// argmin, sigma in pixels (the reference code used 3 px). `None` = off.
