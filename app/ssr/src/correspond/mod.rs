@@ -122,6 +122,21 @@ impl Best {
         index: usize::MAX,
     };
 
+    /// The smallest finite entry of `d` (first on ties), its index offset by
+    /// `offset`; [`Best::NONE`] when none is finite.
+    fn argmin(d: &[f32], offset: usize) -> Best {
+        let mut b = Best::NONE;
+        for (p, &v) in d.iter().enumerate() {
+            if v < b.d2 {
+                b = Best {
+                    d2: v,
+                    index: offset + p,
+                };
+            }
+        }
+        b
+    }
+
     /// The better of two candidates; deterministic (total order on (d2, index)).
     fn min(self, other: Best) -> Best {
         if other.d2 < self.d2 || (other.d2 == self.d2 && other.index < self.index) {
@@ -494,16 +509,7 @@ fn scan_smoothed(map: &AseMap, rots: Range<usize>, queries: &[&[f32]], sigma: f3
                 .into_iter()
                 .map(|mut d| {
                     smooth(&mut d, n, sigma);
-                    let mut b = Best::NONE;
-                    for (p, &v) in d.iter().enumerate() {
-                        if v < b.d2 {
-                            b = Best {
-                                d2: v,
-                                index: r * plane + p,
-                            };
-                        }
-                    }
-                    b
+                    Best::argmin(&d, r * plane)
                 })
                 .collect::<Vec<_>>()
         })

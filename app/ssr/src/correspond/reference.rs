@@ -112,16 +112,7 @@ pub fn match_reference(live: &AseMap, queries: &[&[f32]], sigma_px: f32) -> Vec<
                 .map(|r| {
                     let mut d = plane_sq(live, r, q, false);
                     smooth(&mut d, n, sigma_px);
-                    let mut b = Best::NONE;
-                    for (p, &v) in d.iter().enumerate() {
-                        if v < b.d2 {
-                            b = Best {
-                                d2: v,
-                                index: r * plane + p,
-                            };
-                        }
-                    }
-                    b
+                    Best::argmin(&d, r * plane)
                 })
                 .reduce(|| Best::NONE, Best::min);
             if best.index == usize::MAX {
