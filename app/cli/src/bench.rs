@@ -14,7 +14,7 @@ pub enum BenchCommand {
         /// Number of drop-settle-render steps to time.
         #[arg(long, default_value_t = 500)]
         actions: usize,
-        #[arg(long, default_value_t = 224)]
+        #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 224)]
         resolution: usize,
         #[arg(long)]
         json: bool,
@@ -35,7 +35,7 @@ pub enum BenchCommand {
     /// 64-d, M = 3, N = 2) and one whole decision (embed with 3 policies +
     /// Correspond).
     Ssr {
-        #[arg(long, default_value_t = 224)]
+        #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 224)]
         resolution: usize,
         #[arg(long, default_value_t = 9)]
         iterations: usize,

@@ -19,7 +19,7 @@ pub enum DemoCommand {
         #[arg(long)]
         out: PathBuf,
         /// Heightmap pixels per side.
-        #[arg(long, default_value_t = 112)]
+        #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 112)]
         resolution: usize,
     },
     /// Print a readable summary of a demonstration.

@@ -21,7 +21,7 @@ pub struct EvalArgs {
     #[arg(long, default_value = "all")]
     task: String,
     /// Trials per task.
-    #[arg(long, default_value_t = 50)]
+    #[arg(long, default_value_t = 50, value_parser = clap::value_parser!(u64).range(1..=100_000))]
     trials: u64,
     /// First seed; trial i uses seed + 2 i. 1 (the default) gives the test
     /// seeds 1, 3, ...; 10001 the validation seeds, for choosing settings.
@@ -35,7 +35,7 @@ pub struct EvalArgs {
     #[arg(long, default_value = "demos")]
     demos: PathBuf,
     /// Heightmap pixels per side (must match the demonstrations).
-    #[arg(long, default_value_t = 112)]
+    #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 112)]
     resolution: usize,
     /// How SSR computes Correspond: `reference` (the default: the reference
     /// code's masks, smoothing, rematch window and tie order; see

@@ -29,7 +29,7 @@ pub struct TrainArgs {
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Heightmap resolution of the training worlds, pixels.
-    #[arg(long, default_value_t = 112)]
+    #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 112)]
     pub resolution: usize,
     /// Checkpoint at the first trial end after every this many actions.
     #[arg(long, default_value_t = 200)]

@@ -43,7 +43,7 @@ pub struct ViewArgs {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Heightmap resolution, pixels per side (224 = the paper's 2 mm/px).
-    #[arg(long, default_value_t = 112)]
+    #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 112)]
     pub resolution: usize,
     /// Address to serve on; only loopback unless you ask (e.g. `--bind 0.0.0.0`).
     #[arg(long, default_value = "127.0.0.1")]
@@ -112,14 +112,14 @@ pub struct RecordArgs {
     #[arg(long, default_value = "stack")]
     pub task: TaskId,
     /// Number of trials.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..=100_000))]
     pub trials: u64,
     /// Seed of the first trial; the next ones are seed + 2, seed + 4, … (odd:
     /// test seeds; see `seespot_sim::seeds`).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Heightmap resolution, pixels per side.
-    #[arg(long, default_value_t = 112)]
+    #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 112)]
     pub resolution: usize,
     /// Output folder (`<task>-<seed>.rrd` files).
     #[arg(long, default_value = "recordings")]
@@ -171,7 +171,7 @@ pub struct BenchViewArgs {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Heightmap resolution (224 = the paper's).
-    #[arg(long, default_value_t = 224)]
+    #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 224)]
     pub resolution: usize,
     /// Stop after this many actions.
     #[arg(long, default_value_t = 30)]

@@ -25,6 +25,26 @@ use crate::world::WorldConfig;
 /// Smallest and largest heightmap resolution a scene may ask for, pixels.
 pub const RESOLUTION_RANGE: std::ops::RangeInclusive<usize> = 32..=448;
 
+/// The one check of a heightmap resolution (scene files, every command's
+/// `--resolution`): a multiple of 8 in [`RESOLUTION_RANGE`].
+pub fn check_resolution(resolution: usize) -> Result<usize, String> {
+    if RESOLUTION_RANGE.contains(&resolution) && resolution.is_multiple_of(8) {
+        Ok(resolution)
+    } else {
+        Err(format!(
+            "{resolution} is out of range (a multiple of 8 in 32..=448 pixels)"
+        ))
+    }
+}
+
+/// [`check_resolution`] of a command-line value.
+pub fn parse_resolution(text: &str) -> Result<usize, String> {
+    let r: usize = text
+        .parse()
+        .map_err(|_| format!("`{text}` is not a whole number of pixels"))?;
+    check_resolution(r)
+}
+
 /// A validated scene.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Scene {
@@ -90,7 +110,7 @@ impl Scene {
             .ok_or_else(|| field("resolution", "missing".into()))?;
         let resolution = usize::try_from(resolution)
             .ok()
-            .filter(|r| RESOLUTION_RANGE.contains(r) && r % 8 == 0)
+            .filter(|r| check_resolution(*r).is_ok())
             .ok_or_else(|| {
                 field(
                     "resolution",

@@ -367,13 +367,77 @@ pub fn running(s: &AppState) -> bool {
     s.running.load(Ordering::SeqCst)
 }
 
-/// Binds the page server on `addr` and serves until `shutdown` resolves.
+/// The host names a request may carry in `Host` (and, as `http://` + it, in
+/// `Origin`): a loopback name or the bound address, on the served port.
+#[derive(Clone, Debug)]
+pub struct AllowedHosts {
+    hosts: Vec<String>,
+}
+
+impl AllowedHosts {
+    /// For a server bound to `addr`.
+    pub fn for_addr(addr: SocketAddr) -> Self {
+        let port = addr.port();
+        let mut hosts: Vec<String> = ["127.0.0.1", "localhost", "[::1]"]
+            .iter()
+            .map(|h| format!("{h}:{port}"))
+            .collect();
+        if !addr.ip().is_unspecified() && !addr.ip().is_loopback() {
+            hosts.push(addr.to_string());
+        }
+        Self { hosts }
+    }
+
+    /// Whether a request with these `Host` and `Origin` headers may be served:
+    /// `Host` must be one of the allowed hosts, and `Origin`, when present, must
+    /// be `http://` + one of them (a page of another site, `null` included,
+    /// cannot drive the debugger; a rebound DNS name fails the `Host` check).
+    pub fn allows(&self, host: Option<&str>, origin: Option<&str>) -> bool {
+        let ok_host = |h: &str| self.hosts.iter().any(|a| a.eq_ignore_ascii_case(h));
+        let host_ok = host.is_some_and(ok_host);
+        let origin_ok = origin.is_none_or(|o| o.strip_prefix("http://").is_some_and(ok_host));
+        host_ok && origin_ok
+    }
+}
+
+/// Refuses (403) a request whose `Host` or `Origin` is not one of `allowed`.
+async fn guard(
+    State(allowed): State<Arc<AllowedHosts>>,
+    request: axum::extract::Request,
+    next: axum::middleware::Next,
+) -> Response {
+    let headers = request.headers();
+    let value = |name: header::HeaderName| -> Option<String> {
+        headers
+            .get(name)
+            .and_then(|v| v.to_str().ok())
+            .map(str::to_owned)
+    };
+    let (host, origin) = (value(header::HOST), value(header::ORIGIN));
+    if allowed.allows(host.as_deref(), origin.as_deref()) {
+        next.run(request).await
+    } else {
+        (
+            StatusCode::FORBIDDEN,
+            format!(
+                "seespot serves only its own page: Host {host:?} / Origin {origin:?} is not this server (127.0.0.1 or localhost on its port)"
+            ),
+        )
+            .into_response()
+    }
+}
+
+/// Binds the page server on `addr` and serves until `shutdown` resolves. Every
+/// request must name this server in `Host` (and `Origin`, when present; see
+/// [`AllowedHosts`]).
 pub async fn serve_page(
     listener: tokio::net::TcpListener,
     state: Arc<AppState>,
     shutdown: impl std::future::Future<Output = ()> + Send + 'static,
 ) -> anyhow::Result<()> {
-    axum::serve(listener, router(state))
+    let allowed = Arc::new(AllowedHosts::for_addr(listener.local_addr()?));
+    let app = router(state).layer(axum::middleware::from_fn_with_state(allowed, guard));
+    axum::serve(listener, app)
         .with_graceful_shutdown(shutdown)
         .await?;
     Ok(())

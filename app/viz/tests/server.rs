@@ -236,3 +236,75 @@ async fn two_clients_see_the_same_trial_and_a_vanished_client_stops_nothing() {
     .expect("the run did not finish");
     assert!(end["action_index"].as_u64().is_some_and(|n| n > 0));
 }
+
+/// The status line of a raw request for `target` with the given extra headers.
+async fn status_with(addr: std::net::SocketAddr, target: &str, headers: &str) -> String {
+    let mut s = TcpStream::connect(addr).await.expect("connect");
+    let req = format!("GET {target} HTTP/1.1\r\n{headers}Connection: close\r\n\r\n");
+    s.write_all(req.as_bytes()).await.expect("write");
+    // Only the status line: an accepted WebSocket upgrade keeps the connection open.
+    let mut line = Vec::new();
+    let mut b = [0u8; 1];
+    while !line.ends_with(b"\r\n") {
+        if s.read(&mut b).await.expect("read") == 0 {
+            break;
+        }
+        line.push(b[0]);
+    }
+    String::from_utf8_lossy(&line).trim_end().to_owned()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn issue_10_foreign_origin_and_host_are_refused() {
+    let (addr, _) = start().await;
+    let port = addr.port();
+    let upgrade = "Upgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n";
+    // Cross-site WebSocket hijacking: a page of another origin cannot connect.
+    for origin in [
+        "http://evil.example",
+        "null",
+        &format!("http://127.0.0.1.evil.example:{port}"),
+        &format!("https://127.0.0.1:{port}"),
+        "http://127.0.0.1:1",
+    ] {
+        let line = status_with(
+            addr,
+            "/ws",
+            &format!("Host: {addr}\r\nOrigin: {origin}\r\n{upgrade}"),
+        )
+        .await;
+        assert!(line.contains(" 403"), "Origin {origin}: {line}");
+    }
+    // DNS rebinding: a foreign Host is refused on every route.
+    for target in ["/", "/api/state", "/api/decision", "/ws"] {
+        let line = status_with(
+            addr,
+            target,
+            &format!("Host: evil.example:{port}\r\n{upgrade}"),
+        )
+        .await;
+        assert!(line.contains(" 403"), "{target}: {line}");
+        let line = status_with(addr, target, "").await;
+        assert!(
+            line.contains(" 403") || line.contains(" 400"),
+            "{target} without Host: {line}"
+        );
+    }
+    // The page's own origin, under any loopback name, is served.
+    for host in [addr.to_string(), format!("localhost:{port}")] {
+        let line = status_with(
+            addr,
+            "/api/state",
+            &format!("Host: {host}\r\nOrigin: http://{host}\r\n"),
+        )
+        .await;
+        assert!(line.contains(" 200"), "{host}: {line}");
+    }
+    let line = status_with(
+        addr,
+        "/ws",
+        &format!("Host: {addr}\r\nOrigin: http://{addr}\r\n{upgrade}"),
+    )
+    .await;
+    assert!(line.contains(" 101"), "{line}");
+}
