@@ -159,6 +159,13 @@ pub fn run_record(args: RecordArgs) -> anyhow::Result<()> {
         args.out.display(),
         total as f64 / 1e6 / done.len().max(1) as f64
     );
+    if stop.load(std::sync::atomic::Ordering::SeqCst) {
+        anyhow::bail!(
+            "interrupted: wrote {} of {} recordings (the last one finished cleanly)",
+            done.len(),
+            args.trials
+        );
+    }
     Ok(())
 }
 

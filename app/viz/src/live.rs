@@ -415,14 +415,28 @@ pub fn bench_view(
     })
 }
 
-/// A future that resolves on Ctrl-C (or never, if the signal cannot be installed).
+/// A future that resolves on Ctrl-C or SIGTERM (or never, if neither signal can
+/// be listened to), so both finish a `--save` recording; SIGKILL cannot be caught.
 pub async fn ctrl_c() {
-    if tokio::signal::ctrl_c().await.is_err() {
-        std::future::pending::<()>().await;
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    tokio::select! {
+        r = tokio::signal::ctrl_c() => {
+            if r.is_err() {
+                std::future::pending::<()>().await;
+            }
+        }
+        () = term => {}
     }
 }
 
-/// Installs a Ctrl-C handler that sets the returned flag (for blocking loops
+/// Installs a Ctrl-C / SIGTERM handler that sets the returned flag (for blocking loops
 /// such as [`record_trials`]); runs the signal listener on its own thread.
 pub fn ctrl_c_flag() -> Arc<AtomicBool> {
     let flag = Arc::new(AtomicBool::new(false));
@@ -437,10 +451,9 @@ pub fn ctrl_c_flag() -> Arc<AtomicBool> {
                 return;
             };
             rt.block_on(async {
-                if tokio::signal::ctrl_c().await.is_ok() {
-                    eprintln!("\nCtrl-C: finishing the current recording…");
-                    f.store(true, Ordering::SeqCst);
-                }
+                ctrl_c().await;
+                eprintln!("\ninterrupted: finishing the current recording…");
+                f.store(true, Ordering::SeqCst);
             });
         });
     flag
