@@ -362,6 +362,24 @@ fn read_png(
     let mut reader = dec
         .read_info()
         .map_err(|e| invalid(path, format!("not a readable PNG: {e}")))?;
+    // Check the header before allocating: a damaged or hostile header may claim
+    // a huge image.
+    let head = reader.info();
+    if head.width as usize != n || head.height as usize != n {
+        return Err(invalid(
+            path,
+            format!("image is {}x{}, expected {n}x{n}", head.width, head.height),
+        ));
+    }
+    if head.color_type != color || head.bit_depth != depth {
+        return Err(invalid(
+            path,
+            format!(
+                "image is {:?} {:?}, expected {color:?} {depth:?}",
+                head.color_type, head.bit_depth
+            ),
+        ));
+    }
     let size = reader
         .output_buffer_size()
         .ok_or_else(|| invalid(path, "image too large"))?;

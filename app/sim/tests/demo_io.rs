@@ -67,3 +67,58 @@ fn damaged_demos_are_refused_with_the_file_named() {
     let err = Demo::read(dir.path()).expect_err("bad json").to_string();
     assert!(err.contains("meta.json"), "{err}");
 }
+
+/// CRC-32 (IEEE) of PNG chunk type + data.
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut c = 0xFFFF_FFFFu32;
+    for &b in bytes {
+        c ^= u32::from(b);
+        for _ in 0..8 {
+            c = if c & 1 == 1 {
+                0xEDB8_8320 ^ (c >> 1)
+            } else {
+                c >> 1
+            };
+        }
+    }
+    !c
+}
+
+fn chunk(kind: &[u8; 4], data: &[u8]) -> Vec<u8> {
+    let mut out = (data.len() as u32).to_be_bytes().to_vec();
+    let mut body = kind.to_vec();
+    body.extend_from_slice(data);
+    out.extend_from_slice(&body);
+    out.extend_from_slice(&crc32(&body).to_be_bytes());
+    out
+}
+
+/// Issue 10: a tiny PNG whose header claims 65535 x 65535 RGBA16 (34 GB
+/// decoded) is refused from its header, before any allocation.
+#[test]
+fn issue_10_png_header_claiming_a_huge_image_is_refused_before_allocating() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let demo = record(TaskId::Stack, 2);
+    demo.write(dir.path()).expect("write");
+    let mut ihdr = Vec::new();
+    ihdr.extend_from_slice(&65535u32.to_be_bytes());
+    ihdr.extend_from_slice(&65535u32.to_be_bytes());
+    ihdr.extend_from_slice(&[16, 6, 0, 0, 0]); // 16-bit RGBA
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    png.extend(chunk(b"IHDR", &ihdr));
+    png.extend(chunk(
+        b"IDAT",
+        &[0x78, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01],
+    ));
+    png.extend(chunk(b"IEND", &[]));
+    let bad = dir.path().join("000_color.png");
+    std::fs::write(&bad, &png).expect("write");
+    let msg = Demo::read(dir.path())
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+    assert!(
+        msg.contains("000_color.png") && msg.contains("65535x65535"),
+        "{msg}"
+    );
+}
