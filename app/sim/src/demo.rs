@@ -229,10 +229,24 @@ impl DemoMeta {
                 ),
             ));
         }
-        if !crate::scene::RESOLUTION_RANGE.contains(&self.resolution) {
+        if let Err(e) = crate::scene::check_resolution(self.resolution) {
+            return Err(invalid(path, format!("field `resolution`: {e}")));
+        }
+        let h = crate::workspace::WORKSPACE_SIZE / 2.0;
+        let expected_ws = [[-h, h], [-h, h]];
+        if self
+            .workspace
+            .iter()
+            .flatten()
+            .zip(expected_ws.iter().flatten())
+            .any(|(a, b)| (a - b).abs() > 1e-4)
+        {
             return Err(invalid(
                 path,
-                format!("field `resolution`: {} is out of range", self.resolution),
+                format!(
+                    "field `workspace`: {:?} is not seespot's workspace {expected_ws:?}",
+                    self.workspace
+                ),
             ));
         }
         if self.steps.is_empty() {
@@ -273,6 +287,46 @@ impl DemoMeta {
                     return Err(invalid(
                         path,
                         format!("field `steps[{i}].{name}`: {p} is outside 1..=4"),
+                    ));
+                }
+            }
+            let mut seen = [false; crate::NUM_BLOCKS];
+            for (k, (id, pose)) in s.blocks_before.iter().enumerate() {
+                let field = format!("field `steps[{i}].blocks_before[{k}]`");
+                match seen.get_mut(*id) {
+                    None => {
+                        return Err(invalid(
+                            path,
+                            format!("{field}: block id {id} is not below {}", crate::NUM_BLOCKS),
+                        ));
+                    }
+                    Some(true) => {
+                        return Err(invalid(path, format!("{field}: block id {id} repeats")));
+                    }
+                    Some(slot) => *slot = true,
+                }
+                let [x, y, z] = pose.position;
+                if ![x, y, z].iter().all(|v| v.is_finite())
+                    || x.abs() > 1.0
+                    || y.abs() > 1.0
+                    || !(-0.1..=1.0).contains(&z)
+                {
+                    return Err(invalid(
+                        path,
+                        format!(
+                            "{field}: position {:?} is not near the table",
+                            pose.position
+                        ),
+                    ));
+                }
+                let norm = pose.rotation.iter().map(|q| q * q).sum::<f32>().sqrt();
+                if !norm.is_finite() || (norm - 1.0).abs() > 1e-2 {
+                    return Err(invalid(
+                        path,
+                        format!(
+                            "{field}: rotation {:?} is not a unit quaternion",
+                            pose.rotation
+                        ),
                     ));
                 }
             }

@@ -49,6 +49,39 @@ fn damaged_demos_are_refused_with_the_file_named() {
     let err = Demo::read(dir.path()).expect_err("bad pixel").to_string();
     assert!(err.contains("steps[0].action"), "{err}");
 
+    // Issue 10: damaged block poses and workspace bounds, each named.
+    for (field, value, expect) in [
+        ("blocks_before/0/0", serde_json::json!(99), "block id 99"),
+        ("blocks_before/1/0", serde_json::json!(0), "repeats"),
+        (
+            "blocks_before/0/1/position",
+            serde_json::json!([50.0, 0.0, 0.0]),
+            "position",
+        ),
+        (
+            "blocks_before/0/1/rotation",
+            serde_json::json!([0.0, 0.0, 0.0, 0.0]),
+            "unit quaternion",
+        ),
+    ] {
+        let mut meta: serde_json::Value = serde_json::from_str(&good).expect("json");
+        let pointer = format!("/steps/0/{field}");
+        *meta.pointer_mut(&pointer).expect("field exists") = value;
+        std::fs::write(&meta_path, meta.to_string()).expect("write");
+        let err = Demo::read(dir.path()).expect_err(field).to_string();
+        assert!(
+            err.contains("meta.json")
+                && err.contains("steps[0].blocks_before")
+                && err.contains(expect),
+            "{field}: {err}"
+        );
+    }
+    let mut meta: serde_json::Value = serde_json::from_str(&good).expect("json");
+    meta["workspace"] = serde_json::json!([[1.0, -1.0], [-0.224, 0.224]]);
+    std::fs::write(&meta_path, meta.to_string()).expect("write");
+    let err = Demo::read(dir.path()).expect_err("workspace").to_string();
+    assert!(err.contains("field `workspace`"), "{err}");
+
     // Truncated PNG.
     std::fs::write(&meta_path, &good).expect("write");
     let png = dir.path().join("001_depth.png");

@@ -107,10 +107,20 @@ impl SsrPolicy {
             .filter(|t| *t != task)
             .map(|t| Ok((t, PolicyNet::load(&model_path(models_dir, t))?)))
             .collect::<Result<Vec<_>, SsrError>>()?;
-        let demos = demo_dirs(demos_dir, task)
-            .iter()
-            .map(|d| Demo::read(d))
-            .collect::<Result<Vec<_>, _>>()?;
+        let mut demos = Vec::new();
+        for dir in demo_dirs(demos_dir, task) {
+            let d = Demo::read(&dir)?;
+            if d.meta.task != task {
+                return Err(SsrError::Mismatch {
+                    path: dir.join("meta.json"),
+                    message: format!(
+                        "field `task`: a demonstration of {} in the folder of {task}",
+                        d.meta.task
+                    ),
+                });
+            }
+            demos.push(d);
+        }
         Self::new(task, policies, demos, config)
     }
 
