@@ -238,6 +238,8 @@ impl PolicyNet {
         let resolution: usize = get("resolution")?
             .parse()
             .map_err(|_| format("metadata field `resolution` is not a number".into()))?;
+        seespot_sim::scene::check_resolution(resolution)
+            .map_err(|e| format(format!("metadata field `resolution`: {e}")))?;
         let mut nets = Vec::new();
         let mut expected = std::collections::BTreeSet::new();
         for p in Primitive::ALL {

@@ -252,7 +252,13 @@ fn wrong_shape_dtype_or_architecture_is_refused() {
     );
 
     // Another architecture / version.
-    for (k, v) in [("architecture", "densenet121"), ("format_version", "999")] {
+    // (And issue 10: a resolution the rest of seespot refuses.)
+    for (k, v) in [
+        ("architecture", "densenet121"),
+        ("format_version", "999"),
+        ("resolution", "0"),
+        ("resolution", "113"),
+    ] {
         let mut meta = file.metadata.clone();
         meta.insert(k.into(), v.into());
         tensor_file::write(&path, &file.tensors, &meta).unwrap();
