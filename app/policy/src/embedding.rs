@@ -43,7 +43,8 @@ impl AseMap {
     }
 
     /// Replaces the mask by `pixel_mask` (`H x W`, the same for every rotation)
-    /// and recomputes the norms; the features are untouched.
+    /// and updates the norms of the actions whose mask changed; the features are
+    /// untouched.
     ///
     /// # Panics
     /// If `pixel_mask` is not `H x W`.
@@ -57,12 +58,16 @@ impl AseMap {
             .enumerate()
         {
             let ok = pixel_mask[i % plane];
-            self.mask[i] = ok;
-            *norm = if ok {
-                f.iter().map(|v| v * v).sum()
-            } else {
-                f32::INFINITY
-            };
+            // Only actions whose mask changes need their norm: an allowed
+            // action's norm does not depend on the mask.
+            if ok != self.mask[i] {
+                self.mask[i] = ok;
+                *norm = if ok {
+                    f.iter().map(|v| v * v).sum()
+                } else {
+                    f32::INFINITY
+                };
+            }
         }
     }
 
@@ -107,4 +112,23 @@ pub struct QMap {
     pub resolution: usize,
     pub rotations: usize,
     pub q: Vec<f32>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn set_pixel_mask_updates_only_changed_norms() {
+        // R = 2, H = W = 1, D = 2; rotation 0 allowed, rotation 1 masked.
+        let f = vec![3.0, 4.0, 6.0, 8.0];
+        let mut m = AseMap::new(Primitive::Grasp, 1, 2, 2, f.clone(), vec![true, false]);
+        m.set_pixel_mask(&[true]);
+        let fresh = AseMap::new(Primitive::Grasp, 1, 2, 2, f.clone(), vec![true, true]);
+        assert_eq!((&m.mask, &m.norms_sq), (&fresh.mask, &fresh.norms_sq));
+        assert_eq!(m.norms_sq, vec![25.0, 100.0]);
+        m.set_pixel_mask(&[false]);
+        assert_eq!(m.mask, vec![false, false]);
+        assert_eq!(m.norms_sq, vec![f32::INFINITY, f32::INFINITY]);
+    }
 }
