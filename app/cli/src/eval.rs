@@ -228,7 +228,7 @@ pub fn write_report(
     Ok(Report {
         summaries: report::with_means(&summaries),
         ccd_vs_l2cd: report::compare(&records, "ssr-ccd", "ssr-l2cd"),
-        c_histograms: ["ssr-ccd", "ssr-l2cd", "ssr-ccd-plain", "ssr-l2cd-plain"]
+        c_histograms: report::SSR_METHODS
             .into_iter()
             .map(|m| (m.to_owned(), report::c_histograms(&records, m)))
             .collect(),

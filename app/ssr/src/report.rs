@@ -393,6 +393,9 @@ pub fn compare(records: &[TrialRecord], a: &str, b: &str) -> Vec<Comparison> {
         .collect()
 }
 
+/// The SSR record names whose C the report shows (reference and plain).
+pub const SSR_METHODS: [&str; 4] = ["ssr-ccd", "ssr-l2cd", "ssr-ccd-plain", "ssr-l2cd-plain"];
+
 /// Bucket edges of the C histogram (the last bucket is open). C is in squared
 /// 2 mm pixels with the reference correspondence (one 4 mm pixel away = 4), in
 /// pixels with the plain one.
@@ -453,7 +456,7 @@ pub fn statistics_markdown(records: &[TrialRecord]) -> String {
             None => format!(">= {lo}"),
         })
         .collect();
-    for method in ["ssr-ccd", "ssr-l2cd", "ssr-ccd-plain", "ssr-l2cd-plain"] {
+    for method in SSR_METHODS {
         let hist = c_histograms(records, method);
         if hist.is_empty() {
             continue;
