@@ -4,7 +4,7 @@ use seespot_policy::PolicyNet;
 use seespot_sim::{Demo, Primitive, Seeds, TaskId, TrialRecord};
 use seespot_ssr::correspond::Correspondence;
 use seespot_ssr::eval::{EvalConfig, EvalMethod, records_path, run_task, world_config};
-use seespot_ssr::policy::{SsrConfig, SsrPolicy, choose, demo_dirs};
+use seespot_ssr::policy::{SsrConfig, SsrPolicy, choose, chosen_pair, demo_dirs};
 use seespot_ssr::{CorrespondOptions, Method};
 
 fn demos_dir() -> std::path::PathBuf {
@@ -35,6 +35,7 @@ fn live_scene_identical_to_the_demo_scene_reproduces_the_demo_action() {
         let config = SsrConfig {
             method,
             correspond: CorrespondOptions::default(),
+            loop_break: false,
         };
         let mut ssr =
             SsrPolicy::new(task, untrained_policies(task), demos.clone(), config).expect("ssr");
@@ -115,11 +116,92 @@ fn ties_are_broken_in_the_documented_order() {
     let reference = Correspondence::Reference;
     assert_eq!(choose(&pairs, Method::SsrCcd, reference), 0);
     assert_eq!(choose(&pairs, Method::SsrL2cd, reference), 1);
-    let pairs = vec![pair(2.0, 0.0), pair(1.0, 4.0)];
+    let mut pairs = vec![pair(2.0, 0.0), pair(1.0, 4.0)];
     for mode in [plain, reference] {
         assert_eq!(choose(&pairs, Method::SsrCcd, mode), 0);
         assert_eq!(choose(&pairs, Method::SsrL2cd, mode), 1);
     }
+    // The record of the chosen pair names what the other distance would do.
+    pairs[1].matched = Action::new(Primitive::Grasp, 3, 7, 9);
+    let ccd = chosen_pair(&pairs, 0, Method::SsrCcd, reference);
+    assert_eq!(ccd.other_method_action, Some(pairs[1].matched));
+    let l2cd = chosen_pair(&pairs, 1, Method::SsrL2cd, reference);
+    assert_eq!(l2cd.other_method_action, Some(pairs[0].matched));
+}
+
+/// Stack seed 3: the faithful SSR CCD repeats one failed grasp until the
+/// 30-action limit (results/trials/ssr-ccd/stack.jsonl). The loop-breaking
+/// extension never executes an action inside the masked neighbourhood of an
+/// action that left the scene unchanged.
+#[test]
+fn loop_breaking_never_repeats_an_action_that_changed_nothing() {
+    use seespot_sim::actor::run_trial;
+    use seespot_ssr::policy::LOOP_BREAK_RADIUS;
+    let models = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../models");
+    let config = SsrConfig {
+        loop_break: true,
+        ..SsrConfig::default()
+    };
+    let mut ssr = SsrPolicy::load(TaskId::Stack, &models, &demos_dir(), config).expect("ssr");
+    let world = world_config(112);
+    let mut trial = seespot_sim::Trial::new(world, TaskId::Stack, 3);
+    let mut observed = Vec::new();
+    let record = run_trial(&mut trial, &mut ssr, "ssr-ccd-loopbreak", 0, &mut |a| {
+        observed.push(a.action)
+    })
+    .expect("trial");
+    let r = (LOOP_BREAK_RADIUS / world.grid.pixel_size()).round() as usize;
+    let mut repeats = 0;
+    for w in record.actions_log.windows(2) {
+        let (a, b) = (w[0].action, w[1].action);
+        // A failed grasp leaves the scene as it was: the next grasp keeps away.
+        if w[0].primitive_success == Some(false) && a.primitive == Primitive::Grasp {
+            repeats += 1;
+            assert!(
+                b.y.abs_diff(a.y) > r || b.x.abs_diff(a.x) > r || b.primitive != a.primitive,
+                "{b:?} repeats the failed {a:?}"
+            );
+        }
+    }
+    assert_eq!(observed.len(), record.actions_log.len());
+    assert!(
+        record.success || repeats > 0,
+        "the trial neither succeeded nor met a failed grasp to test"
+    );
+}
+
+#[test]
+fn noisy_and_extension_runs_have_their_own_record_names() {
+    let plain = Correspondence::Plain;
+    let reference = Correspondence::Reference;
+    assert_eq!(
+        EvalMethod::SsrCcd.record_name(0, reference, false),
+        "ssr-ccd"
+    );
+    assert_eq!(
+        EvalMethod::SsrCcd.record_name(0, reference, true),
+        "ssr-ccd-noisy"
+    );
+    assert_eq!(
+        EvalMethod::SsrL2cd.record_name(0, plain, false),
+        "ssr-l2cd-plain"
+    );
+    assert_eq!(
+        EvalMethod::SsrCcdLoopBreak.record_name(0, reference, false),
+        "ssr-ccd-loopbreak"
+    );
+    assert_eq!(
+        EvalMethod::SsrCcd.record_name(333, reference, false),
+        "ssr-ccd-finetuned"
+    );
+    assert_eq!(
+        EvalMethod::SpotQ.record_name(333, reference, false),
+        "good-robot-finetuned"
+    );
+    assert_eq!(
+        EvalMethod::parse("ssr-ccd-loopbreak"),
+        Some(EvalMethod::SsrCcdLoopBreak)
+    );
 }
 
 #[test]

@@ -14,7 +14,9 @@ use seespot_ssr::report;
 
 #[derive(clap::Args, Debug)]
 pub struct EvalArgs {
-    /// ssr-ccd, ssr-l2cd, spot-q, oracle or random.
+    /// ssr-ccd, ssr-l2cd, spot-q, oracle or random; ssr-ccd-loopbreak is
+    /// seespot's extension (SSR CCD that does not repeat an action which left
+    /// the scene unchanged), not the paper's method.
     #[arg(long, default_value = "ssr-ccd", value_parser = parse_method)]
     method: EvalMethod,
     /// A task id, or `all` for the four leave-one-out folds.
@@ -51,6 +53,11 @@ pub struct EvalArgs {
     /// paper's 1k in all). With `--method spot-q` this gives "Good Robot finetuned".
     #[arg(long, default_value_t = 0)]
     finetune_steps: usize,
+    /// Sensor noise for a domain-shift run: a scene file whose `[noise]` table
+    /// is applied to every observation (its resolution must equal
+    /// --resolution). Records are named `<method>-noisy`.
+    #[arg(long)]
+    noise: Option<PathBuf>,
     /// Print one machine-readable summary object on stdout.
     #[arg(long)]
     json: bool,
@@ -67,7 +74,9 @@ fn parse_sigma(s: &str) -> Result<f32, String> {
 
 fn parse_method(s: &str) -> Result<EvalMethod, String> {
     EvalMethod::parse(s).ok_or_else(|| {
-        format!("unknown method '{s}' (expected ssr-ccd, ssr-l2cd, spot-q, oracle or random)")
+        format!(
+            "unknown method '{s}' (expected ssr-ccd, ssr-l2cd, ssr-ccd-loopbreak, spot-q, oracle or random)"
+        )
     })
 }
 
@@ -78,13 +87,32 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         vec![args.task.parse::<TaskId>().map_err(anyhow::Error::msg)?]
     };
     let seeds = Seeds::new(args.seed, args.trials)?;
+    let mut world = world_config(args.resolution);
+    if let Some(path) = &args.noise {
+        let scene = seespot_sim::Scene::load(path)?;
+        if scene.resolution != args.resolution {
+            anyhow::bail!(
+                "{}: field `resolution` is {} but --resolution is {}",
+                path.display(),
+                scene.resolution,
+                args.resolution
+            );
+        }
+        if scene.noise.is_none() {
+            anyhow::bail!(
+                "{}: field `noise`: the scene has no sensor noise",
+                path.display()
+            );
+        }
+        world.noise = scene.noise;
+    }
     let config = EvalConfig {
         method: args.method,
         seeds,
         out_dir: args.out.clone(),
         models_dir: args.models.clone(),
         demos_dir: args.demos.clone(),
-        world: world_config(args.resolution),
+        world,
         correspond: CorrespondOptions {
             mode: args.correspond,
             smooth_sigma: args.smooth_sigma,
@@ -96,9 +124,7 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
             "--smooth-sigma applies to --correspond plain only (the reference smooths at 6 mm)"
         );
     }
-    let name = args
-        .method
-        .record_name(args.finetune_steps, args.correspond);
+    let name = EvalMethod::record_name_of(&config);
     let bar = crate::progress_bar(tasks.len() as u64 * args.trials, false);
     for task in &tasks {
         let (mut ok, mut n) = (0, 0);
@@ -185,10 +211,10 @@ pub fn write_report(
         records.extend(read_records(&f)?);
     }
     let train_steps = |method: &str, task: TaskId| -> u64 {
-        if method.ends_with("-finetuned") {
+        if method.contains("-finetuned") {
             return 3 * finetune_steps as u64;
         }
-        if method != "spot-q" {
+        if method.trim_end_matches("-noisy") != "spot-q" {
             return 0;
         }
         seespot_policy::PolicyNet::load(&seespot_ssr::policy::model_path(models, task))
@@ -210,7 +236,7 @@ pub fn write_report(
         demo_actions.insert(task, n);
     }
     let annotated = |method: &str, task: TaskId| -> usize {
-        if method.starts_with("ssr") || method.ends_with("-finetuned") {
+        if method.starts_with("ssr") || method.contains("-finetuned") {
             annotated_actions(demo_actions.get(&task).copied().unwrap_or(0))
         } else {
             0

@@ -71,6 +71,22 @@ impl AseMap {
         }
     }
 
+    /// Masks every action at the pixels where `forbid` (`H x W`, the same for
+    /// every rotation) is true, on top of the current mask.
+    ///
+    /// # Panics
+    /// If `forbid` is not `H x W`.
+    pub fn forbid_pixels(&mut self, forbid: &[bool]) {
+        let plane = self.resolution * self.resolution;
+        assert_eq!(forbid.len(), plane, "forbidden pixels are not H x W");
+        for (i, (norm, ok)) in self.norms_sq.iter_mut().zip(&mut self.mask).enumerate() {
+            if forbid[i % plane] {
+                *ok = false;
+                *norm = f32::INFINITY;
+            }
+        }
+    }
+
     /// Builds a map from features and a mask, computing the norms.
     pub fn new(
         primitive: Primitive,
@@ -129,6 +145,10 @@ mod tests {
         assert_eq!(m.norms_sq, vec![25.0, 100.0]);
         m.set_pixel_mask(&[false]);
         assert_eq!(m.mask, vec![false, false]);
+        m.set_pixel_mask(&[true]);
+        m.forbid_pixels(&[true]);
+        assert_eq!(m.mask, vec![false, false]);
+        assert!(m.norms_sq.iter().all(|n| n.is_infinite()));
         assert_eq!(m.norms_sq, vec![f32::INFINITY, f32::INFINITY]);
     }
 }

@@ -38,6 +38,10 @@ pub struct ChosenPair {
     pub l: f32,
     /// C: the cycle consistency distance of the pair (Eq. 7), in pixels.
     pub c: f32,
+    /// The action the other distance would have taken in the same state (SSR
+    /// L2CD's when CCD acts, CCD's when L2CD acts): the two methods differ on
+    /// this state when it is not the executed action.
+    pub other_method_action: Option<Action>,
 }
 
 /// An actor's choice of the next action.
@@ -104,6 +108,7 @@ pub fn act_once(trial: &mut Trial, actor: &mut dyn Actor) -> Result<ActionLog, A
         chosen_demo: choice.pair.map(|p| p.demo),
         l: choice.pair.map(|p| p.l),
         c: choice.pair.map(|p| p.c),
+        other_method_action: choice.pair.and_then(|p| p.other_method_action),
         decide_ms,
         primitive_success: Some(step.outcome.success),
     })

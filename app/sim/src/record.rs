@@ -28,6 +28,11 @@ pub struct ActionLog {
     /// Eq. 7) of the chosen pair.
     pub l: Option<f32>,
     pub c: Option<f32>,
+    /// For SSR: the action the other distance (L2CD when CCD acts, CCD when
+    /// L2CD acts) would have taken in the same state; `None` in older records
+    /// and for methods without pairs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub other_method_action: Option<Action>,
     /// Wall-clock milliseconds spent deciding the action.
     pub decide_ms: f64,
     /// Whether the primitive itself succeeded (block held after a grasp, block
@@ -250,6 +255,7 @@ pub(crate) mod tests {
             chosen_demo: Some(1),
             l: Some(0.5),
             c: Some(2.0),
+            other_method_action: Some(Action::new(crate::Primitive::Grasp, 0, 11, 21)),
             decide_ms: 12.5,
             primitive_success: Some(true),
         });

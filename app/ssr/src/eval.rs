@@ -25,6 +25,9 @@ pub enum EvalMethod {
     SsrCcd,
     /// SSR acting on the smallest embedding distance (Eq. 9).
     SsrL2cd,
+    /// seespot's extension, not the paper's: SSR CCD that does not repeat an
+    /// action which left the scene unchanged ([`crate::policy::LOOP_BREAK_RADIUS`]).
+    SsrCcdLoopBreak,
     /// The test task's own SPOT-Q policy, greedy: the ceiling row.
     SpotQ,
     /// The scripted oracle.
@@ -34,9 +37,10 @@ pub enum EvalMethod {
 }
 
 impl EvalMethod {
-    pub const ALL: [EvalMethod; 5] = [
+    pub const ALL: [EvalMethod; 6] = [
         Self::SsrCcd,
         Self::SsrL2cd,
+        Self::SsrCcdLoopBreak,
         Self::SpotQ,
         Self::Oracle,
         Self::Random,
@@ -46,6 +50,7 @@ impl EvalMethod {
         match self {
             Self::SsrCcd => "ssr-ccd",
             Self::SsrL2cd => "ssr-l2cd",
+            Self::SsrCcdLoopBreak => "ssr-ccd-loopbreak",
             Self::SpotQ => "spot-q",
             Self::Oracle => "oracle",
             Self::Random => "random",
@@ -56,21 +61,41 @@ impl EvalMethod {
         Self::ALL.into_iter().find(|m| m.as_str() == s)
     }
 
-    /// The method id written in records: finetuned variants carry a suffix.
-    /// SSR with the plain correspondence carries `-plain`.
-    pub fn record_name(self, finetune_steps: usize, correspondence: Correspondence) -> String {
-        let ssr = matches!(self, Self::SsrCcd | Self::SsrL2cd);
-        let plain = if ssr && correspondence == Correspondence::Plain {
+    /// Whether the method is See-SPOT-Run (faithful or extended).
+    pub fn is_ssr(self) -> bool {
+        matches!(self, Self::SsrCcd | Self::SsrL2cd | Self::SsrCcdLoopBreak)
+    }
+
+    /// The method id written in records: SSR with the plain correspondence
+    /// carries `-plain`, finetuned variants `-finetuned`, runs under sensor
+    /// noise `-noisy`.
+    pub fn record_name(
+        self,
+        finetune_steps: usize,
+        correspondence: Correspondence,
+        noisy: bool,
+    ) -> String {
+        let plain = if self.is_ssr() && correspondence == Correspondence::Plain {
             "-plain"
         } else {
             ""
         };
+        let noise = if noisy { "-noisy" } else { "" };
         match (self, finetune_steps) {
-            (_, 0) => format!("{}{plain}", self.as_str()),
-            (Self::SsrCcd | Self::SsrL2cd, _) => format!("{}{plain}-finetuned", self.as_str()),
-            (Self::SpotQ, _) => "good-robot-finetuned".to_owned(),
-            _ => self.as_str().to_owned(),
+            (_, 0) => format!("{}{plain}{noise}", self.as_str()),
+            (Self::SpotQ, _) => format!("good-robot-finetuned{noise}"),
+            (_, _) if self.is_ssr() => format!("{}{plain}-finetuned{noise}", self.as_str()),
+            _ => format!("{}{noise}", self.as_str()),
         }
+    }
+
+    /// This configuration's record name.
+    pub fn record_name_of(config: &EvalConfig) -> String {
+        config.method.record_name(
+            config.finetune_steps,
+            config.correspond.mode,
+            !config.world.noise.is_none(),
+        )
     }
 }
 
@@ -149,7 +174,7 @@ pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalE
         Ok(out)
     };
     match (config.method, config.finetune_steps) {
-        (EvalMethod::SsrCcd | EvalMethod::SsrL2cd, _) => {
+        (EvalMethod::SsrCcd | EvalMethod::SsrL2cd | EvalMethod::SsrCcdLoopBreak, _) => {
             for t in TaskId::ALL.into_iter().filter(|t| *t != task) {
                 paths.push(model_path(&config.models_dir, t));
             }
@@ -193,9 +218,7 @@ pub fn run_task(
     task: TaskId,
     on_trial: &mut dyn FnMut(&TrialRecord),
 ) -> Result<Vec<TrialRecord>, EvalError> {
-    let name = config
-        .method
-        .record_name(config.finetune_steps, config.correspond.mode);
+    let name = EvalMethod::record_name_of(config);
     let path = records_path(&config.out_dir, &name, task);
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir)
@@ -266,23 +289,18 @@ pub fn run_task(
 }
 
 fn make_actor(config: &EvalConfig, task: TaskId) -> Result<Box<dyn Actor>, EvalError> {
-    let ssr_config = |method| SsrConfig {
-        method,
-        correspond: config.correspond,
-    };
     Ok(match config.method {
-        EvalMethod::SsrCcd | EvalMethod::SsrL2cd => {
-            let method = if config.method == EvalMethod::SsrCcd {
-                Method::SsrCcd
-            } else {
-                Method::SsrL2cd
+        EvalMethod::SsrCcd | EvalMethod::SsrL2cd | EvalMethod::SsrCcdLoopBreak => {
+            let ssr_config = SsrConfig {
+                method: if config.method == EvalMethod::SsrL2cd {
+                    Method::SsrL2cd
+                } else {
+                    Method::SsrCcd
+                },
+                correspond: config.correspond,
+                loop_break: config.method == EvalMethod::SsrCcdLoopBreak,
             };
-            let mut ssr = SsrPolicy::load(
-                task,
-                &config.models_dir,
-                &config.demos_dir,
-                ssr_config(method),
-            )?;
+            let mut ssr = SsrPolicy::load(task, &config.models_dir, &config.demos_dir, ssr_config)?;
             if config.finetune_steps > 0 {
                 let demos = ssr.demos().to_vec();
                 for (i, (_, policy)) in ssr.policies_mut().iter_mut().enumerate() {

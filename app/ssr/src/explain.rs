@@ -60,4 +60,9 @@ pub struct Decision {
     /// Milliseconds spent embedding the live scene, and on correspondence.
     pub embed_ms: f64,
     pub correspond_ms: f64,
+    /// Loop breaking (seespot's extension): actions whose neighbourhood was
+    /// masked because they left the scene unchanged; empty for the paper's
+    /// method.
+    #[serde(default)]
+    pub excluded: Vec<Action>,
 }

@@ -12,6 +12,14 @@
 //! 4. **Act**: execute `F` of the pair with the smallest C (SSR CCD, Eq. 8) or the
 //!    smallest L (SSR L2CD, Eq. 9).
 //!
+//! **Loop breaking (seespot's extension, not the paper's):** with
+//! [`SsrConfig::loop_break`], an action that left the scene bit-identical (a
+//! failed grasp) is not repeated: while the scene stays unchanged, the next
+//! decisions mask the pixels within [`LOOP_BREAK_RADIUS`] of every such action
+//! of the same primitive, so Match moves to the next-best action. The faithful
+//! methods never do this; their records are named `ssr-ccd` / `ssr-l2cd`, the
+//! extension's `ssr-ccd-loopbreak`.
+//!
 //! By default Correspond is computed as the reference code did
 //! ([`correspond::reference`]: test-time masks per task, smoothed squared
 //! distances, a windowed unmasked rematch, C in squared 2 mm pixels, ties to the
@@ -34,11 +42,20 @@ use crate::explain::{Decision, Method, PairExplanation};
 /// Demonstrations SSR uses per task: `demos/<task>/{0,2}` (even seeds).
 pub const DEMO_SEEDS: [u64; 2] = [0, 2];
 
+/// Around an action that left the scene unchanged, the loop-breaking extension
+/// masks the pixels within this distance (Chebyshev, metres): the gripper
+/// finger window's half side, so the next action is not the same grasp again.
+/// Fixed before any run, not tuned.
+pub const LOOP_BREAK_RADIUS: f32 = 0.02;
+
 /// How SSR runs.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SsrConfig {
     pub method: Method,
     pub correspond: CorrespondOptions,
+    /// seespot's loop-breaking extension (module docs); off for the paper's
+    /// method.
+    pub loop_break: bool,
 }
 
 impl Default for SsrConfig {
@@ -46,6 +63,7 @@ impl Default for SsrConfig {
         Self {
             method: Method::SsrCcd,
             correspond: CorrespondOptions::default(),
+            loop_break: false,
         }
     }
 }
@@ -91,6 +109,8 @@ pub struct SsrPolicy {
     /// leaves the scene bit-identical, and the same input gives the same
     /// decision, so it is reused instead of recomputed.
     last: Option<(Heightmaps, u8, Primitive, Decision)>,
+    /// Loop breaking: the actions that left the current scene unchanged.
+    excluded: Vec<Action>,
 }
 
 impl SsrPolicy {
@@ -152,6 +172,7 @@ impl SsrPolicy {
             demo_cache: HashMap::new(),
             live: Vec::new(),
             last: None,
+            excluded: Vec::new(),
         })
     }
 
@@ -281,6 +302,7 @@ impl SsrPolicy {
                 live.set_pixel_mask(&mask);
             }
         }
+        let excluded = self.exclude_repeats(primitive, n, hm.grid.pixel_size());
         let embed_ms = t.elapsed().as_secs_f64() * 1e3;
         let steps: Vec<usize> = (0..self.demos.len())
             .map(|d| {
@@ -381,7 +403,45 @@ impl SsrPolicy {
             pairs,
             embed_ms,
             correspond_ms,
+            excluded,
         })
+    }
+
+    /// Loop breaking: masks the neighbourhood of every excluded action of
+    /// `primitive` in the live maps, unless that would leave no action
+    /// allowed. Returns the actions whose neighbourhood was masked.
+    fn exclude_repeats(&mut self, primitive: Primitive, n: usize, pixel: f32) -> Vec<Action> {
+        let excluded: Vec<Action> = self
+            .excluded
+            .iter()
+            .copied()
+            .filter(|a| a.primitive == primitive)
+            .collect();
+        if excluded.is_empty() {
+            return excluded;
+        }
+        let r = (LOOP_BREAK_RADIUS / pixel).round() as usize;
+        let mut forbid = vec![false; n * n];
+        for a in &excluded {
+            for y in a.y.saturating_sub(r)..=(a.y + r).min(n - 1) {
+                for x in a.x.saturating_sub(r)..=(a.x + r).min(n - 1) {
+                    forbid[y * n + x] = true;
+                }
+            }
+        }
+        let leaves_some = self.live.iter().all(|m| {
+            m.mask
+                .iter()
+                .enumerate()
+                .any(|(i, &ok)| ok && !forbid[i % (n * n)])
+        });
+        if !leaves_some {
+            return Vec::new();
+        }
+        for live in &mut self.live {
+            live.forbid_pixels(&forbid);
+        }
+        excluded
     }
 
     /// Click-to-query: the ASE of demo pixel `(y, x)` (at the demo step's action
@@ -450,23 +510,71 @@ pub fn demo_step(demo: &Demo, progress: u8, primitive: Primitive) -> Option<usiz
 impl Actor for SsrPolicy {
     fn name(&self) -> String {
         match self.config.method {
+            Method::SsrCcd if self.config.loop_break => {
+                "See-SPOT-Run CCD + loop breaking (seespot's extension)".to_owned()
+            }
             Method::SsrCcd => "See-SPOT-Run CCD".to_owned(),
             Method::SsrL2cd => "See-SPOT-Run L2CD".to_owned(),
         }
     }
 
+    fn begin_trial(&mut self, _trial: &Trial) {
+        self.excluded.clear();
+    }
+
     fn act(&mut self, trial: &Trial, hm: &Heightmaps) -> Result<Choice, ActorError> {
-        let d = self.decide(hm, trial.progress(), trial.world().next_primitive())?;
-        let p = &d.pairs[d.chosen];
+        let (progress, primitive) = (trial.progress(), trial.world().next_primitive());
+        let d = if self.config.loop_break {
+            // The scene the last action was chosen in, unchanged: that action
+            // did nothing, so it joins the excluded ones.
+            let repeat = match &self.last {
+                Some((h, p, k, last)) if *p == progress && *k == primitive && h == hm => {
+                    Some(last.action)
+                }
+                _ => None,
+            };
+            match repeat {
+                Some(a) => self.excluded.push(a),
+                None => self.excluded.clear(),
+            }
+            let d = self.decide_fresh(hm, progress, primitive)?;
+            self.last = Some((hm.clone(), progress, primitive, d.clone()));
+            d
+        } else {
+            self.decide(hm, progress, primitive)?
+        };
         Ok(Choice {
             action: d.action,
-            pair: Some(ChosenPair {
-                policy: p.policy,
-                demo: p.demo,
-                l: p.l,
-                c: p.c,
-            }),
+            pair: Some(chosen_pair(
+                &d.pairs,
+                d.chosen,
+                self.config.method,
+                self.config.correspond.mode,
+            )),
         })
+    }
+}
+
+/// What a record keeps of the pair `chosen` that `method` acted on: its policy,
+/// demonstration, L and C, and the action the other distance would have taken
+/// in the same state (for counting how often SSR CCD and SSR L2CD differ).
+pub fn chosen_pair(
+    pairs: &[PairExplanation],
+    chosen: usize,
+    method: Method,
+    mode: Correspondence,
+) -> ChosenPair {
+    let other = match method {
+        Method::SsrCcd => Method::SsrL2cd,
+        Method::SsrL2cd => Method::SsrCcd,
+    };
+    let p = &pairs[chosen];
+    ChosenPair {
+        policy: p.policy,
+        demo: p.demo,
+        l: p.l,
+        c: p.c,
+        other_method_action: pairs.get(choose(pairs, other, mode)).map(|o| o.matched),
     }
 }
 

@@ -9,10 +9,10 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::Context;
-use seespot_sim::actor::{Actor, ActorError, Choice, ChosenPair};
+use seespot_sim::actor::{Actor, ActorError, Choice};
 use seespot_sim::{Action, Demo, Heightmaps, Oracle, Primitive, Seeds, TaskId, Trial, WorldConfig};
 use seespot_ssr::correspond::Correspondence;
-use seespot_ssr::policy::{DEMO_SEEDS, choose, demo_step};
+use seespot_ssr::policy::{DEMO_SEEDS, choose, chosen_pair, demo_step};
 use seespot_ssr::{Decision, Method, PairExplanation, SsrPolicy};
 
 /// An [`Actor`] the debugger can explain.
@@ -330,12 +330,12 @@ impl Actor for FeatureDecider {
         let p = &pairs[chosen];
         let choice = Choice {
             action: p.matched,
-            pair: Some(ChosenPair {
-                policy: p.policy,
-                demo: p.demo,
-                l: p.l,
-                c: p.c,
-            }),
+            pair: Some(chosen_pair(
+                &pairs,
+                chosen,
+                self.method,
+                Correspondence::Plain,
+            )),
         };
         let action = p.matched;
         self.last = Some(Decision {
@@ -348,6 +348,7 @@ impl Actor for FeatureDecider {
             action,
             embed_ms,
             correspond_ms: t1.elapsed().as_secs_f64() * 1e3,
+            excluded: Vec::new(),
         });
         Ok(choice)
     }
