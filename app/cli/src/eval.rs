@@ -155,6 +155,8 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
             "seeds": seeds,
             "summaries": ours,
             "ccd_vs_l2cd": summary.ccd_vs_l2cd,
+            "comparisons": summary.comparisons,
+            "ccd_l2cd_disagreements": summary.disagreements,
             "c_histogram_buckets": report::C_BUCKETS,
             "c_histograms": summary.c_histograms,
         }));
@@ -207,8 +209,14 @@ pub fn write_report(
         }
     }
     files.sort();
+    let mut by_file = Vec::new();
     for f in files {
-        records.extend(read_records(&f)?);
+        let rs = read_records(&f)?;
+        by_file.push((f, rs));
+    }
+    report::check_provenance(&by_file).map_err(anyhow::Error::msg)?;
+    for (_, rs) in by_file {
+        records.extend(rs);
     }
     let train_steps = |method: &str, task: TaskId| -> u64 {
         if method.contains("-finetuned") {
@@ -254,6 +262,8 @@ pub fn write_report(
     Ok(Report {
         summaries: report::with_means(&summaries),
         ccd_vs_l2cd: report::compare(&records, "ssr-ccd", "ssr-l2cd"),
+        comparisons: report::comparisons(&records),
+        disagreements: report::disagreements(&records),
         c_histograms: report::SSR_METHODS
             .into_iter()
             .map(|m| (m.to_owned(), report::c_histograms(&records, m)))
@@ -266,6 +276,10 @@ pub struct Report {
     pub summaries: Vec<Summary>,
     /// Exact McNemar tests of SSR CCD against SSR L2CD, per fold and pooled.
     pub ccd_vs_l2cd: Vec<report::Comparison>,
+    /// Every pair of `report::COMPARISONS` the records allow.
+    pub comparisons: Vec<report::Comparison>,
+    /// How often SSR CCD and SSR L2CD differ on the same state.
+    pub disagreements: Vec<report::Disagreement>,
     /// Per method, per fold: decisions per bucket of `report::C_BUCKETS`.
     pub c_histograms: Vec<(String, report::CHistogram)>,
 }

@@ -119,6 +119,8 @@ pub fn display_method(id: &str) -> String {
         "ssrccdfinetuned" => "SSR CCD finetuned".into(),
         "ssrl2cdfinetuned" => "SSR L2CD finetuned".into(),
         "ssrccdplain" => "SSR CCD, plain correspondence".into(),
+        "ssrccdloopbreak" => "SSR CCD + loop breaking (seespot's extension)".into(),
+        "ssrccdnoisy" => "SSR CCD, sensor noise".into(),
         "ssrl2cdplain" => "SSR L2CD, plain correspondence".into(),
         "spotq" => "SPOT-Q".into(),
         "goodrobotfinetuned" => "Good Robot finetuned".into(),
@@ -393,8 +395,144 @@ pub fn compare(records: &[TrialRecord], a: &str, b: &str) -> Vec<Comparison> {
         .collect()
 }
 
-/// The SSR record names whose C the report shows (reference and plain).
-pub const SSR_METHODS: [&str; 4] = ["ssr-ccd", "ssr-l2cd", "ssr-ccd-plain", "ssr-l2cd-plain"];
+/// Refuses to report records that could mix runs: every record must carry its
+/// provenance, one file's records must share it, and across all files every
+/// input file (model or demonstration) must have one checksum. `files` holds
+/// each records file with its records. The error names the file and the seed.
+pub fn check_provenance(files: &[(PathBuf, Vec<TrialRecord>)]) -> Result<(), String> {
+    let mut sums: std::collections::BTreeMap<&str, (&str, &Path)> = Default::default();
+    for (path, records) in files {
+        let Some(first) = records.first() else {
+            continue;
+        };
+        for r in records {
+            let Some(p) = &r.provenance else {
+                return Err(format!(
+                    "{}: the record of seed {} has no provenance (made before seespot \
+                     recorded it); remake it into a fresh --out",
+                    path.display(),
+                    r.seed
+                ));
+            };
+            if Some(p) != first.provenance.as_ref() {
+                return Err(format!(
+                    "{}: the record of seed {} was made with other inputs than the \
+                     record of seed {}",
+                    path.display(),
+                    r.seed,
+                    first.seed
+                ));
+            }
+            for (file, sum) in &p.files {
+                match sums.get(file.as_str()) {
+                    Some((s, other)) if *s != sum.as_str() => {
+                        return Err(format!(
+                            "{file} has one checksum in {} and another in {}: the \
+                             records were made with different versions of it",
+                            other.display(),
+                            path.display()
+                        ));
+                    }
+                    Some(_) => {}
+                    None => {
+                        sums.insert(file, (sum, path));
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The SSR record names whose C the report shows.
+pub const SSR_METHODS: [&str; 7] = [
+    "ssr-ccd",
+    "ssr-l2cd",
+    "ssr-ccd-loopbreak",
+    "ssr-ccd-noisy",
+    "ssr-ccd-finetuned",
+    "ssr-ccd-plain",
+    "ssr-l2cd-plain",
+];
+
+/// The pairs of methods the report tests on paired seeds (exact McNemar), with
+/// what each comparison asks; pairs without shared seeds are skipped.
+pub const COMPARISONS: [(&str, &str, &str); 6] = [
+    (
+        "ssr-ccd",
+        "ssr-l2cd",
+        "the paper's central comparison (Eq. 8 vs Eq. 9)",
+    ),
+    (
+        "ssr-ccd-loopbreak",
+        "ssr-ccd",
+        "seespot's extension against the faithful method",
+    ),
+    ("ssr-ccd-noisy", "ssr-ccd", "sensor noise against none"),
+    (
+        "ssr-ccd-finetuned",
+        "ssr-ccd",
+        "1k finetuning steps against none",
+    ),
+    (
+        "spot-q",
+        "ssr-ccd",
+        "the test task's own policy against SSR",
+    ),
+    ("ssr-ccd", "random", "SSR against random actions"),
+];
+
+/// Every comparison of [`COMPARISONS`] that the records allow.
+pub fn comparisons(records: &[TrialRecord]) -> Vec<Comparison> {
+    COMPARISONS
+        .iter()
+        .flat_map(|(a, b, _)| compare(records, a, b))
+        .collect()
+}
+
+/// How often the two distances choose differently in the same state, for one
+/// method's decisions in one fold.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Disagreement {
+    pub method: String,
+    pub task: TaskId,
+    /// Decisions whose record names the other distance's action.
+    pub decisions: usize,
+    /// Of those, the decisions where it differs from the executed action.
+    pub differ: usize,
+}
+
+/// Per SSR method and fold: how often SSR CCD and SSR L2CD would take
+/// different actions in the state the method was in (from the records'
+/// `other_method_action`; older records without it are left out).
+pub fn disagreements(records: &[TrialRecord]) -> Vec<Disagreement> {
+    let mut out = Vec::new();
+    for method in SSR_METHODS {
+        for task in TaskId::ALL {
+            let (mut decisions, mut differ) = (0, 0);
+            for r in records
+                .iter()
+                .filter(|r| r.method == method && r.task == task)
+            {
+                for a in &r.actions_log {
+                    if let Some(other) = a.other_method_action {
+                        decisions += 1;
+                        differ += usize::from(other != a.action);
+                    }
+                }
+            }
+            if decisions > 0 {
+                out.push(Disagreement {
+                    method: method.to_owned(),
+                    task,
+                    decisions,
+                    differ,
+                });
+            }
+        }
+    }
+    out
+}
 
 /// Bucket edges of the C histogram (the last bucket is open). C is in squared
 /// 2 mm pixels with the reference correspondence (one 4 mm pixel away = 4), in
@@ -431,12 +569,17 @@ pub fn c_histograms(records: &[TrialRecord], method: &str) -> CHistogram {
 /// The statistics section of the report: CCD against L2CD on paired seeds
 /// (exact McNemar), and the chosen C's distribution per fold.
 pub fn statistics_markdown(records: &[TrialRecord]) -> String {
-    let mut md = String::from("\n### SSR CCD vs SSR L2CD on paired seeds (exact McNemar)\n\n");
-    let comps = compare(records, "ssr-ccd", "ssr-l2cd");
-    if comps.is_empty() {
-        md.push_str("No seeds were run with both methods.\n");
-    } else {
-        md.push_str("| fold | paired trials | only CCD succeeded | only L2CD succeeded | p |\n|---|---|---|---|---|\n");
+    let mut md = String::new();
+    for (a, b, why) in COMPARISONS {
+        let comps = compare(records, a, b);
+        if comps.is_empty() {
+            continue;
+        }
+        let (da, db) = (display_method(a), display_method(b));
+        md.push_str(&format!(
+            "\n### {da} vs {db} on paired seeds (exact McNemar): {why}\n\n\
+             | fold | paired trials | only {da} succeeded | only {db} succeeded | p |\n|---|---|---|---|---|\n"
+        ));
         for c in &comps {
             md.push_str(&format!(
                 "| {} | {} | {} | {} | {:.3} |\n",
@@ -445,6 +588,28 @@ pub fn statistics_markdown(records: &[TrialRecord]) -> String {
                 c.paired.only_a,
                 c.paired.only_b,
                 c.paired.p_value
+            ));
+        }
+    }
+    if md.is_empty() {
+        md.push_str("\nNo two compared methods share a seed.\n");
+    }
+    let dis = disagreements(records);
+    if !dis.is_empty() {
+        md.push_str(
+            "\n### How often SSR CCD and SSR L2CD choose differently on the same state\n\n\
+             In the states each method met, the decisions where the other distance's \
+             pair would have executed another action.\n\n\
+             | method | fold | decisions | differ |\n|---|---|---|---|\n",
+        );
+        for d in &dis {
+            md.push_str(&format!(
+                "| {} | {} | {} | {} ({:.0}%) |\n",
+                display_method(&d.method),
+                d.task,
+                d.decisions,
+                d.differ,
+                100.0 * d.differ as f64 / d.decisions as f64
             ));
         }
     }
@@ -673,6 +838,75 @@ mod tests {
             }
         }
         out
+    }
+
+    fn with_files(mut rs: Vec<TrialRecord>, sum: &str) -> Vec<TrialRecord> {
+        for r in &mut rs {
+            r.provenance = Some(seespot_sim::Provenance {
+                seespot_version: "0.1.0".into(),
+                settings: "correspond=reference".into(),
+                files: [("models/row.safetensors".to_owned(), sum.to_owned())].into(),
+            });
+        }
+        rs
+    }
+
+    #[test]
+    fn the_report_refuses_records_that_mix_runs() {
+        let (ccd, l2cd): (Vec<_>, Vec<_>) =
+            records().into_iter().partition(|r| r.method == "ssr-ccd");
+        let a = PathBuf::from("trials/ssr-ccd/all.jsonl");
+        let b = PathBuf::from("trials/ssr-l2cd/all.jsonl");
+        let same = [
+            (a.clone(), with_files(ccd.clone(), "aa")),
+            (b.clone(), with_files(l2cd.clone(), "aa")),
+        ];
+        assert_eq!(check_provenance(&same), Ok(()));
+        // Without provenance.
+        let err = check_provenance(&[(a.clone(), ccd.clone())]).expect_err("legacy");
+        assert!(
+            err.contains("no provenance") && err.contains("ssr-ccd"),
+            "{err}"
+        );
+        // One model, two checksums across files.
+        let two = [
+            (a.clone(), with_files(ccd.clone(), "aa")),
+            (b.clone(), with_files(l2cd, "bb")),
+        ];
+        let err = check_provenance(&two).expect_err("two checksums");
+        assert!(err.contains("models/row.safetensors"), "{err}");
+        // Two provenances in one file.
+        let mut mixed = with_files(ccd.clone(), "aa");
+        mixed.extend(with_files(ccd, "bb"));
+        let err = check_provenance(&[(a, mixed)]).expect_err("one file, two runs");
+        assert!(err.contains("other inputs"), "{err}");
+    }
+
+    #[test]
+    fn disagreements_count_states_where_the_distances_differ() {
+        use seespot_sim::{Action, ActionLog, Primitive};
+        let mut rs = records();
+        let log = |other: Option<Action>| ActionLog {
+            action: Action::new(Primitive::Grasp, 0, 1, 1),
+            progress_before: 1,
+            progress_after: 1,
+            chosen_policy: Some(TaskId::Row),
+            chosen_demo: Some(0),
+            l: Some(1.0),
+            c: Some(0.0),
+            other_method_action: other,
+            decide_ms: 1.0,
+            primitive_success: Some(true),
+        };
+        rs[0].actions_log = vec![
+            log(Some(Action::new(Primitive::Grasp, 0, 1, 1))),
+            log(Some(Action::new(Primitive::Grasp, 2, 1, 1))),
+            log(None),
+        ];
+        let d = disagreements(&rs);
+        assert_eq!(d.len(), 1);
+        assert_eq!((d[0].method.as_str(), d[0].task), ("ssr-ccd", rs[0].task));
+        assert_eq!((d[0].decisions, d[0].differ), (2, 1));
     }
 
     /// The paper's own efficiency arithmetic (Table 1, Sec. 5.1).
