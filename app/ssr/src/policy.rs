@@ -267,16 +267,19 @@ impl SsrPolicy {
         {
             return Ok(d.clone());
         }
-        let decision = self.decide_fresh(hm, progress, primitive)?;
+        let decision = self.decide_fresh(hm, progress, primitive, false)?;
         self.last = Some((hm.clone(), progress, primitive, decision.clone()));
         Ok(decision)
     }
 
+    /// A decision from scratch; with `same_scene`, `hm` is the scene of the
+    /// last decision and its live embeddings are reused (only the masks change).
     fn decide_fresh(
         &mut self,
         hm: &Heightmaps,
         progress: u8,
         primitive: Primitive,
+        same_scene: bool,
     ) -> Result<Decision, SsrError> {
         let n = hm.resolution();
         for d in &self.demos {
@@ -289,11 +292,13 @@ impl SsrPolicy {
         }
         // Embed.
         let t = Instant::now();
-        self.live = self
-            .policies
-            .iter()
-            .map(|(_, p)| p.embed(hm, primitive))
-            .collect::<Result<Vec<_>, _>>()?;
+        if !same_scene || self.live.len() != self.policies.len() {
+            self.live = self
+                .policies
+                .iter()
+                .map(|(_, p)| p.embed(hm, primitive))
+                .collect::<Result<Vec<_>, _>>()?;
+        }
         let opts = self.config.correspond;
         let reference = opts.mode == Correspondence::Reference;
         if reference {
@@ -537,7 +542,7 @@ impl Actor for SsrPolicy {
                 Some(a) => self.excluded.push(a),
                 None => self.excluded.clear(),
             }
-            let d = self.decide_fresh(hm, progress, primitive)?;
+            let d = self.decide_fresh(hm, progress, primitive, repeat.is_some())?;
             self.last = Some((hm.clone(), progress, primitive, d.clone()));
             d
         } else {
