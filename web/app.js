@@ -90,6 +90,7 @@ function onState(s) {
 
   renderPairs(s);
   renderHistory(s);
+  renderTimeline(s);
   if (s.error) showError(s.error);
   requestFrame();
 }
@@ -137,6 +138,29 @@ function renderHistory(s) {
     li.innerHTML = `<b>${act(st.action)}</b> ${st.success ? 'ok' : 'failed'} · progress ${st.progress_before} → ${st.progress_after}${st.reversal ? ' · reversal' : ''}`;
     ol.appendChild(li);
   }
+}
+
+// Time travel: one slider position per phase shown in this trial.
+function actionLabel(at) { return `#${at.action_index + (at.phase === 'act' ? 0 : 1)} · ${at.phase}`; }
+
+function renderTimeline(s) {
+  const h = s.history || { len: 0, viewing: null, phases: [] };
+  const t = $('timeline');
+  t.max = String(Math.max(0, h.len - 1));
+  t.disabled = h.len === 0;
+  if (document.activeElement !== t) t.value = String(h.viewing ?? Math.max(0, h.len - 1));
+  const at = h.viewing !== null ? h.phases[h.viewing] : null;
+  $('timeline-label').textContent = at ? `viewing ${actionLabel(at)} (of ${h.len} phases)` : `live · ${h.len} phases`;
+  $('go-live').disabled = h.viewing === null;
+  document.body.classList.toggle('travelling', h.viewing !== null);
+}
+
+function travel(delta) {
+  const h = app.state && app.state.history;
+  if (!h || !h.len) return;
+  const i = (h.viewing ?? h.len - 1) + delta;
+  if (i >= h.len) send({ type: 'live' });
+  else if (i >= 0) send({ type: 'goto', index: i });
 }
 
 async function requestFrame(force) {
@@ -229,6 +253,8 @@ $('reset-form').onsubmit = (ev) => {
   app.selectedPair = null; clearQuery(false);
   send({ type: 'reset', task: $('task').value, seed: Number($('seed').value) });
 };
+$('timeline').oninput = () => send({ type: 'goto', index: Number($('timeline').value) });
+$('go-live').onclick = () => send({ type: 'live' });
 $('show-depth').onchange = draw;
 $('opacity').oninput = draw;
 $('clear-query').onclick = () => clearQuery();
@@ -249,6 +275,8 @@ document.addEventListener('keydown', (ev) => {
   if (ev.key === 'n') $('next-phase').click();
   else if (ev.key === 'a') $('next-action').click();
   else if (ev.key === 'r') $('run').click();
+  else if (ev.key === 'ArrowLeft') travel(-1);
+  else if (ev.key === 'ArrowRight') travel(1);
 });
 
 connect();

@@ -208,6 +208,57 @@ test('choosing another pair shows that pair', async () => {
   assert.equal(f.demo.step, d.pairs[rows.length - 1].demo_step);
 });
 
+/** The frame the page drew, minus its version (which counts every change). */
+const drawnFrame = () => page.evaluate(() => {
+  const { version, ...f } = window.seespot.frame;
+  return f;
+});
+
+test('going back in time shows exactly what was shown live', async () => {
+  // Step through a whole action, keeping what each phase showed.
+  const live = [];
+  for (let k = 0; k < 5; k++) {
+    await stepAndWait('next-phase');
+    const s = await page.evaluate(() => window.seespot.state);
+    live.push({
+      index: s.history.len - 1, phase: s.phase, rows: await tableRows(),
+      frame: await drawnFrame(), decision: await api('/api/decision'),
+    });
+  }
+  await stepAndWait('next-action');
+  const lenBefore = (await api('/api/state')).history.len;
+  const latencies = [];
+  for (const at of live) {
+    const t0 = Date.now();
+    const v0 = await page.evaluate(() => window.seespot.state.version);
+    await page.$eval('[data-testid=timeline]', (el, i) => { el.value = String(i); el.dispatchEvent(new Event('input')); }, at.index);
+    await page.waitForFunction(([i, v]) => window.seespot.state.version > v && window.seespot.state.history.viewing === i
+      && window.seespot.frameVersion === window.seespot.state.version, [at.index, v0]);
+    latencies.push(Date.now() - t0);
+    const s = await page.evaluate(() => window.seespot.state);
+    assert.equal(s.phase, at.phase, `phase at history ${at.index}`);
+    assert.deepEqual(await tableRows(), at.rows, `pairs table at history ${at.index}`);
+    assert.deepEqual(await drawnFrame(), at.frame, `heightmaps and distance maps at history ${at.index}`);
+    assert.deepEqual(await api('/api/decision'), at.decision, `explanation record at history ${at.index}`);
+    assert.match(await page.getByTestId('timeline-label').textContent(), /viewing/);
+  }
+  console.log(`time travel: a step back drawn in ${latencies.join(', ')} ms (page round trip, ${RES} px)`);
+  await page.screenshot({ path: join(shots, 'time-travel.png') });
+  // Looking back changes nothing: back to live, the trial is where it was.
+  await page.getByTestId('go-live').click();
+  await page.waitForFunction(() => window.seespot.state.history.viewing === null && window.seespot.frameVersion === window.seespot.state.version);
+  const s = await api('/api/state');
+  assert.equal(s.history.len, lenBefore);
+  assert.equal(s.phase, 'act');
+  // Out of range is refused with the range named.
+  const reply = await page.evaluate(() => new Promise((ok) => {
+    const ws = new WebSocket(`ws://${location.host}/ws`);
+    ws.onopen = () => ws.send(JSON.stringify({ type: 'goto', index: 100000 }));
+    ws.onmessage = (ev) => { const m = JSON.parse(ev.data); if (m.type === 'error') { ws.close(); ok(m.message); } };
+  }));
+  assert.match(reply, /out of range/);
+});
+
 test('a malformed message gets an error and the server keeps serving', async () => {
   const replies = await page.evaluate(() => new Promise((ok) => {
     const ws = new WebSocket(`ws://${location.host}/ws`);

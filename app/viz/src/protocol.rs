@@ -5,7 +5,9 @@
 //! `{"type": "next_phase"}`, `{"type": "next_action"}`, `{"type": "run"}`,
 //! `{"type": "stop"}`, `{"type": "state"}`, `{"type": "ping"}`,
 //! `{"type": "reset", "task": "row", "seed": 3}` (both optional: the current
-//! trial's), `{"type": "query", "pair": 0, "policy": 1, "y": 40, "x": 60}`
+//! trial's), `{"type": "goto", "index": 5}` (time travel: show phase 5 of the
+//! trial's history as it was shown live), `{"type": "live"}` (back to the live
+//! trial), `{"type": "query", "pair": 0, "policy": 1, "y": 40, "x": 60}`
 //! (pixel `(y, x)` of the demo heightmap of pair `pair`, under policy index
 //! `policy`).
 //!
@@ -38,6 +40,13 @@ pub enum ClientMessage {
         #[serde(default)]
         seed: Option<u64>,
     },
+    /// Time travel: show phase `index` of the trial's history (the state's
+    /// `history.phases`) as it was shown live.
+    Goto {
+        index: usize,
+    },
+    /// Back to the live trial.
+    Live,
     /// Click-to-query: the distance map of one demo pixel's ASE over the live scene.
     Query {
         pair: usize,
@@ -58,6 +67,8 @@ impl ClientMessage {
             Self::Run => "run",
             Self::Stop => "stop",
             Self::Reset { .. } => "reset",
+            Self::Goto { .. } => "goto",
+            Self::Live => "live",
             Self::Query { .. } => "query",
         }
     }

@@ -287,6 +287,14 @@ pub async fn handle(s: &Arc<AppState>, text: &str) -> Option<String> {
             })
             .await
         }
+        ClientMessage::Goto { index } => step(st, move |ses| ses.goto(index)).await,
+        ClientMessage::Live => {
+            step(st, |ses| {
+                ses.go_live();
+                Ok(())
+            })
+            .await
+        }
         ClientMessage::Query { pair, policy, y, x } => {
             let r =
                 tokio::task::spawn_blocking(move || st.session().query(pair, policy, y, x)).await;

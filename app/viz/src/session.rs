@@ -5,7 +5,9 @@
 //! heatmaps, L and F appear), **verify** (rematch heatmaps and C appear) and
 //! **act** (the chosen pair is marked and its F executed).
 
+use std::collections::VecDeque;
 use std::path::PathBuf;
+use std::sync::Arc;
 
 use anyhow::{Context, bail};
 use seespot_sim::{Action, Heightmaps, TaskId, Trial, WorldConfig};
@@ -31,6 +33,23 @@ pub struct SessionConfig {
     pub world: WorldConfig,
 }
 
+/// Phases kept for time travel per trial: every phase of up to 30 actions (a
+/// trial's limit) and a few to spare; older ones are dropped first. Each
+/// action's snapshots share one explanation record and one scene, about 0.7 MB
+/// at 112 px (6 pairs x 2 distance maps of H x W f32, plus the heightmaps) and
+/// 2.8 MB at 224 px, so a trial's history holds at most about 22 MB / 90 MB.
+pub const HISTORY_PHASES: usize = 4 * 32;
+
+/// One phase as it was shown live: the state document every tab got, and the
+/// decision and scene its frames are drawn from.
+#[derive(Clone, Debug)]
+struct Snapshot {
+    state: Value,
+    phase: Phase,
+    decision: Option<Arc<Decision>>,
+    decided_on: Option<Arc<Heightmaps>>,
+}
+
 /// A trial being stepped, its current decision and the recording.
 pub struct Session {
     factory: DeciderFactory,
@@ -49,6 +68,10 @@ pub struct Session {
     last_error: Option<String>,
     /// Milliseconds the decider took at the last embed phase.
     last_decide_ms: f64,
+    /// Every phase shown so far in this trial, oldest first (time travel).
+    history: VecDeque<Snapshot>,
+    /// Index into `history` of the phase being looked at; `None`: live.
+    viewing: Option<usize>,
 }
 
 impl std::fmt::Debug for Session {
@@ -83,6 +106,8 @@ impl Session {
             version: 0,
             last_error: None,
             last_decide_ms: 0.0,
+            history: VecDeque::new(),
+            viewing: None,
         };
         s.begin();
         Ok(s)
@@ -163,13 +188,65 @@ impl Session {
         self.decided_on = None;
         self.action = None;
         self.last_error = None;
+        self.history.clear();
+        self.viewing = None;
         self.version += 1;
         self.begin();
         Ok(())
     }
 
+    /// Time travel: shows phase `index` of this trial's history (0 = the first
+    /// phase shown) exactly as it was shown live, until [`Self::go_live`] or the
+    /// next step.
+    pub fn goto(&mut self, index: usize) -> anyhow::Result<()> {
+        if index >= self.history.len() {
+            bail!(
+                "history index {index} is out of range: this trial has shown {} phases",
+                self.history.len()
+            );
+        }
+        self.viewing = Some(index);
+        self.version += 1;
+        Ok(())
+    }
+
+    /// Back to the live trial after [`Self::goto`].
+    pub fn go_live(&mut self) {
+        if self.viewing.take().is_some() {
+            self.version += 1;
+        }
+    }
+
+    /// The snapshot being looked at, if travelling in time.
+    fn viewed(&self) -> Option<&Snapshot> {
+        self.viewing.and_then(|i| self.history.get(i))
+    }
+
+    /// Keeps the phase just shown for time travel.
+    fn remember(&mut self, phase: Phase) {
+        let (decision, decided_on) = match self.history.back() {
+            // The phases of one action share its decision and scene.
+            Some(last) if phase != Phase::Embed => (last.decision.clone(), last.decided_on.clone()),
+            _ => (
+                self.decision.clone().map(Arc::new),
+                self.decided_on.clone().map(Arc::new),
+            ),
+        };
+        let state = self.live_state();
+        if self.history.len() == HISTORY_PHASES {
+            self.history.pop_front();
+        }
+        self.history.push_back(Snapshot {
+            state,
+            phase,
+            decision,
+            decided_on,
+        });
+    }
+
     /// Advances one phase; returns the phase now shown.
     pub fn next_phase(&mut self) -> anyhow::Result<Phase> {
+        self.go_live();
         if let Some(end) = self.trial.end() {
             bail!("the trial has ended ({end:?}); reset to start another");
         }
@@ -206,6 +283,7 @@ impl Session {
         }
         self.phase = Some(next);
         self.version += 1;
+        self.remember(next);
         if let (Some(r), Some(hm)) = (&mut self.recorder, &self.decided_on) {
             r.log_phase(
                 &self.trial,
@@ -233,7 +311,8 @@ impl Session {
 
     /// Click-to-query: demo pixel `(y, x)` of pair `pair`'s demo step, under
     /// policy `policy` (index into the decider's policies), over the live scene
-    /// of the current decision (or the current scene).
+    /// of the current decision (or the current scene); while travelling in
+    /// time, of the decision being looked at.
     pub fn query(
         &mut self,
         pair: usize,
@@ -241,16 +320,17 @@ impl Session {
         y: usize,
         x: usize,
     ) -> anyhow::Result<Value> {
-        let d = self
-            .decision
-            .as_ref()
-            .context("no decision yet: step to the embed phase first")?;
+        let (decision, decided_on) = match self.viewed() {
+            Some(snap) => (snap.decision.as_deref(), snap.decided_on.as_deref()),
+            None => (self.decision.as_ref(), self.decided_on.as_ref()),
+        };
+        let d = decision.context("no decision yet: step to the embed phase first")?;
         let p = d
             .pairs
             .get(pair)
             .with_context(|| format!("pair index {pair} is out of range 0..{}", d.pairs.len()))?;
         let (demo, demo_step) = (p.demo, p.demo_step);
-        let hm = match &self.decided_on {
+        let hm = match decided_on {
             Some(hm) => hm.clone(),
             None => self.trial.world().render(),
         };
@@ -280,8 +360,28 @@ impl Session {
     }
 
     /// The small JSON state every tab gets after each change: the trial, the
-    /// phase and the L / C table revealed so far.
+    /// phase and the L / C table revealed so far; while travelling in time, the
+    /// state that was shown at that phase. `history` says how many phases can be
+    /// revisited and which one is shown (`viewing`, null when live).
     pub fn state(&self) -> Value {
+        let mut v = match self.viewed() {
+            Some(snap) => snap.state.clone(),
+            None => self.live_state(),
+        };
+        v["version"] = json!(self.version);
+        v["history"] = json!({
+            "len": self.history.len(),
+            "viewing": self.viewing,
+            "phases": self.history.iter().map(|h| json!({
+                "action_index": h.state["action_index"],
+                "phase": h.phase.as_str(),
+            })).collect::<Vec<_>>(),
+        });
+        v
+    }
+
+    /// The state of the live trial (see [`Self::state`]).
+    fn live_state(&self) -> Value {
         let phase = self.phase;
         let shown = |p: Phase| phase.is_some_and(|ph| ph >= p) && self.decision.is_some();
         let pairs: Vec<Value> = self
@@ -337,7 +437,11 @@ impl Session {
     /// The full explanation record of the current decision (maps left out
     /// unless `maps`), or `null`.
     pub fn decision_json(&self, maps: bool) -> Value {
-        match &self.decision {
+        let decision = match self.viewed() {
+            Some(snap) => snap.decision.as_deref(),
+            None => self.decision.as_ref(),
+        };
+        match decision {
             None => Value::Null,
             Some(d) => {
                 let mut d = d.clone();
@@ -357,22 +461,27 @@ impl Session {
     /// match / rematch maps once their phase is reached; all base64, row-major,
     /// `H x W`.
     pub fn frame(&self, pair: usize) -> Value {
-        let live = self
-            .decided_on
-            .clone()
-            .unwrap_or_else(|| self.trial.world().render());
+        let (decision, decided_on, phase) = match self.viewed() {
+            Some(snap) => (
+                snap.decision.as_deref(),
+                snap.decided_on.as_deref().cloned(),
+                Some(snap.phase),
+            ),
+            None => (self.decision.as_ref(), self.decided_on.clone(), self.phase),
+        };
+        let live = decided_on.unwrap_or_else(|| self.trial.world().render());
         let mut out = json!({
             "type": "frame",
             "version": self.version,
             "resolution": live.grid.resolution,
             "pair": pair,
-            "phase": self.phase.map(Phase::as_str),
+            "phase": phase.map(Phase::as_str),
             "live": {"color": b64::bytes(&live.color), "depth": b64::f32s(&live.depth)},
             "demo": Value::Null,
             "match_map": Value::Null,
             "rematch_map": Value::Null,
         });
-        let Some(d) = &self.decision else {
+        let Some(d) = decision else {
             return out;
         };
         let Some(p) = d.pairs.get(pair) else {
@@ -392,7 +501,7 @@ impl Session {
                 "depth": b64::f32s(&step.heightmaps.depth),
             });
         }
-        let phase = self.phase.unwrap_or(Phase::Embed);
+        let phase = phase.unwrap_or(Phase::Embed);
         if phase >= Phase::Match {
             out["match_map"] = json!(b64::f32s(&p.match_map));
         }
