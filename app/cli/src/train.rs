@@ -37,6 +37,12 @@ pub struct TrainArgs {
     /// Own-task test trials (odd seeds) for the model card; 0 skips the evaluation.
     #[arg(long, default_value_t = 50)]
     pub eval_trials: usize,
+    /// Pretrain by reinforcement learning alone, as the paper's SPOT-Q does: no
+    /// oracle actions, exploration epsilon-greedy under the common-sense masks.
+    /// The run directory and weights default to `runs/train-pure-rl-<task>` and
+    /// `models/pure-rl/<task>.safetensors`.
+    #[arg(long)]
+    pub pure_rl: bool,
     /// Hide the progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -59,15 +65,27 @@ fn bar(len: u64, quiet: bool, template: &str) -> indicatif::ProgressBar {
 
 pub fn run(args: TrainArgs) -> anyhow::Result<()> {
     let task = args.task;
+    let (runs, models) = if args.pure_rl {
+        ("runs/train-pure-rl-", "models/pure-rl/")
+    } else {
+        ("runs/train-", "models/")
+    };
     let run_dir = args
         .run_dir
         .clone()
-        .unwrap_or_else(|| PathBuf::from(format!("runs/train-{task}")));
+        .unwrap_or_else(|| PathBuf::from(format!("{runs}{task}")));
     let out = args
         .out
         .clone()
-        .unwrap_or_else(|| PathBuf::from(format!("models/{task}.safetensors")));
+        .unwrap_or_else(|| PathBuf::from(format!("{models}{task}.safetensors")));
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
     let mut config = TrainConfig::new(task, args.actions, args.seed);
+    if args.pure_rl {
+        config.oracle_start = 0.0;
+        config.oracle_end = 0.0;
+    }
     config.resolution = args.resolution;
     config.checkpoint_every = args.checkpoint_every;
 
