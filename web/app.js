@@ -111,20 +111,26 @@ function renderPairs(s) {
     tr.dataset.pair = String(i);
     if (i === s.chosen) tr.classList.add('chosen');
     if (i === sel) tr.classList.add('selected');
-    const cells = [i === s.chosen ? '★' : '', p.policy, `${p.demo}·${p.demo_step}`, fmt(p.l, 3), fmt(p.c, 1), act(p.matched)];
+    const picks = [s.ccd_choice === i ? 'CCD' : '', s.l2cd_choice === i ? 'L2CD' : ''].filter(Boolean).join(' ');
+    const cells = [i === s.chosen ? '★' : '', p.policy, `${p.demo}·${p.demo_step}`, fmt(p.l, 3), fmt(p.c, 1), act(p.matched), picks];
     cells.forEach((c, j) => {
       const td = document.createElement('td');
       td.textContent = c;
       if (c === '…') td.className = 'pending';
       if (j === 3) td.dataset.testid = 'l'; if (j === 4) td.dataset.testid = 'c';
+      if (j === 6) { td.dataset.testid = 'picks'; td.className = 'picks'; }
       tr.appendChild(td);
     });
     tr.onclick = () => { app.selectedPair = i; renderPairs(app.state); requestFrame(true); };
     body.appendChild(tr);
   });
+  const pick = (k) => (k === null || k === undefined || !s.pairs[k] ? '…' : act(s.pairs[k].matched));
+  $('method-choices').textContent = s.pairs.length
+    ? `On this state SSR CCD would take ${pick(s.ccd_choice)}; SSR L2CD would take ${pick(s.l2cd_choice)}.`
+    : '';
   if (!s.pairs.length) {
     const tr = document.createElement('tr');
-    tr.innerHTML = `<td colspan="6" class="pending">${s.phase ? 'this decider gives no explanation' : 'step to the embed phase'}</td>`;
+    tr.innerHTML = `<td colspan="7" class="pending">${s.phase ? 'this decider gives no explanation' : 'step to the embed phase'}</td>`;
     body.appendChild(tr);
   }
 }

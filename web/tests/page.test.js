@@ -161,6 +161,19 @@ test('stepping phase by phase reveals L, then C, then the chosen pair, as in the
   rows = await tableRows();
   rows.forEach((r, i) => assert.equal(r.cells[4], d.pairs[i].c.toFixed(1), `C of pair ${i}`));
   assert.ok(rows.every((r) => !r.chosen));
+  // CCD beside L2CD: the pair each would act on (the reference correspondence
+  // breaks ties to the first pair, as numpy's argmin), marked whichever drives.
+  const argmin = (k) => d.pairs.reduce((b, p, i) => (p[k] < d.pairs[b][k] ? i : b), 0);
+  assert.equal(d.ccd_choice, argmin('c'));
+  assert.equal(d.l2cd_choice, argmin('l'));
+  rows.forEach((r, i) => {
+    assert.equal(r.cells[6].includes('CCD'), i === d.ccd_choice, `CCD mark on pair ${i}`);
+    assert.equal(r.cells[6].includes('L2CD'), i === d.l2cd_choice, `L2CD mark on pair ${i}`);
+  });
+  const said = await page.getByTestId('method-choices').textContent();
+  const a = d.pairs[d.ccd_choice].matched, b = d.pairs[d.l2cd_choice].matched;
+  assert.ok(said.includes(`CCD would take ${a.primitive} r${a.rotation} (${a.y}, ${a.x})`), said);
+  assert.ok(said.includes(`L2CD would take ${b.primitive} r${b.rotation} (${b.y}, ${b.x})`), said);
   await page.screenshot({ path: join(shots, 'phase-3-verify.png') });
 
   await stepAndWait('next-phase');

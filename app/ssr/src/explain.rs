@@ -60,6 +60,12 @@ pub struct Decision {
     /// Milliseconds spent embedding the live scene, and on correspondence.
     pub embed_ms: f64,
     pub correspond_ms: f64,
+    /// The pair SSR CCD (Eq. 8) and SSR L2CD (Eq. 9) would act on in this
+    /// state, whichever method is driving (one of them is `chosen`).
+    #[serde(default)]
+    pub ccd_choice: usize,
+    #[serde(default)]
+    pub l2cd_choice: usize,
     /// Loop breaking (seespot's extension): actions whose neighbourhood was
     /// masked because they left the scene unchanged; empty for the paper's
     /// method.

@@ -384,6 +384,8 @@ impl SsrPolicy {
         let correspond_ms = t.elapsed().as_secs_f64() * 1e3;
         // Act.
         let chosen = choose(&pairs, self.config.method, opts.mode);
+        let ccd_choice = choose(&pairs, Method::SsrCcd, opts.mode);
+        let l2cd_choice = choose(&pairs, Method::SsrL2cd, opts.mode);
         // The explanation's heatmaps (not part of the timed Correspond step).
         for p in &mut pairs {
             let m = self
@@ -408,6 +410,8 @@ impl SsrPolicy {
             pairs,
             embed_ms,
             correspond_ms,
+            ccd_choice,
+            l2cd_choice,
             excluded,
         })
     }

@@ -338,6 +338,8 @@ impl Actor for FeatureDecider {
             )),
         };
         let action = p.matched;
+        let ccd_choice = choose(&pairs, Method::SsrCcd, Correspondence::Plain);
+        let l2cd_choice = choose(&pairs, Method::SsrL2cd, Correspondence::Plain);
         self.last = Some(Decision {
             method: self.method,
             primitive,
@@ -348,6 +350,8 @@ impl Actor for FeatureDecider {
             action,
             embed_ms,
             correspond_ms: t1.elapsed().as_secs_f64() * 1e3,
+            ccd_choice,
+            l2cd_choice,
             excluded: Vec::new(),
         });
         Ok(choice)

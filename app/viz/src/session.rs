@@ -426,6 +426,9 @@ impl Session {
             "decided_progress": self.decision.as_ref().map(|d| d.progress),
             "pairs": pairs,
             "chosen": if shown(Phase::Act) { self.decision.as_ref().map(|d| d.chosen) } else { None },
+            // What each method would do in this state, once its distance is shown.
+            "l2cd_choice": if shown(Phase::Match) { self.decision.as_ref().map(|d| d.l2cd_choice) } else { None },
+            "ccd_choice": if shown(Phase::Verify) { self.decision.as_ref().map(|d| d.ccd_choice) } else { None },
             "action": if phase.is_some() { self.action.map(|a| json!(a)) } else { None },
             "timing_ms": self.decision.as_ref().map(|d| json!({"embed": d.embed_ms, "correspond": d.correspond_ms})),
             "steps": t.steps().iter().map(|s| json!({"action": s.action, "success": s.outcome.success, "progress_before": s.progress_before, "progress_after": s.progress_after, "reversal": s.reversal})).collect::<Vec<_>>(),
