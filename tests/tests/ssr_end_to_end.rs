@@ -303,3 +303,91 @@ fn evaluation_writes_records_and_resumes_after_interruption() {
     assert_eq!(untimed(&four[..3]), untimed(&first));
     assert_eq!(ran, 4);
 }
+
+/// `seespot view --replay` rebuilds a record's run from its provenance: the
+/// same trial again, and a refusal once a demonstration file has changed.
+#[test]
+fn a_record_replays_exactly_and_is_refused_after_its_files_change() {
+    use seespot_ssr::eval::replay_config;
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let demos = tmp.path().join("demos");
+    for dir in demo_dirs(&demos_dir(), TaskId::Unstack) {
+        let to = demos
+            .join("unstack")
+            .join(dir.file_name().expect("seed folder"));
+        std::fs::create_dir_all(&to).expect("mkdir");
+        for f in std::fs::read_dir(&dir).expect("demo folder") {
+            let f = f.expect("entry").path();
+            std::fs::copy(&f, to.join(f.file_name().expect("name"))).expect("copy");
+        }
+    }
+    let models = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../models");
+    let config = EvalConfig {
+        method: EvalMethod::SsrL2cd,
+        seeds: Seeds::new(5, 1).expect("test seed"),
+        out_dir: tmp.path().join("out"),
+        models_dir: models.clone(),
+        demos_dir: demos.clone(),
+        world: world_config(112),
+        correspond: CorrespondOptions::default(),
+        finetune_steps: 0,
+    };
+    let record = run_task(&config, TaskId::Unstack, &mut |_| {})
+        .expect("eval")
+        .remove(0);
+    let again = replay_config(&record, &models, &demos).expect("replayable");
+    assert_eq!(again.method, EvalMethod::SsrL2cd);
+    assert_eq!(again.world.grid.resolution, 112);
+    let mut ssr = SsrPolicy::load(
+        TaskId::Unstack,
+        &models,
+        &demos,
+        SsrConfig {
+            method: Method::SsrL2cd,
+            ..SsrConfig::default()
+        },
+    )
+    .expect("ssr");
+    let mut trial = seespot_sim::Trial::new(again.world, TaskId::Unstack, record.seed);
+    let replayed =
+        seespot_sim::run_trial(&mut trial, &mut ssr, "ssr-l2cd", 0, &mut |_| {}).expect("replay");
+    let actions = |r: &TrialRecord| r.actions_log.iter().map(|a| a.action).collect::<Vec<_>>();
+    assert_eq!(actions(&replayed), actions(&record));
+    assert_eq!(replayed.success, record.success);
+    // One demonstration file changes: the replay is refused, naming it.
+    let meta = demos.join("unstack").join("0").join("meta.json");
+    let mut text = std::fs::read_to_string(&meta).expect("meta");
+    text.push('\n');
+    std::fs::write(&meta, text).expect("write");
+    let err = replay_config(&record, &models, &demos)
+        .expect_err("changed demo")
+        .to_string();
+    assert!(err.contains("meta.json"), "{err}");
+}
+
+/// `seespot review` counts every committed record once, and every failure
+/// gets a kind.
+#[test]
+fn the_review_of_the_committed_results_counts_every_record() {
+    use seespot_ssr::review::{counts, review_dir};
+    let results = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../results");
+    let trials = review_dir(&results).expect("review");
+    let mut lines = 0;
+    for m in std::fs::read_dir(results.join("trials")).expect("trials") {
+        for f in std::fs::read_dir(m.expect("method").path()).expect("method dir") {
+            let f = f.expect("file").path();
+            if f.extension().is_some_and(|e| e == "jsonl") {
+                lines += std::fs::read_to_string(&f)
+                    .expect("records")
+                    .lines()
+                    .filter(|l| l.trim_end().ends_with('}'))
+                    .count();
+            }
+        }
+    }
+    assert_eq!(trials.len(), lines);
+    for (method, task, n, ok, kinds) in counts(&trials) {
+        assert_eq!(ok + kinds.iter().sum::<usize>(), n, "{method} {task}");
+    }
+    assert!(trials.iter().all(|t| t.success == t.failure.is_none()));
+}

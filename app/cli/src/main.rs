@@ -3,6 +3,7 @@
 mod bench;
 mod demo;
 mod eval;
+mod review;
 mod sim;
 mod train;
 #[cfg(feature = "viewer")]
@@ -29,6 +30,8 @@ enum Command {
     Sim(sim::SimCommand),
     /// Leave-one-out evaluation of SSR and baselines, with the paper's numbers beside.
     Eval(eval::EvalArgs),
+    /// The trials of an evaluation with their failure kinds, and how to replay each.
+    Review(review::ReviewArgs),
     /// Train one task's SPOT-Q policy (resumable from its run directory).
     Train(train::TrainArgs),
     /// Run a live SSR trial and serve the browser debugger and the rerun web viewer.
@@ -50,6 +53,7 @@ fn main() -> anyhow::Result<()> {
         Command::Bench(c) => bench::run(c),
         Command::Eval(a) => eval::run(a),
         Command::Train(a) => train::run(a),
+        Command::Review(a) => review::run(a),
         #[cfg(feature = "viewer")]
         Command::View(a) => view::run_view(a),
         #[cfg(feature = "viewer")]

@@ -4,6 +4,8 @@
 use std::net::IpAddr;
 use std::path::PathBuf;
 
+use anyhow::Context;
+
 use seespot_sim::TaskId;
 use seespot_viz::live::{self, DeciderKind, ViewOptions};
 
@@ -63,16 +65,91 @@ pub struct ViewArgs {
     /// Serve the page only, without the rerun web viewer.
     #[arg(long)]
     pub no_viewer: bool,
+    /// Replay a trial of an evaluation: its records file
+    /// (`<out>/trials/<method>/<task>.jsonl`, see `seespot review`) and --seed.
+    /// Task, method, correspondence and resolution come from the record; the
+    /// replay is refused when today's models or demonstrations differ from the
+    /// ones the record was made with (trials are deterministic given those).
+    #[arg(long)]
+    pub replay: Option<PathBuf>,
     #[command(flatten)]
     pub decider: DeciderArgs,
 }
 
+/// The view options and decider factory that replay `args.seed` of the records
+/// file `path` exactly.
+fn replay(
+    args: &ViewArgs,
+    path: &std::path::Path,
+) -> anyhow::Result<(TaskId, usize, seespot_viz::session::DeciderFactory)> {
+    use seespot_ssr::eval::{EvalMethod, replay_config};
+    let records = seespot_sim::record::read_records(path)?;
+    let record = records
+        .iter()
+        .find(|r| r.seed == args.seed)
+        .with_context(|| {
+            format!(
+                "{}: no trial of seed {} (it holds seeds {})",
+                path.display(),
+                args.seed,
+                records
+                    .iter()
+                    .map(|r| r.seed.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        })?;
+    let config = replay_config(record, &args.decider.models, &args.decider.demos)
+        .with_context(|| format!("cannot replay {} seed {}", path.display(), args.seed))?;
+    let kind = match config.method {
+        EvalMethod::Oracle => DeciderKind::Oracle,
+        m if m.is_ssr() => DeciderKind::Ssr,
+        m => anyhow::bail!(
+            "{}: the debugger replays SSR and oracle trials, not {}",
+            path.display(),
+            m.as_str()
+        ),
+    };
+    let ssr = seespot_ssr::SsrConfig {
+        method: if config.method == EvalMethod::SsrL2cd {
+            seespot_ssr::Method::SsrL2cd
+        } else {
+            seespot_ssr::Method::SsrCcd
+        },
+        correspond: config.correspond,
+        loop_break: config.method == EvalMethod::SsrCcdLoopBreak,
+    };
+    let factory = live::factory_with(
+        kind,
+        args.decider.models.clone(),
+        args.decider.demos.clone(),
+        ssr,
+    );
+    println!(
+        "replaying {} on {} seed {} ({} actions, {}): the files it was made with match today's",
+        record.method,
+        record.task,
+        record.seed,
+        record.actions,
+        if record.success {
+            "succeeded"
+        } else {
+            "failed"
+        }
+    );
+    Ok((record.task, config.world.grid.resolution, factory))
+}
+
 /// Runs `seespot view` until Ctrl-C.
 pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
+    let (task, resolution, factory) = match &args.replay {
+        Some(path) => replay(&args, path)?,
+        None => (args.task, args.resolution, args.decider.factory()?),
+    };
     let opts = ViewOptions {
-        task: args.task,
+        task,
         seed: args.seed,
-        resolution: args.resolution,
+        resolution,
         bind: args.bind,
         port: args.port,
         viewer_port: args.viewer_port,
@@ -80,7 +157,6 @@ pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
         save: args.save.clone(),
         no_viewer: args.no_viewer,
     };
-    let factory = args.decider.factory()?;
     let rt = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()?;

@@ -144,7 +144,7 @@ pub fn records_path(out_dir: &Path, method: &str, task: TaskId) -> PathBuf {
 }
 
 /// sha256 (hex) of a file's bytes.
-fn sha256_file(path: &Path) -> Result<String, EvalError> {
+pub fn sha256_file(path: &Path) -> Result<String, EvalError> {
     use sha2::{Digest, Sha256};
     let bytes = std::fs::read(path)
         .map_err(|e| EvalError::Invalid(format!("{}: cannot read: {e}", path.display())))?;
@@ -205,6 +205,89 @@ pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalE
         ),
         files,
     })
+}
+
+/// The evaluation settings a record was made with, read back from its
+/// provenance (for replaying it): the method, the correspondence, the
+/// resolution. Refuses what cannot be replayed exactly (finetuned or noisy
+/// runs) and records without provenance.
+pub fn replay_config(
+    record: &TrialRecord,
+    models_dir: &Path,
+    demos_dir: &Path,
+) -> Result<EvalConfig, EvalError> {
+    let prov = record.provenance.as_ref().ok_or_else(|| {
+        EvalError::Invalid(format!(
+            "the {} record of seed {} has no provenance: it cannot be checked against today's files",
+            record.method, record.seed
+        ))
+    })?;
+    let setting = |key: &str| -> Option<&str> {
+        let rest = prov.settings.split(&format!("{key}=")).nth(1)?;
+        Some(rest.split(", ").next().unwrap_or(rest))
+    };
+    let method = EvalMethod::parse(&record.method).ok_or_else(|| {
+        EvalError::Invalid(format!(
+            "method `{}` cannot be replayed (finetuned and noisy runs, and methods other than {}, are not)",
+            record.method,
+            EvalMethod::ALL.map(|m| m.as_str()).join(", ")
+        ))
+    })?;
+    let mode = match setting("correspond") {
+        Some("plain") => Correspondence::Plain,
+        _ => Correspondence::Reference,
+    };
+    let resolution: usize = setting("resolution")
+        .and_then(|r| r.parse().ok())
+        .ok_or_else(|| {
+            EvalError::Invalid(format!(
+                "provenance settings `{}` name no resolution",
+                prov.settings
+            ))
+        })?;
+    if setting("finetune_steps").is_some_and(|s| s != "0") {
+        return Err(EvalError::Invalid(
+            "finetuned runs cannot be replayed in the debugger".into(),
+        ));
+    }
+    let config = EvalConfig {
+        method,
+        seeds: Seeds::new(record.seed, 1).map_err(|e| EvalError::Invalid(e.to_string()))?,
+        out_dir: PathBuf::new(),
+        models_dir: models_dir.to_owned(),
+        demos_dir: demos_dir.to_owned(),
+        world: world_config(resolution),
+        correspond: CorrespondOptions {
+            mode,
+            smooth_sigma: None,
+        },
+        finetune_steps: 0,
+    };
+    let now = provenance(&config, record.task)?;
+    if now.settings != prov.settings {
+        return Err(EvalError::Invalid(format!(
+            "the record was made with settings `{}`; a replay would run `{}`",
+            prov.settings, now.settings
+        )));
+    }
+    let differ: Vec<&String> = prov
+        .files
+        .iter()
+        .filter(|(k, v)| now.files.get(*k) != Some(*v))
+        .map(|(k, _)| k)
+        .chain(now.files.keys().filter(|k| !prov.files.contains_key(*k)))
+        .collect();
+    if !differ.is_empty() {
+        return Err(EvalError::Invalid(format!(
+            "today's files differ from the ones the record was made with: {}",
+            differ
+                .iter()
+                .map(|s| s.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )));
+    }
+    Ok(config)
 }
 
 /// Runs (or resumes) the evaluation of one task; `on_trial` sees every trial

@@ -8,6 +8,7 @@ pub mod eval;
 pub mod explain;
 pub mod policy;
 pub mod report;
+pub mod review;
 
 pub use correspond::{
     CorrespondOptions, Match, bench_correspond, ccd, distance_map, match_queries,

@@ -59,13 +59,31 @@ impl std::str::FromStr for DeciderKind {
 /// The decider factory for `kind`, reading models from `models_dir` and
 /// demos from `demos_dir`.
 pub fn factory(kind: DeciderKind, models_dir: PathBuf, demos_dir: PathBuf) -> DeciderFactory {
+    factory_with(
+        kind,
+        models_dir,
+        demos_dir,
+        seespot_ssr::SsrConfig::default(),
+    )
+}
+
+/// [`factory`] whose SSR decider runs with `ssr` (method, correspondence, loop
+/// breaking).
+pub fn factory_with(
+    kind: DeciderKind,
+    models_dir: PathBuf,
+    demos_dir: PathBuf,
+    ssr: seespot_ssr::SsrConfig,
+) -> DeciderFactory {
     Box::new(
         move |task: TaskId, world: WorldConfig| -> anyhow::Result<(Box<dyn Decider>, String)> {
             match kind {
                 DeciderKind::Oracle => {
                     Ok((Box::new(Oracle::new(task)), "scripted oracle".to_owned()))
                 }
-                DeciderKind::Ssr => crate::ssr::load(task, &models_dir, &demos_dir, world),
+                DeciderKind::Ssr => {
+                    crate::ssr::load_with(task, &models_dir, &demos_dir, world, ssr)
+                }
                 DeciderKind::Features => {
                     let (demos, note) = load_demos(task, &demos_dir, world)?;
                     Ok((Box::new(FeatureDecider::new(task, demos)), note))

@@ -18,15 +18,26 @@ pub fn load(
     demos_dir: &Path,
     world: WorldConfig,
 ) -> anyhow::Result<(Box<dyn Decider>, String)> {
-    let policy =
-        SsrPolicy::load(task, models_dir, demos_dir, SsrConfig::default()).with_context(|| {
-            format!(
-                "cannot load SSR for {} from {} and {}",
-                task.as_str(),
-                models_dir.display(),
-                demos_dir.display()
-            )
-        })?;
+    load_with(task, models_dir, demos_dir, world, SsrConfig::default())
+}
+
+/// [`load`] with a given SSR configuration (method, correspondence, loop
+/// breaking), e.g. to replay a trial of an evaluation.
+pub fn load_with(
+    task: TaskId,
+    models_dir: &Path,
+    demos_dir: &Path,
+    world: WorldConfig,
+    config: SsrConfig,
+) -> anyhow::Result<(Box<dyn Decider>, String)> {
+    let policy = SsrPolicy::load(task, models_dir, demos_dir, config).with_context(|| {
+        format!(
+            "cannot load SSR for {} from {} and {}",
+            task.as_str(),
+            models_dir.display(),
+            demos_dir.display()
+        )
+    })?;
     let n = world.grid.resolution;
     if let Some(d) = policy.demos().iter().find(|d| d.meta.resolution != n) {
         anyhow::bail!(

@@ -1,0 +1,259 @@
+//! Review of an evaluation: every trial of every method and fold under
+//! `<out>/trials/`, its outcome, and for a failure an automatic *failure kind*
+//! read off its record, so a person can go from "stack: 66%" to the trials
+//! worth opening in the debugger (`seespot review`, `seespot view --replay`).
+//!
+//! The kinds, checked in this order (the first that fits names the failure):
+//! 1. **block out of workspace**: the trial ended because a block left it;
+//! 2. **repeated identical action**: [`REPEAT_RUN`] or more identical actions
+//!    (primitive, rotation, pixel) in a row;
+//! 3. **pick-and-put-back loop**: [`PUT_BACK_LOOPS`] or more grasp-then-place
+//!    pairs that set the block down within [`PUT_BACK_PIXELS`] of where it was
+//!    picked without raising progress;
+//! 4. **progress reversal**: progress fell below a value it had reached;
+//! 5. **action limit**: none of the above; the 30 actions ran out.
+
+use std::path::{Path, PathBuf};
+
+use seespot_sim::record::{RecordError, read_records};
+use seespot_sim::{Primitive, TaskId, TrialEnd, TrialRecord};
+use serde::Serialize;
+
+/// Identical actions in a row that make a repeat.
+pub const REPEAT_RUN: usize = 3;
+/// Grasp-then-place pairs that make a pick-and-put-back loop.
+pub const PUT_BACK_LOOPS: usize = 2;
+/// A place at most this many pixels (Chebyshev) from its grasp puts the block back.
+pub const PUT_BACK_PIXELS: usize = 3;
+
+/// Why a failed trial failed (module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FailureKind {
+    OutOfWorkspace,
+    RepeatedAction,
+    PickAndPutBack,
+    ProgressReversal,
+    ActionLimit,
+}
+
+impl FailureKind {
+    pub const ALL: [FailureKind; 5] = [
+        Self::OutOfWorkspace,
+        Self::RepeatedAction,
+        Self::PickAndPutBack,
+        Self::ProgressReversal,
+        Self::ActionLimit,
+    ];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::OutOfWorkspace => "block out of workspace",
+            Self::RepeatedAction => "repeated identical action",
+            Self::PickAndPutBack => "pick-and-put-back loop",
+            Self::ProgressReversal => "progress reversal",
+            Self::ActionLimit => "action limit",
+        }
+    }
+}
+
+/// The failure kind of `r`; `None` for a success or a trial stopped before
+/// its end.
+pub fn classify(r: &TrialRecord) -> Option<FailureKind> {
+    let end = r.end?;
+    if r.success || end == TrialEnd::Success {
+        return None;
+    }
+    if end == TrialEnd::OutOfWorkspace {
+        return Some(FailureKind::OutOfWorkspace);
+    }
+    let log = &r.actions_log;
+    let mut run = 1;
+    for w in log.windows(2) {
+        run = if w[0].action == w[1].action {
+            run + 1
+        } else {
+            1
+        };
+        if run >= REPEAT_RUN {
+            return Some(FailureKind::RepeatedAction);
+        }
+    }
+    let put_backs = log
+        .windows(2)
+        .filter(|w| {
+            let (g, p) = (&w[0], &w[1]);
+            g.action.primitive == Primitive::Grasp
+                && p.action.primitive == Primitive::Place
+                && g.primitive_success != Some(false)
+                && g.action.y.abs_diff(p.action.y) <= PUT_BACK_PIXELS
+                && g.action.x.abs_diff(p.action.x) <= PUT_BACK_PIXELS
+                && p.progress_after <= g.progress_before
+        })
+        .count();
+    if put_backs >= PUT_BACK_LOOPS {
+        return Some(FailureKind::PickAndPutBack);
+    }
+    if r.reversal {
+        return Some(FailureKind::ProgressReversal);
+    }
+    Some(FailureKind::ActionLimit)
+}
+
+/// One trial in a review.
+#[derive(Clone, Debug, Serialize)]
+pub struct ReviewedTrial {
+    pub method: String,
+    pub task: TaskId,
+    pub seed: u64,
+    pub success: bool,
+    pub actions: usize,
+    pub max_progress: u8,
+    pub failure: Option<FailureKind>,
+    /// The records file it came from (for `seespot view --replay`).
+    pub file: PathBuf,
+}
+
+/// Every trial of every records file under `<out>/trials/`, in (method, task,
+/// seed) order.
+pub fn review_dir(out: &Path) -> Result<Vec<ReviewedTrial>, RecordError> {
+    let trials = out.join("trials");
+    let mut files = Vec::new();
+    let io = |e: std::io::Error| RecordError::Io {
+        path: trials.display().to_string(),
+        source: e,
+    };
+    for method in std::fs::read_dir(&trials).map_err(io)? {
+        let method = method.map_err(io)?.path();
+        if method.is_dir() {
+            for f in std::fs::read_dir(&method).map_err(io)? {
+                let f = f.map_err(io)?.path();
+                if f.extension().is_some_and(|e| e == "jsonl") {
+                    files.push(f);
+                }
+            }
+        }
+    }
+    files.sort();
+    let mut out = Vec::new();
+    for f in files {
+        for r in read_records(&f)? {
+            out.push(ReviewedTrial {
+                failure: classify(&r),
+                method: r.method,
+                task: r.task,
+                seed: r.seed,
+                success: r.success,
+                actions: r.actions,
+                max_progress: r.max_progress,
+                file: f.clone(),
+            });
+        }
+    }
+    out.sort_by(|a, b| (&a.method, a.task, a.seed).cmp(&(&b.method, b.task, b.seed)));
+    Ok(out)
+}
+
+/// Per (method, task): trials, successes and failures of each kind (in
+/// [`FailureKind::ALL`] order).
+pub fn counts(trials: &[ReviewedTrial]) -> Vec<(String, TaskId, usize, usize, [usize; 5])> {
+    let mut out: Vec<(String, TaskId, usize, usize, [usize; 5])> = Vec::new();
+    for t in trials {
+        let i = match out.iter().position(|o| o.0 == t.method && o.1 == t.task) {
+            Some(i) => i,
+            None => {
+                out.push((t.method.clone(), t.task, 0, 0, [0; 5]));
+                out.len() - 1
+            }
+        };
+        out[i].2 += 1;
+        out[i].3 += usize::from(t.success);
+        if let Some(k) = t.failure
+            && let Some(j) = FailureKind::ALL.iter().position(|x| *x == k)
+        {
+            out[i].4[j] += 1;
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use seespot_sim::{Action, ActionLog};
+
+    fn log(a: Action, before: u8, after: u8, ok: bool) -> ActionLog {
+        ActionLog {
+            action: a,
+            progress_before: before,
+            progress_after: after,
+            chosen_policy: None,
+            chosen_demo: None,
+            l: None,
+            c: None,
+            other_method_action: None,
+            decide_ms: 0.0,
+            primitive_success: Some(ok),
+        }
+    }
+
+    fn record(end: TrialEnd, reversal: bool, actions_log: Vec<ActionLog>) -> TrialRecord {
+        TrialRecord {
+            method: "ssr-ccd".into(),
+            task: TaskId::Stack,
+            seed: 1,
+            trial: 0,
+            success: end == TrialEnd::Success,
+            actions: actions_log.len(),
+            max_progress: 2,
+            start_progress: 1,
+            final_progress: 1,
+            reversal,
+            start_redraws: 0,
+            end: Some(end),
+            actions_log,
+            provenance: None,
+        }
+    }
+
+    #[test]
+    fn each_kind_is_recognised() {
+        let g = |y, x| Action::new(Primitive::Grasp, 0, y, x);
+        let p = |y, x| Action::new(Primitive::Place, 0, y, x);
+        let ok = record(TrialEnd::Success, false, vec![]);
+        assert_eq!(classify(&ok), None);
+        let out = record(
+            TrialEnd::OutOfWorkspace,
+            true,
+            vec![log(g(1, 1), 1, 1, true)],
+        );
+        assert_eq!(classify(&out), Some(FailureKind::OutOfWorkspace));
+        let repeat = record(
+            TrialEnd::ActionLimit,
+            false,
+            vec![log(g(5, 5), 1, 1, false); 3],
+        );
+        assert_eq!(classify(&repeat), Some(FailureKind::RepeatedAction));
+        let put_back = record(
+            TrialEnd::ActionLimit,
+            false,
+            vec![
+                log(g(10, 10), 1, 1, true),
+                log(p(11, 9), 1, 1, true),
+                log(g(11, 9), 1, 1, true),
+                log(p(12, 10), 1, 1, true),
+            ],
+        );
+        assert_eq!(classify(&put_back), Some(FailureKind::PickAndPutBack));
+        let moved = vec![
+            log(g(10, 10), 1, 1, true),
+            log(p(40, 40), 1, 2, true),
+            log(g(40, 40), 2, 2, true),
+            log(p(10, 10), 2, 1, true),
+        ];
+        let reversal = record(TrialEnd::ActionLimit, true, moved.clone());
+        assert_eq!(classify(&reversal), Some(FailureKind::ProgressReversal));
+        let limit = record(TrialEnd::ActionLimit, false, moved);
+        assert_eq!(classify(&limit), Some(FailureKind::ActionLimit));
+    }
+}
