@@ -272,6 +272,21 @@ test('going back in time shows exactly what was shown live', async () => {
   assert.match(reply, /out of range/);
 });
 
+test('the page saves the current layout as a scene file', async () => {
+  const s = await api('/api/state');
+  const r = await fetch(new URL(await page.getByTestId('save-layout').getAttribute('href'), urls.page));
+  if (s.holding !== null) {
+    assert.equal(r.status, 409, 'a layout with a block in the gripper is refused');
+    return;
+  }
+  assert.equal(r.status, 200);
+  const text = await r.text();
+  assert.match(text, new RegExp(`task = "${s.task}"`));
+  const positions = [...text.matchAll(/position = \[([^\]]+)\]/g)].map((m) => m[1].split(',').map(Number));
+  assert.equal(positions.length, 4);
+  positions.forEach((p, i) => p.forEach((v, k) => assert.ok(Math.abs(v - s.blocks[i].position[k]) < 1e-5, `block ${i} axis ${k}`)));
+});
+
 test('a malformed message gets an error and the server keeps serving', async () => {
   const replies = await page.evaluate(() => new Promise((ok) => {
     const ws = new WebSocket(`ws://${location.host}/ws`);

@@ -72,6 +72,11 @@ pub struct ViewArgs {
     /// ones the record was made with (trials are deterministic given those).
     #[arg(long)]
     pub replay: Option<PathBuf>,
+    /// Start from a scene file: its task, resolution and first seed, and its
+    /// `[[blocks]]` layout when it has one (the page's "Save layout" writes
+    /// such files).
+    #[arg(long, conflicts_with = "replay")]
+    pub scene: Option<PathBuf>,
     #[command(flatten)]
     pub decider: DeciderArgs,
 }
@@ -142,13 +147,30 @@ fn replay(
 
 /// Runs `seespot view` until Ctrl-C.
 pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
-    let (task, resolution, factory) = match &args.replay {
+    let (mut task, mut resolution, factory) = match &args.replay {
         Some(path) => replay(&args, path)?,
         None => (args.task, args.resolution, args.decider.factory()?),
     };
+    let (mut seed, mut layout) = (args.seed, None);
+    if let Some(path) = &args.scene {
+        let scene = seespot_sim::Scene::load(path)?;
+        if !scene.noise.is_none() {
+            anyhow::bail!(
+                "{}: field `noise`: the debugger shows noiseless scenes",
+                path.display()
+            );
+        }
+        (task, resolution, seed, layout) = (
+            scene.task,
+            scene.resolution,
+            scene.seeds.start(),
+            scene.blocks,
+        );
+    }
     let opts = ViewOptions {
         task,
-        seed: args.seed,
+        seed,
+        layout,
         resolution,
         bind: args.bind,
         port: args.port,

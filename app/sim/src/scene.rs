@@ -10,7 +10,14 @@
 //! [noise]                 # optional
 //! depth_std = 0.0         # metres
 //! color_jitter = 0        # u8 levels
+//! [[blocks]]              # optional: an explicit start, exactly 4 tables in
+//! position = [0.0, 0.0]   # id order (red, blue, green, yellow); [x, y] on the
+//! yaw = 30                # table or [x, y, z], metres; yaw and tilt in degrees
 //! ```
+//!
+//! With `[[blocks]]` the trial starts from those poses (settled by the
+//! physics) instead of a start drawn from the seed; `seespot view --scene`
+//! and the debugger's "save layout" use it to reproduce a situation.
 
 use std::path::{Path, PathBuf};
 
@@ -19,8 +26,9 @@ use serde::{Deserialize, Serialize};
 use crate::noise::SensorNoise;
 use crate::seeds::Seeds;
 use crate::task::TaskId;
-use crate::workspace::Grid;
-use crate::world::WorldConfig;
+use crate::workspace::{Grid, WORKSPACE_SIZE};
+use crate::world::{BlockPose, WorldConfig};
+use crate::{BLOCK_SIZE, NUM_BLOCKS};
 
 /// Smallest and largest heightmap resolution a scene may ask for, pixels.
 pub const RESOLUTION_RANGE: std::ops::RangeInclusive<usize> = 32..=448;
@@ -53,6 +61,10 @@ pub struct Scene {
     /// The trials' seeds: `seeds.start`, `+ 2`, ... (one split).
     pub seeds: Seeds,
     pub noise: SensorNoise,
+    /// Optional explicit start: the pose of each block in id order (red, blue,
+    /// green, yellow), from the file's `[[blocks]]` tables; `None`: starts
+    /// drawn from the seeds.
+    pub blocks: Option<[BlockPose; NUM_BLOCKS]>,
 }
 
 /// A scene file that could not be used, naming the file and the field.
@@ -97,7 +109,7 @@ impl Scene {
             message,
         };
         for key in table.keys() {
-            if !["task", "resolution", "seeds", "noise"].contains(&key.as_str()) {
+            if !["task", "resolution", "seeds", "noise", "blocks"].contains(&key.as_str()) {
                 return Err(field(key, "unknown field".into()));
             }
         }
@@ -179,12 +191,56 @@ impl Scene {
         }
         let seeds = Seeds::new(seed_start as u64, seed_count as u64)
             .map_err(|e| field("seeds", e.to_string()))?;
+        let blocks = match table.get("blocks") {
+            None => None,
+            Some(toml::Value::Array(items)) => Some(parse_blocks(items, path)?),
+            Some(_) => return Err(field("blocks", "must be an array of tables".into())),
+        };
         Ok(Self {
             task,
             resolution,
             seeds,
             noise,
+            blocks,
         })
+    }
+
+    /// The scene file text of `task` starting from `poses` (e.g. the current
+    /// layout of a trial, to reproduce it with `seespot view --scene`).
+    pub fn layout_toml(
+        task: TaskId,
+        resolution: usize,
+        seed: u64,
+        poses: &[BlockPose; NUM_BLOCKS],
+    ) -> String {
+        let mut out = format!(
+            "# A start layout saved from seespot: `seespot view --scene FILE` starts from it.\n\
+             # Blocks in id order (red, blue, green, yellow): centre position in metres\n\
+             # (workspace frame, table at z = 0) and orientation (a unit quaternion).\n\
+             task = \"{task}\"\nresolution = {resolution}\n\n[seeds]\nstart = {seed}\ncount = 1\n"
+        );
+        for p in poses {
+            let [x, y, z, w] = p.rotation;
+            out.push_str(&format!(
+                "\n[[blocks]]\nposition = [{:.6}, {:.6}, {:.6}]\nrotation = [{x:.7}, {y:.7}, {z:.7}, {w:.7}]  # unit quaternion [x, y, z, w]\n",
+                p.position[0], p.position[1], p.position[2]
+            ));
+        }
+        out
+    }
+
+    /// The trial of `seed` in this scene: from the explicit block poses when
+    /// the file gives them, else the start drawn from the seed.
+    pub fn trial(&self, seed: u64) -> crate::Trial {
+        match &self.blocks {
+            Some(poses) => crate::Trial::from_world(
+                crate::World::from_poses(self.world_config(), poses, seed),
+                self.task,
+                seed,
+                crate::task::MAX_TRIAL_ACTIONS,
+            ),
+            None => crate::Trial::new(self.world_config(), self.task, seed),
+        }
     }
 
     pub fn world_config(&self) -> WorldConfig {
@@ -193,6 +249,182 @@ impl Scene {
             noise: self.noise,
         }
     }
+}
+
+/// The `[[blocks]]` tables: exactly [`NUM_BLOCKS`], each with `position`
+/// (`[x, y]` on the table or `[x, y, z]`, metres), optional `yaw` and `tilt`
+/// (degrees) or instead `rotation` (a unit quaternion `[x, y, z, w]`, as saved
+/// layouts write it); inside the workspace and not inside one another.
+fn parse_blocks(items: &[toml::Value], path: &Path) -> Result<[BlockPose; NUM_BLOCKS], SceneError> {
+    let field = |field: String, message: String| SceneError::Field {
+        path: path.to_owned(),
+        field,
+        message,
+    };
+    if items.len() != NUM_BLOCKS {
+        return Err(field(
+            "blocks".into(),
+            format!(
+                "{} blocks given; a scene holds exactly {NUM_BLOCKS}",
+                items.len()
+            ),
+        ));
+    }
+    let number = |v: &toml::Value| v.as_float().or_else(|| v.as_integer().map(|i| i as f64));
+    let mut poses = [BlockPose::on_table(0.0, 0.0, 0, 0.0); NUM_BLOCKS];
+    let half = WORKSPACE_SIZE / 2.0;
+    for (i, item) in items.iter().enumerate() {
+        let name = |k: &str| format!("blocks[{i}].{k}");
+        let t = item
+            .as_table()
+            .ok_or_else(|| field(format!("blocks[{i}]"), "must be a table".into()))?;
+        for key in t.keys() {
+            if !["position", "yaw", "tilt", "rotation"].contains(&key.as_str()) {
+                return Err(field(name(key), "unknown field".into()));
+            }
+        }
+        let pos: Vec<f64> = match t.get("position") {
+            None => return Err(field(name("position"), "missing".into())),
+            Some(toml::Value::Array(a)) => a
+                .iter()
+                .map(|v| {
+                    number(v).ok_or_else(|| field(name("position"), "must hold numbers".into()))
+                })
+                .collect::<Result<_, _>>()?,
+            Some(_) => {
+                return Err(field(
+                    name("position"),
+                    "must be [x, y] or [x, y, z]".into(),
+                ));
+            }
+        };
+        if !(2..=3).contains(&pos.len()) || pos.iter().any(|v| !v.is_finite()) {
+            return Err(field(
+                name("position"),
+                "must be [x, y] or [x, y, z] of finite metres".into(),
+            ));
+        }
+        let (x, y) = (pos[0] as f32, pos[1] as f32);
+        let z = pos.get(2).map_or(BLOCK_SIZE / 2.0, |z| *z as f32);
+        let reach = BLOCK_SIZE * std::f32::consts::FRAC_1_SQRT_2;
+        if x.abs() > half - reach || y.abs() > half - reach {
+            return Err(field(
+                name("position"),
+                format!(
+                    "({x}, {y}) puts the block outside the workspace (|x|, |y| <= {:.3} m)",
+                    half - reach
+                ),
+            ));
+        }
+        if !(BLOCK_SIZE / 2.0 - 1e-4..=0.3).contains(&z) {
+            return Err(field(
+                name("position"),
+                format!(
+                    "z = {z} is below the table or above 0.3 m (a block on the table has z = {})",
+                    BLOCK_SIZE / 2.0
+                ),
+            ));
+        }
+        let angle = |k: &str, limit: f64| -> Result<f32, SceneError> {
+            match t.get(k) {
+                None => Ok(0.0),
+                Some(v) => {
+                    let a = number(v)
+                        .ok_or_else(|| field(name(k), "must be a number (degrees)".into()))?;
+                    if a.is_finite() && a.abs() <= limit {
+                        Ok((a as f32).to_radians())
+                    } else {
+                        Err(field(
+                            name(k),
+                            format!("{a} is out of range (-{limit}..={limit} degrees)"),
+                        ))
+                    }
+                }
+            }
+        };
+        let q = match t.get("rotation") {
+            Some(v) => {
+                if t.contains_key("yaw") || t.contains_key("tilt") {
+                    return Err(field(
+                        name("rotation"),
+                        "give either rotation or yaw/tilt".into(),
+                    ));
+                }
+                let q: Vec<f64> = v
+                    .as_array()
+                    .map(|a| a.iter().filter_map(number).collect())
+                    .unwrap_or_default();
+                let norm = q.iter().map(|c| c * c).sum::<f64>().sqrt();
+                if q.len() != 4 || !norm.is_finite() || (norm - 1.0).abs() > 1e-3 {
+                    return Err(field(
+                        name("rotation"),
+                        "must be a unit quaternion [x, y, z, w]".into(),
+                    ));
+                }
+                rapier3d::math::Rotation::from_xyzw(
+                    q[0] as f32,
+                    q[1] as f32,
+                    q[2] as f32,
+                    q[3] as f32,
+                )
+                .normalize()
+            }
+            None => {
+                let yaw = angle("yaw", 360.0)?;
+                let tilt = angle("tilt", 90.0)?;
+                rapier3d::math::Rotation::from_rotation_z(yaw)
+                    * rapier3d::math::Rotation::from_rotation_x(tilt)
+            }
+        };
+        poses[i] = BlockPose {
+            position: [x, y, z],
+            rotation: [q.x, q.y, q.z, q.w],
+        };
+    }
+    for i in 0..NUM_BLOCKS {
+        for j in 0..i {
+            if squares_overlap(&poses[i], &poses[j]) {
+                return Err(field(
+                    format!("blocks[{i}].position"),
+                    format!("block {i} is inside block {j}"),
+                ));
+            }
+        }
+    }
+    Ok(poses)
+}
+
+/// Whether two blocks' volumes overlap, judged on their footprints as squares
+/// turned by their yaw (separating axes) when their heights overlap; a small
+/// margin lets blocks touch.
+fn squares_overlap(a: &BlockPose, b: &BlockPose) -> bool {
+    if (a.position[2] - b.position[2]).abs() >= BLOCK_SIZE - 1e-3 {
+        return false;
+    }
+    let h = BLOCK_SIZE / 2.0 - 5e-4;
+    let corners = |p: &BlockPose| -> [(f32, f32); 4] {
+        let (s, c) = p.yaw().sin_cos();
+        [(-h, -h), (h, -h), (h, h), (-h, h)]
+            .map(|(u, v)| (p.position[0] + c * u - s * v, p.position[1] + s * u + c * v))
+    };
+    let (ca, cb) = (corners(a), corners(b));
+    let axes = |p: &BlockPose| {
+        let (s, c) = p.yaw().sin_cos();
+        [(c, s), (-s, c)]
+    };
+    for (ux, uy) in axes(a).into_iter().chain(axes(b)) {
+        let proj = |cs: &[(f32, f32); 4]| {
+            cs.iter()
+                .map(|(x, y)| x * ux + y * uy)
+                .fold((f32::MAX, f32::MIN), |(lo, hi), v| (lo.min(v), hi.max(v)))
+        };
+        let (a0, a1) = proj(&ca);
+        let (b0, b1) = proj(&cb);
+        if a1 <= b0 || b1 <= a0 {
+            return false;
+        }
+    }
+    true
 }
 
 fn int(table: &toml::Table, key: &str, path: &Path) -> Result<Option<i64>, SceneError> {

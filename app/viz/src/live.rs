@@ -110,6 +110,9 @@ pub struct ViewOptions {
     pub save: Option<PathBuf>,
     /// Serve no rerun viewer (the page alone).
     pub no_viewer: bool,
+    /// Start from these block poses (a scene file's `[[blocks]]`) instead of
+    /// the start drawn from the seed.
+    pub layout: Option<[seespot_sim::BlockPose; seespot_sim::NUM_BLOCKS]>,
 }
 
 /// The URLs a running `view` serves.
@@ -193,8 +196,15 @@ pub async fn serve_view(
         seed: opts.seed,
         world,
     };
-    let session =
-        tokio::task::spawn_blocking(move || Session::new(factory, config, recorder)).await??;
+    let layout = opts.layout;
+    let session = tokio::task::spawn_blocking(move || {
+        let mut s = Session::new(factory, config, recorder)?;
+        if let Some(poses) = layout {
+            s.set_layout(poses);
+        }
+        anyhow::Ok(s)
+    })
+    .await??;
     let info = json!({
         "viewer_url": viewer_url,
         "grpc_url": grpc_url,

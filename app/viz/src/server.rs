@@ -112,6 +112,7 @@ pub fn router(state: Arc<AppState>) -> Router {
         .route("/api/state", get(api_state))
         .route("/api/decision", get(api_decision))
         .route("/api/frame", get(api_frame))
+        .route("/api/scene", get(api_scene))
         .route("/ws", get(ws))
         .fallback(asset)
         .with_state(state)
@@ -169,6 +170,31 @@ async fn api_frame(
         };
     let st = s.clone();
     blocking(move || st.session().frame(pair)).await
+}
+
+/// The current layout as a scene file (`seespot view --scene` starts from it),
+/// offered as a download.
+async fn api_scene(State(s): State<Arc<AppState>>) -> Response {
+    let st = s.clone();
+    match tokio::task::spawn_blocking(move || st.session().layout_toml()).await {
+        Ok(Ok(text)) => (
+            [
+                (header::CONTENT_TYPE, "application/toml; charset=utf-8"),
+                (
+                    header::CONTENT_DISPOSITION,
+                    "attachment; filename=\"seespot-layout.toml\"",
+                ),
+            ],
+            text,
+        )
+            .into_response(),
+        Ok(Err(e)) => (StatusCode::CONFLICT, format!("{e:#}")).into_response(),
+        Err(e) => (
+            StatusCode::INTERNAL_SERVER_ERROR,
+            format!("internal error: {e}"),
+        )
+            .into_response(),
+    }
 }
 
 async fn blocking(f: impl FnOnce() -> Value + Send + 'static) -> Response {

@@ -10,7 +10,8 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use anyhow::{Context, bail};
-use seespot_sim::{Action, Heightmaps, TaskId, Trial, WorldConfig};
+use seespot_sim::task::MAX_TRIAL_ACTIONS;
+use seespot_sim::{Action, BlockPose, Heightmaps, NUM_BLOCKS, TaskId, Trial, World, WorldConfig};
 use seespot_ssr::Decision;
 use serde_json::{Value, json};
 
@@ -72,6 +73,8 @@ pub struct Session {
     history: VecDeque<Snapshot>,
     /// Index into `history` of the phase being looked at; `None`: live.
     viewing: Option<usize>,
+    /// An explicit start layout for (task, seed) (from a scene file).
+    layout: Option<(TaskId, u64, [BlockPose; NUM_BLOCKS])>,
 }
 
 impl std::fmt::Debug for Session {
@@ -108,6 +111,7 @@ impl Session {
             last_decide_ms: 0.0,
             history: VecDeque::new(),
             viewing: None,
+            layout: None,
         };
         s.begin();
         Ok(s)
@@ -181,7 +185,15 @@ impl Session {
         }
         self.config.task = task;
         self.config.seed = seed;
-        self.trial = Trial::new(self.config.world, task, seed);
+        self.trial = match &self.layout {
+            Some((t, s, poses)) if *t == task && *s == seed => Trial::from_world(
+                World::from_poses(self.config.world, poses, seed),
+                task,
+                seed,
+                MAX_TRIAL_ACTIONS,
+            ),
+            _ => Trial::new(self.config.world, task, seed),
+        };
         self.trial_index += 1;
         self.phase = None;
         self.decision = None;
@@ -193,6 +205,30 @@ impl Session {
         self.version += 1;
         self.begin();
         Ok(())
+    }
+
+    /// Restarts the current trial (same task and seed) from the block poses
+    /// `poses` (a scene file's `[[blocks]]`, settled by the physics); a later
+    /// reset to the same task and seed starts from them again.
+    pub fn set_layout(&mut self, poses: [BlockPose; NUM_BLOCKS]) {
+        let (task, seed) = (self.config.task, self.config.seed);
+        self.layout = Some((task, seed, poses));
+        // `reset` keeps the decider when the task does not change.
+        let _ = self.reset(task, seed);
+    }
+
+    /// The current layout as a scene file (`seespot view --scene` starts from
+    /// it); refused while a block is in the gripper, out of the workspace.
+    pub fn layout_toml(&self) -> anyhow::Result<String> {
+        if self.trial.world().held_block().is_some() {
+            bail!("a block is in the gripper: save the layout after the place");
+        }
+        Ok(seespot_sim::Scene::layout_toml(
+            self.trial.task(),
+            self.config.world.grid.resolution,
+            self.trial.seed(),
+            &self.trial.world().block_poses(),
+        ))
     }
 
     /// Time travel: shows phase `index` of this trial's history (0 = the first
@@ -418,6 +454,7 @@ impl Session {
             "max_progress": t.max_progress(),
             "primitive": t.world().next_primitive(),
             "holding": t.world().held_block(),
+            "blocks": t.world().block_poses(),
             "end": t.end(),
             "succeeded": t.succeeded(),
             "had_reversal": t.had_reversal(),
