@@ -12,7 +12,7 @@ const app = window.seespot = {
 };
 
 let pending = null; // frame request in flight
-let images = { live: null, demo: null, match: null, rematch: null, query: null };
+let images = { live: null, demo: null, match: null, rematch: null, query: null, embedding: null };
 
 function send(msg) {
   if (app.ws && app.ws.readyState === WebSocket.OPEN) app.ws.send(JSON.stringify(msg));
@@ -188,12 +188,33 @@ async function requestFrame(force) {
     demo: f.demo ? { color: rgbCanvas(b64bytes(f.demo.color), n), depth: depthCanvas(b64f32(f.demo.depth), n) } : null,
     match: f.match_map ? heatCanvas(b64f32(f.match_map), n) : null,
     rematch: f.rematch_map ? heatCanvas(b64f32(f.rematch_map), n) : null,
-    query: images.query,
+    query: images.query, embedding: images.embedding,
   };
   app.frame = f;
   draw();
+  requestEmbedding();
   app.frameVersion = f.version;
   document.body.dataset.frameVersion = String(f.version);
+}
+
+// What the pair's policy sees: its embeddings as PCA colours (live decisions only).
+async function requestEmbedding() {
+  const s = app.state, f = app.frame;
+  if (!$('show-embedding').checked || !s || !f || !s.pairs.length || s.history.viewing !== null) {
+    if (images.embedding) { images.embedding = null; draw(); }
+    return;
+  }
+  if (images.embedding && images.embedding.version === f.version && images.embedding.pair === f.pair) return;
+  let e;
+  try {
+    const r = await fetch(`/api/embedding?pair=${f.pair}`);
+    if (!r.ok) { showError(await r.text()); return; }
+    e = await r.json();
+  } catch (err) { showError(`cannot load the embedding colours: ${err}`); return; }
+  if (app.frame !== f) return; // superseded
+  images.embedding = { version: f.version, pair: f.pair, live: rgbCanvas(b64bytes(e.live), e.resolution), demo: rgbCanvas(b64bytes(e.demo_rgb), e.resolution), policy: e.policy };
+  app.embedding = e;
+  draw();
 }
 
 function draw() {
@@ -213,7 +234,8 @@ function draw() {
     if (p.rematch) dm.push({ kind: 'point', at: p.rematch, color: '#ffaa00' });
   }
   if (app.query) dm.push({ kind: 'point', at: app.query, color: '#ff4fd8', label: 'query', ring: true, below: true });
-  compose($('demo-canvas'), n, images.demo ? images.demo[kind] : null, images.rematch ? images.rematch.canvas : null, op, dm);
+  const emb = images.embedding && images.embedding.pair === f.pair ? images.embedding : null;
+  compose($('demo-canvas'), n, emb ? emb.demo : (images.demo ? images.demo[kind] : null), images.rematch ? images.rematch.canvas : null, op, dm);
   $('demo-title').textContent = f.demo ? `Demo ${f.demo.demo} · step ${f.demo.step}${p ? ` · policy ${p.policy}` : ''}` : 'Demo (none)';
 
   // Live side.
@@ -224,7 +246,8 @@ function draw() {
   if (p && p.matched) lm.push({ kind: 'arrow', from: p.demo_action, to: p.matched, color: chosen ? '#00e676' : '#ffffff', label: `L = ${fmt(p.l, 3)}` });
   if (p && p.matched) lm.push({ kind: 'point', at: p.matched, color: chosen ? '#00e676' : '#ffffff', label: chosen ? 'F (executed)' : 'F', ring: chosen });
   if (images.query && app.queryBest) lm.push({ kind: 'point', at: app.queryBest, color: '#ff4fd8', label: 'best', ring: true, below: true });
-  compose($('live-canvas'), n, images.live[kind], heat ? heat.canvas : null, op, lm);
+  compose($('live-canvas'), n, emb ? emb.live : images.live[kind], heat ? heat.canvas : null, op, lm);
+  document.body.dataset.embedding = emb ? `${emb.policy}:${emb.version}` : '';
   $('overlay-label').textContent = label;
   $('live-title').textContent = s.phase === 'act' ? 'Live scene (before the action)' : 'Live scene';
 }
@@ -262,6 +285,7 @@ $('reset-form').onsubmit = (ev) => {
 $('timeline').oninput = () => send({ type: 'goto', index: Number($('timeline').value) });
 $('go-live').onclick = () => send({ type: 'live' });
 $('show-depth').onchange = draw;
+$('show-embedding').onchange = () => { images.embedding = null; draw(); requestEmbedding(); };
 $('opacity').oninput = draw;
 $('clear-query').onclick = () => clearQuery();
 $('demo-canvas').onclick = (ev) => {

@@ -272,6 +272,30 @@ test('going back in time shows exactly what was shown live', async () => {
   assert.match(reply, /out of range/);
 });
 
+test('embedding colours show what the pair\'s policy sees, live and demo', async () => {
+  const s = await api('/api/state');
+  if (!s.pairs.length) await stepAndWait('next-phase');
+  await page.getByTestId('show-embedding').check();
+  await page.waitForFunction(() => document.body.dataset.embedding, null, { timeout: 60_000 });
+  const e = await page.evaluate(() => window.seespot.embedding);
+  const d = await api('/api/decision');
+  assert.equal(e.policy, d.pairs[e.pair].policy);
+  assert.equal(e.rotation, d.pairs[e.pair].matched.rotation);
+  const n = e.resolution;
+  for (const key of ['live', 'demo_rgb']) {
+    const px = Buffer.from(e[key], 'base64');
+    assert.equal(px.length, n * n * 3, key);
+    assert.ok(new Set(px).size > 16, `${key}: the colours vary over the scene`);
+  }
+  await page.screenshot({ path: join(shots, 'embedding-colours.png') });
+  // Click-to-query still works on the coloured demo.
+  const box = await page.getByTestId('demo-canvas').boundingBox();
+  await page.mouse.click(box.x + box.width / 2, box.y + box.height / 2);
+  await page.waitForFunction(() => window.seespot.query !== null, null, { timeout: 60_000 });
+  await page.getByTestId('show-embedding').uncheck();
+  await page.waitForFunction(() => !document.body.dataset.embedding);
+});
+
 test('the page saves the current layout as a scene file', async () => {
   const s = await api('/api/state');
   const r = await fetch(new URL(await page.getByTestId('save-layout').getAttribute('href'), urls.page));

@@ -6,6 +6,7 @@
 pub mod correspond;
 pub mod eval;
 pub mod explain;
+pub mod pca;
 pub mod policy;
 pub mod report;
 pub mod review;

@@ -497,6 +497,44 @@ impl SsrPolicy {
     }
 }
 
+impl SsrPolicy {
+    /// What policy `policy` sees (paper Sec. 4.1's ASEs as colours): its live
+    /// embeddings of the last decision at `live_rotation` and its demo
+    /// embeddings of demo `demo`'s step `step` at that step's action rotation,
+    /// projected jointly on their first three principal components
+    /// ([`crate::pca::pca_rgb`]). Two RGB8 `H x W x 3` images: live, demo.
+    pub fn embedding_rgb(
+        &mut self,
+        policy: usize,
+        demo: usize,
+        step: usize,
+        live_rotation: usize,
+    ) -> Result<(Vec<u8>, Vec<u8>), SsrError> {
+        if demo >= self.demos.len() || step >= self.demos[demo].steps.len() {
+            return Err(SsrError::Invalid(format!("no demo {demo} step {step}")));
+        }
+        let live = self
+            .live
+            .get(policy)
+            .ok_or_else(|| SsrError::Invalid(format!("no live embedding of policy {policy} yet")))?
+            .clone();
+        let (n, dim) = (live.resolution, live.dim);
+        if live_rotation >= live.rotations {
+            return Err(SsrError::Invalid(format!("no rotation {live_rotation}")));
+        }
+        let demo_rotation = self.demos[demo].steps[step].meta.action.rotation;
+        let demo_map = self.demo_map(policy, demo, step)?;
+        let plane =
+            |m: &AseMap, r: usize| m.features[r * n * n * dim..(r + 1) * n * n * dim].to_vec();
+        let (a, b) = (plane(&live, live_rotation), plane(demo_map, demo_rotation));
+        let mut rgb = crate::pca::pca_rgb(&[&a, &b], dim).into_iter();
+        match (rgb.next(), rgb.next()) {
+            (Some(l), Some(d)) => Ok((l, d)),
+            _ => Err(SsrError::Invalid("PCA gave no image".into())),
+        }
+    }
+}
+
 /// The demo step a demonstration uses at progress `progress` for `primitive`:
 /// the step with that progress, else the last earlier step of that primitive,
 /// else its first step of that primitive; `None` when it has none.

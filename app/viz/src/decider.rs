@@ -35,6 +35,20 @@ pub trait Decider: Actor + Send {
         y: usize,
         x: usize,
     ) -> anyhow::Result<Option<Vec<f32>>>;
+
+    /// What policy index `policy` sees: its live embeddings of the last
+    /// decision at `live_rotation` and its demo embeddings of demo `demo`'s step
+    /// `demo_step`, as two RGB8 `H x W x 3` images of their joint first three
+    /// principal components; `None` when the decider has no embedding.
+    fn embedding_rgb(
+        &mut self,
+        _policy: usize,
+        _demo: usize,
+        _demo_step: usize,
+        _live_rotation: usize,
+    ) -> anyhow::Result<Option<(Vec<u8>, Vec<u8>)>> {
+        Ok(None)
+    }
 }
 
 /// The scripted oracle: no explanation, but the page and the recording still work.
@@ -88,6 +102,22 @@ impl Decider for SsrPolicy {
         x: usize,
     ) -> anyhow::Result<Option<Vec<f32>>> {
         Ok(Some(SsrPolicy::query(self, policy, demo, demo_step, y, x)?))
+    }
+
+    fn embedding_rgb(
+        &mut self,
+        policy: usize,
+        demo: usize,
+        demo_step: usize,
+        live_rotation: usize,
+    ) -> anyhow::Result<Option<(Vec<u8>, Vec<u8>)>> {
+        Ok(Some(SsrPolicy::embedding_rgb(
+            self,
+            policy,
+            demo,
+            demo_step,
+            live_rotation,
+        )?))
     }
 }
 

@@ -113,6 +113,7 @@ pub fn router(state: Arc<AppState>) -> Router {
         .route("/api/decision", get(api_decision))
         .route("/api/frame", get(api_frame))
         .route("/api/scene", get(api_scene))
+        .route("/api/embedding", get(api_embedding))
         .route("/ws", get(ws))
         .fallback(asset)
         .with_state(state)
@@ -170,6 +171,31 @@ async fn api_frame(
         };
     let st = s.clone();
     blocking(move || st.session().frame(pair)).await
+}
+
+/// What a pair's policy sees, as colours (`Session::embedding`); 409 when
+/// there is nothing to show.
+async fn api_embedding(
+    State(s): State<Arc<AppState>>,
+    Query(q): Query<HashMap<String, String>>,
+) -> Response {
+    let pair = match q.get("pair").map(|p| p.parse::<usize>()) {
+        None => 0,
+        Some(Ok(p)) => p,
+        Some(Err(e)) => {
+            return (StatusCode::BAD_REQUEST, format!("query field `pair`: {e}")).into_response();
+        }
+    };
+    let st = s.clone();
+    match tokio::task::spawn_blocking(move || st.session().embedding(pair)).await {
+        Ok(Ok(v)) => axum::Json(v).into_response(),
+        Ok(Err(e)) => (StatusCode::CONFLICT, format!("{e:#}")).into_response(),
+        Err(e) => (
+            StatusCode::INTERNAL_SERVER_ERROR,
+            format!("internal error: {e}"),
+        )
+            .into_response(),
+    }
 }
 
 /// The current layout as a scene file (`seespot view --scene` starts from it),

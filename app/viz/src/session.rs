@@ -395,6 +395,49 @@ impl Session {
         }))
     }
 
+    /// What the chosen (or `pair`'s) policy sees: the live embeddings of the
+    /// current decision at the pair's match rotation and the demo embeddings at
+    /// its demo step, as RGB of their joint first three principal components
+    /// (base64, `H x W x 3`). Live only: while travelling in time it is refused
+    /// (the live maps of earlier decisions are not kept).
+    pub fn embedding(&mut self, pair: usize) -> anyhow::Result<Value> {
+        if self.viewing.is_some() {
+            bail!("embedding colours show the live decision; go back to live first");
+        }
+        let d = self
+            .decision
+            .as_ref()
+            .context("no decision yet: step to the embed phase first")?;
+        let p = d
+            .pairs
+            .get(pair)
+            .with_context(|| format!("pair index {pair} is out of range 0..{}", d.pairs.len()))?;
+        let (task, demo, step, rotation) = (p.policy, p.demo, p.demo_step, p.matched.rotation);
+        let n = d.resolution;
+        let policy = self
+            .decider
+            .policies()
+            .iter()
+            .position(|t| *t == task)
+            .context("the pair's policy is not loaded")?;
+        let (live, demo_rgb) = self
+            .decider
+            .embedding_rgb(policy, demo, step, rotation)?
+            .context("this decider has no embedding to show")?;
+        Ok(json!({
+            "type": "embedding",
+            "version": self.version,
+            "pair": pair,
+            "policy": task.as_str(),
+            "rotation": rotation,
+            "demo": demo,
+            "demo_step": step,
+            "resolution": n,
+            "live": b64::bytes(&live),
+            "demo_rgb": b64::bytes(&demo_rgb),
+        }))
+    }
+
     /// The small JSON state every tab gets after each change: the trial, the
     /// phase and the L / C table revealed so far; while travelling in time, the
     /// state that was shown at that phase. `history` says how many phases can be

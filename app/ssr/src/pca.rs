@@ -1,0 +1,133 @@
+//! What an embedding sees: per-pixel ASEs (D-dimensional) shown as colours, by
+//! projecting them on their first three principal components. The components
+//! are computed jointly over the live and the demo planes, so the same colour
+//! means the same embedding in both pictures.
+
+/// RGB8 images (`H x W x 3`, row-major) of `planes`, each `H x W x dim`
+/// features: the joint first three principal components, each scaled from its
+/// 1st to its 99th percentile over all planes to 0..=255. Non-finite features
+/// are shown black.
+pub fn pca_rgb(planes: &[&[f32]], dim: usize) -> Vec<Vec<u8>> {
+    let rows = || {
+        planes
+            .iter()
+            .flat_map(|p| p.chunks_exact(dim))
+            .filter(|f| f.iter().all(|v| v.is_finite()))
+    };
+    let n = rows().count().max(1) as f64;
+    let mut mean = vec![0.0f64; dim];
+    for f in rows() {
+        for (m, v) in mean.iter_mut().zip(f) {
+            *m += *v as f64 / n;
+        }
+    }
+    let mut cov = vec![0.0f64; dim * dim];
+    for f in rows() {
+        let c: Vec<f64> = f.iter().zip(&mean).map(|(v, m)| *v as f64 - m).collect();
+        for i in 0..dim {
+            for j in i..dim {
+                cov[i * dim + j] += c[i] * c[j] / n;
+            }
+        }
+    }
+    for i in 0..dim {
+        for j in 0..i {
+            cov[i * dim + j] = cov[j * dim + i];
+        }
+    }
+    let components = top_eigenvectors(&mut cov, dim, 3);
+    let project = |f: &[f32], k: usize| -> f64 {
+        f.iter()
+            .zip(&mean)
+            .zip(&components[k])
+            .map(|((v, m), c)| (*v as f64 - m) * c)
+            .sum()
+    };
+    // Per component, the 1st and 99th percentiles over every finite pixel.
+    let ranges: Vec<(f64, f64)> = (0..3)
+        .map(|k| {
+            let mut v: Vec<f64> = rows().map(|f| project(f, k)).collect();
+            if v.is_empty() {
+                return (0.0, 1.0);
+            }
+            v.sort_by(f64::total_cmp);
+            let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
+            let (lo, hi) = (at(0.01), at(0.99));
+            (lo, if hi > lo { hi } else { lo + 1.0 })
+        })
+        .collect();
+    planes
+        .iter()
+        .map(|p| {
+            let mut out = Vec::with_capacity(p.len() / dim * 3);
+            for f in p.chunks_exact(dim) {
+                let finite = f.iter().all(|v| v.is_finite());
+                for (k, (lo, hi)) in ranges.iter().enumerate() {
+                    out.push(if finite {
+                        ((project(f, k) - lo) / (hi - lo) * 255.0).clamp(0.0, 255.0) as u8
+                    } else {
+                        0
+                    });
+                }
+            }
+            out
+        })
+        .collect()
+}
+
+/// The `k` leading eigenvectors of the symmetric `dim x dim` matrix `m`, by
+/// power iteration with deflation (`m` is deflated in place).
+fn top_eigenvectors(m: &mut [f64], dim: usize, k: usize) -> Vec<Vec<f64>> {
+    let mut out = Vec::with_capacity(k);
+    for c in 0..k {
+        // A deterministic start that is not orthogonal to a typical eigenvector.
+        let mut v: Vec<f64> = (0..dim).map(|i| 1.0 + ((i + c) % 7) as f64 * 0.1).collect();
+        let mut lambda = 0.0;
+        for _ in 0..200 {
+            let w: Vec<f64> = (0..dim)
+                .map(|i| (0..dim).map(|j| m[i * dim + j] * v[j]).sum())
+                .collect();
+            let norm = w.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if norm < 1e-30 {
+                break;
+            }
+            lambda = norm;
+            v = w.into_iter().map(|x| x / norm).collect();
+        }
+        for i in 0..dim {
+            for j in 0..dim {
+                m[i * dim + j] -= lambda * v[i] * v[j];
+            }
+        }
+        out.push(v);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_first_component_follows_the_largest_variation() {
+        // 2 planes of 4 pixels, D = 3: the features vary along axis 1 only.
+        let a = [0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0, 2.0, 1.0, 0.0, 3.0, 1.0];
+        let b = [0.0, 4.0, 1.0, 0.0, 5.0, 1.0, 0.0, 6.0, 1.0, 0.0, 7.0, 1.0];
+        let rgb = pca_rgb(&[&a, &b], 3);
+        assert_eq!(rgb.len(), 2);
+        assert_eq!(rgb[0].len(), 4 * 3);
+        // Red (component 1) is monotone in the varying feature, across planes.
+        let red: Vec<u8> = rgb.iter().flat_map(|p| p.chunks(3).map(|c| c[0])).collect();
+        let up = red.windows(2).all(|w| w[0] <= w[1]);
+        let down = red.windows(2).all(|w| w[0] >= w[1]);
+        assert!(up || down, "{red:?}");
+        assert_ne!(red[0], red[7]);
+    }
+
+    #[test]
+    fn non_finite_features_are_black() {
+        let a = [1.0, f32::NAN, 2.0, 3.0];
+        let rgb = pca_rgb(&[&a], 2);
+        assert_eq!(&rgb[0][..3], &[0, 0, 0]);
+    }
+}
