@@ -58,6 +58,11 @@ pub struct EvalArgs {
     /// --resolution). Records are named `<method>-noisy`.
     #[arg(long)]
     noise: Option<PathBuf>,
+    /// `failed`: also write a rerun recording of every failed trial of this
+    /// run to `<out>/recordings/<method>/<task>-<seed>.rrd` (the trial is run
+    /// again, phase by phase, with the same inputs; SSR and oracle methods).
+    #[arg(long, value_parser = ["failed"])]
+    record: Option<String>,
     /// Print one machine-readable summary object on stdout.
     #[arg(long)]
     json: bool,
@@ -128,13 +133,16 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
     let bar = crate::progress_bar(tasks.len() as u64 * args.trials, false);
     for task in &tasks {
         let (mut ok, mut n) = (0, 0);
-        run_task(&config, *task, &mut |r| {
+        let records = run_task(&config, *task, &mut |r| {
             n += 1;
             ok += r.success as usize;
             bar.set_message(format!("{name} {task}: success {ok}/{n}"));
             bar.inc(1);
         })
         .with_context(|| format!("evaluating {name} on {task}"))?;
+        if args.record.is_some() {
+            record_failed(&config, &name, &records, &bar)?;
+        }
     }
     bar.finish_and_clear();
     let summary = write_report(
@@ -176,6 +184,82 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
     }
     println!("report: {}", args.out.join("summary.md").display());
     Ok(())
+}
+
+/// `eval --record failed`: a rerun recording of each failed trial in
+/// `records` that has none yet, made by running the trial again in the
+/// debugger's session with the evaluation's decider settings.
+#[cfg(feature = "viewer")]
+fn record_failed(
+    config: &EvalConfig,
+    name: &str,
+    records: &[seespot_sim::TrialRecord],
+    bar: &indicatif::ProgressBar,
+) -> anyhow::Result<()> {
+    use seespot_viz::live::{self, DeciderKind, RecordOptions};
+    let kind = match config.method {
+        EvalMethod::Oracle => DeciderKind::Oracle,
+        m if m.is_ssr() && config.finetune_steps == 0 && config.world.noise.is_none() => {
+            DeciderKind::Ssr
+        }
+        _ => anyhow::bail!(
+            "--record failed records SSR (not finetuned, noiseless) and oracle trials, not {name}"
+        ),
+    };
+    let ssr = seespot_ssr::SsrConfig {
+        method: if config.method == EvalMethod::SsrL2cd {
+            seespot_ssr::Method::SsrL2cd
+        } else {
+            seespot_ssr::Method::SsrCcd
+        },
+        correspond: config.correspond,
+        loop_break: config.method == EvalMethod::SsrCcdLoopBreak,
+    };
+    let factory = live::factory_with(
+        kind,
+        config.models_dir.clone(),
+        config.demos_dir.clone(),
+        ssr,
+    );
+    let out = config.out_dir.join("recordings").join(name);
+    let stop = live::ctrl_c_flag();
+    for r in records.iter().filter(|r| !r.success) {
+        if out.join(format!("{}-{}.rrd", r.task, r.seed)).exists() {
+            continue;
+        }
+        let opts = RecordOptions {
+            task: r.task,
+            seeds: Seeds::new(r.seed, 1)?,
+            resolution: config.world.grid.resolution,
+            out: out.clone(),
+        };
+        live::record_trials(&opts, &factory, &stop, |t| {
+            let same = t.actions == r.actions && t.succeeded == r.success;
+            bar.println(format!(
+                "recorded {}{}",
+                t.path.display(),
+                if same {
+                    String::new()
+                } else {
+                    format!(
+                        " (warning: {} actions, the record has {})",
+                        t.actions, r.actions
+                    )
+                }
+            ));
+        })?;
+    }
+    Ok(())
+}
+
+#[cfg(not(feature = "viewer"))]
+fn record_failed(
+    _: &EvalConfig,
+    _: &str,
+    _: &[seespot_sim::TrialRecord],
+    _: &indicatif::ProgressBar,
+) -> anyhow::Result<()> {
+    anyhow::bail!("--record needs seespot built with the `viewer` feature")
 }
 
 /// Summarizes every record under `<out>/trials/` into `summary.md`,
