@@ -272,7 +272,6 @@ fn parse_blocks(items: &[toml::Value], path: &Path) -> Result<[BlockPose; NUM_BL
     }
     let number = |v: &toml::Value| v.as_float().or_else(|| v.as_integer().map(|i| i as f64));
     let mut poses = [BlockPose::on_table(0.0, 0.0, 0, 0.0); NUM_BLOCKS];
-    let half = WORKSPACE_SIZE / 2.0;
     for (i, item) in items.iter().enumerate() {
         let name = |k: &str| format!("blocks[{i}].{k}");
         let t = item
@@ -306,25 +305,6 @@ fn parse_blocks(items: &[toml::Value], path: &Path) -> Result<[BlockPose; NUM_BL
         }
         let (x, y) = (pos[0] as f32, pos[1] as f32);
         let z = pos.get(2).map_or(BLOCK_SIZE / 2.0, |z| *z as f32);
-        let reach = BLOCK_SIZE * std::f32::consts::FRAC_1_SQRT_2;
-        if x.abs() > half - reach || y.abs() > half - reach {
-            return Err(field(
-                name("position"),
-                format!(
-                    "({x}, {y}) puts the block outside the workspace (|x|, |y| <= {:.3} m)",
-                    half - reach
-                ),
-            ));
-        }
-        if !(BLOCK_SIZE / 2.0 - 1e-4..=0.3).contains(&z) {
-            return Err(field(
-                name("position"),
-                format!(
-                    "z = {z} is below the table or above 0.3 m (a block on the table has z = {})",
-                    BLOCK_SIZE / 2.0
-                ),
-            ));
-        }
         let angle = |k: &str, limit: f64| -> Result<f32, SceneError> {
             match t.get(k) {
                 None => Ok(0.0),
@@ -381,17 +361,50 @@ fn parse_blocks(items: &[toml::Value], path: &Path) -> Result<[BlockPose; NUM_BL
             rotation: [q.x, q.y, q.z, q.w],
         };
     }
+    check_layout(&poses).map_err(|(i, message)| field(format!("blocks[{i}].position"), message))?;
+    Ok(poses)
+}
+
+/// Whether `poses` can start a trial: finite, unit quaternions, inside the
+/// workspace, above the table and no block inside another. The error names
+/// the first bad block's index and what is wrong with it.
+pub fn check_layout(poses: &[BlockPose; NUM_BLOCKS]) -> Result<(), (usize, String)> {
+    let reach = WORKSPACE_SIZE / 2.0 - BLOCK_SIZE * std::f32::consts::FRAC_1_SQRT_2;
+    for (i, p) in poses.iter().enumerate() {
+        let [x, y, z] = p.position;
+        if !p.position.iter().chain(&p.rotation).all(|v| v.is_finite()) {
+            return Err((i, "is not finite".into()));
+        }
+        let norm = p.rotation.iter().map(|c| c * c).sum::<f32>().sqrt();
+        if (norm - 1.0).abs() > 1e-3 {
+            return Err((i, format!("rotation has length {norm}, not 1")));
+        }
+        if x.abs() > reach || y.abs() > reach {
+            return Err((
+                i,
+                format!(
+                    "({x}, {y}) puts the block outside the workspace (|x|, |y| <= {reach:.3} m)"
+                ),
+            ));
+        }
+        if !(BLOCK_SIZE / 2.0 - 1e-4..=0.3).contains(&z) {
+            return Err((
+                i,
+                format!(
+                    "z = {z} is below the table or above 0.3 m (a block on the table has z = {})",
+                    BLOCK_SIZE / 2.0
+                ),
+            ));
+        }
+    }
     for i in 0..NUM_BLOCKS {
         for j in 0..i {
             if squares_overlap(&poses[i], &poses[j]) {
-                return Err(field(
-                    format!("blocks[{i}].position"),
-                    format!("block {i} is inside block {j}"),
-                ));
+                return Err((i, format!("block {i} is inside block {j}")));
             }
         }
     }
-    Ok(poses)
+    Ok(())
 }
 
 /// Whether two blocks' volumes overlap, judged on their footprints as squares

@@ -20,7 +20,7 @@ use seespot_sim::TaskId;
 use serde::{Deserialize, Serialize};
 
 /// A request from a tab.
-#[derive(Clone, Debug, PartialEq, Eq, Deserialize, Serialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(tag = "type", rename_all = "snake_case")]
 pub enum ClientMessage {
     Ping,
@@ -47,6 +47,11 @@ pub enum ClientMessage {
     },
     /// Back to the live trial.
     Live,
+    /// "What if": start a new trial (same task and seed) from these four block
+    /// poses, settled by the physics, and make its first decision.
+    SetBlocks {
+        blocks: Vec<seespot_sim::BlockPose>,
+    },
     /// Click-to-query: the distance map of one demo pixel's ASE over the live scene.
     Query {
         pair: usize,
@@ -69,6 +74,7 @@ impl ClientMessage {
             Self::Reset { .. } => "reset",
             Self::Goto { .. } => "goto",
             Self::Live => "live",
+            Self::SetBlocks { .. } => "set_blocks",
             Self::Query { .. } => "query",
         }
     }

@@ -340,6 +340,7 @@ pub async fn handle(s: &Arc<AppState>, text: &str) -> Option<String> {
             .await
         }
         ClientMessage::Goto { index } => step(st, move |ses| ses.goto(index)).await,
+        ClientMessage::SetBlocks { blocks } => step(st, move |ses| ses.set_blocks(&blocks)).await,
         ClientMessage::Live => {
             step(st, |ses| {
                 ses.go_live();

@@ -217,6 +217,30 @@ impl Session {
         let _ = self.reset(task, seed);
     }
 
+    /// A "what if" edit: a new trial of the same task and seed starts from
+    /// `blocks` (four poses, checked like a scene file's `[[blocks]]`), settled
+    /// by the physics, and its first decision is made (the embed phase), so the
+    /// page and the 3-D view show what SSR would do from there. Refused while a
+    /// block is in the gripper.
+    pub fn set_blocks(&mut self, blocks: &[BlockPose]) -> anyhow::Result<()> {
+        if self.trial.world().held_block().is_some() {
+            bail!("a block is in the gripper: edit the layout after the place");
+        }
+        let poses: [BlockPose; NUM_BLOCKS] = blocks.try_into().map_err(|_| {
+            anyhow::anyhow!(
+                "{} block poses given; a layout has {NUM_BLOCKS}",
+                blocks.len()
+            )
+        })?;
+        seespot_sim::scene::check_layout(&poses)
+            .map_err(|(i, m)| anyhow::anyhow!("block {i}: {m}"))?;
+        self.set_layout(poses);
+        if self.trial.end().is_none() {
+            self.next_phase()?;
+        }
+        Ok(())
+    }
+
     /// The current layout as a scene file (`seespot view --scene` starts from
     /// it); refused while a block is in the gripper, out of the workspace.
     pub fn layout_toml(&self) -> anyhow::Result<String> {

@@ -68,3 +68,61 @@ fn a_session_starts_from_a_scene_layout_and_saves_it_back() {
     let again = s.trial().world().block_poses();
     assert!((again[1].position[0] - poses[1].position[0]).abs() < 2e-3);
 }
+
+#[test]
+fn a_what_if_edit_restarts_from_the_moved_blocks_and_decides_again() {
+    let factory = live::factory(DeciderKind::Features, "models".into(), "demos".into());
+    let config = SessionConfig {
+        task: TaskId::Stack,
+        seed: 1,
+        world: WorldConfig {
+            grid: seespot_sim::Grid::new(64),
+            ..WorldConfig::default()
+        },
+    };
+    let Ok(mut s) = Session::new(factory, config, None) else {
+        eprintln!("no shipped demos at 64 px: skipped");
+        return;
+    };
+    s.next_phase().expect("embed");
+    let before = s.decision().expect("decision").action;
+    let mut poses = s.trial().world().block_poses();
+    // Move the block the decision would grasp far away.
+    let target = poses
+        .iter()
+        .enumerate()
+        .min_by(|a, b| {
+            let d = |p: &seespot_sim::BlockPose| {
+                let (x, y) = s.trial().world().grid().pixel_to_world(before.y, before.x);
+                (p.position[0] - x).powi(2) + (p.position[1] - y).powi(2)
+            };
+            d(a.1).total_cmp(&d(b.1))
+        })
+        .map(|(i, _)| i)
+        .expect("a block");
+    poses[target].position[0] = if poses[target].position[0] > 0.0 {
+        -0.17
+    } else {
+        0.17
+    };
+    poses[target].position[1] = 0.17;
+    poses[target].position[2] = 0.025;
+    if seespot_sim::scene::check_layout(&poses).is_err() {
+        poses[target].position[1] = -0.17;
+    }
+    s.set_blocks(&poses).expect("what if");
+    let state = s.state();
+    assert_eq!(state["phase"], "embed");
+    assert_eq!(state["action_index"], 0);
+    let shown = state["blocks"][target]["position"][1]
+        .as_f64()
+        .expect("pose") as f32;
+    assert!((shown - poses[target].position[1]).abs() < 3e-3);
+    assert_ne!(s.decision().expect("new decision").action, before);
+    // Bad edits are refused naming the block.
+    let mut bad = poses;
+    bad[2].position = bad[1].position;
+    let err = s.set_blocks(&bad).expect_err("overlap").to_string();
+    assert!(err.contains("block 2"), "{err}");
+    assert!(s.set_blocks(&poses[..3]).is_err());
+}
