@@ -168,8 +168,7 @@ class ViserView:
                 f"/blocks/{i}", scale=0.08, disable_rotations=False, depth_test=False
             )
             b = s.add_box(f"/blocks/{i}/box", color=rgb, dimensions=(BLOCK_SIZE,) * 3)
-            c.on_drag_start(lambda _e, i=i: self._dragging.add(i))
-            c.on_drag_end(lambda _e, i=i: self.drop(i))
+            c.on_update(lambda e, i=i: self._on_gizmo(i, e.phase))
             self.controls.append(c)
             self.boxes.append(b)
         g = self.server.gui
@@ -181,6 +180,12 @@ class ViserView:
         g.add_button("Next action").on_click(lambda _e: self.step("next_action"))
         g.add_button("Back").on_click(lambda _e: self.back())
         g.add_button("Live").on_click(lambda _e: self.step("live"))
+
+    def _on_gizmo(self, i: int, phase: str) -> None:
+        if phase == "start":
+            self._dragging.add(i)
+        elif phase == "end":
+            self.drop(i)
 
     def step(self, kind: str) -> dict[str, Any]:
         return self.client.request({"type": kind})
@@ -273,7 +278,7 @@ class ViserView:
         if state["phase"] in ("verify", "act"):
             segs.append([f, at(p["rematch"], DEMO_OFFSET)])
         colors = np.array([[[255, 255, 255]] * 2, [[255, 170, 0]] * 2][: len(segs)], np.uint8)
-        s.add_line_segments("/match", np.array(segs, np.float32), colors=colors, line_width=3.0)
+        s.add_line_segments("/match", np.array(segs, np.float32), colors=colors, thickness=3.0, thickness_units="screen")
         a = decision["action"]
         yaw = a["rotation"] * 2 * np.pi / 16
         x, y = pixel_to_world(a["y"], a["x"], n)

@@ -1,0 +1,89 @@
+"""The viser 3-D view against a live `seespot view` server: loopback only, the
+scene holds the four blocks at the trial's poses, and a dragged block changes
+the next decision (the drag-end handler is called as viser would)."""
+
+from __future__ import annotations
+
+import os
+import re
+import socket
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+
+viser = pytest.importorskip("viser")
+
+from seespot.viz.viser import ViserView, pixel_to_world  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[2]
+BIN = os.environ.get(
+    "SEESPOT_BIN",
+    str(Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target")) / "release" / "seespot"),
+)
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def page_url():
+    proc = subprocess.Popen(
+        [BIN, "view", "--port", "0", "--no-viewer", "--task", "stack", "--seed", "1"],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    url = None
+    deadline = time.monotonic() + 120
+    assert proc.stdout is not None
+    while time.monotonic() < deadline:
+        line = proc.stdout.readline()
+        m = re.search(r"seespot page:\s+(\S+)", line)
+        if m:
+            url = m.group(1)
+            break
+    assert url, "seespot view printed no page URL"
+    yield url
+    proc.send_signal(2)
+    proc.wait(timeout=60)
+
+
+def test_viser_view_shows_the_trial_and_a_drag_changes_the_decision(page_url, tmp_path):
+    view = ViserView(page_url, port=free_port())
+    try:
+        assert view.server.get_host() == "127.0.0.1"
+        with pytest.raises(ValueError):
+            ViserView(page_url, host="0.0.0.0", port=free_port())
+        state = view.client.state()
+        assert len(view.boxes) == 4
+        for i, c in enumerate(view.controls):
+            want = state["blocks"][i]["position"]
+            assert all(abs(float(a) - b) < 1e-6 for a, b in zip(c.position, want)), i
+        view.step("next_phase")
+        before = view.client.get("/api/decision")["action"]
+        x, y = pixel_to_world(before["y"], before["x"], state["resolution"])
+        # The block under the decided grasp goes to a far corner.
+        i = min(
+            range(4),
+            key=lambda k: (view.controls[k].position[0] - x) ** 2
+            + (view.controls[k].position[1] - y) ** 2,
+        )
+        view.controls[i].position = (0.17 if x < 0 else -0.17, 0.17, 0.025)
+        after_state = view.drop(i)
+        assert after_state is not None, view.gui_status.content
+        assert after_state["phase"] == "embed" and after_state["action_index"] == 0
+        after = view.client.get("/api/decision")["action"]
+        assert after != before
+        moved = view.client.state()["blocks"][i]["position"]
+        assert abs(moved[1] - 0.17) < 3e-3
+        # Back in time and live again, through the GUI's handlers.
+        assert view.back()["history"]["viewing"] is not None
+        assert view.step("live")["history"]["viewing"] is None
+    finally:
+        view.close()
