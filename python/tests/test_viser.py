@@ -87,3 +87,30 @@ def test_viser_view_shows_the_trial_and_a_drag_changes_the_decision(page_url, tm
         assert view.step("live")["history"]["viewing"] is None
     finally:
         view.close()
+
+
+def test_viser_page_renders_in_chromium(page_url, tmp_path):
+    """A screenshot of the viser page (WebGL, headless Chromium) with the four
+    blocks drawn; into $SEESPOT_SCREENSHOTS (scripts/screenshots) or a temp dir."""
+    import shutil
+
+    node = shutil.which("node")
+    shoot = ROOT / "web" / "shoot.mjs"
+    if node is None or not (ROOT / "web" / "node_modules" / "playwright-core").exists():
+        pytest.skip("node and web/node_modules (npm --prefix web ci) are needed")
+    out_dir = Path(os.environ.get("SEESPOT_SCREENSHOTS", tmp_path))
+    out_dir.mkdir(parents=True, exist_ok=True)
+    out = out_dir / "viser-3d.png"
+    view = ViserView(page_url, port=free_port())
+    try:
+        view.step("next_phase")
+        url = f"http://127.0.0.1:{view.server.get_port()}/"
+        subprocess.run([node, str(shoot), url, str(out), "6000"], cwd=ROOT, check=True, timeout=180)
+    finally:
+        view.close()
+    from PIL import Image  # viser depends on imageio, which brings Pillow
+
+    img = Image.open(out).convert("RGB")
+    colours = img.getcolors(maxcolors=1 << 20) or []
+    red = sum(n for n, (r, g, b) in colours if r > 180 and g < 120 and b < 120)
+    assert red > 200, f"no red block in {out} ({red} red pixels)"

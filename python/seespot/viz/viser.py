@@ -145,6 +145,9 @@ class ViserView:
         self.client = DebuggerClient(page_url)
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
         self.server.gui.configure_theme(show_share_button=False)
+        # Look at the table and the demo beside it from the front, above.
+        self.server.initial_camera.position = (0.25, -0.55, 0.55)
+        self.server.initial_camera.look_at = (0.25, 0.0, 0.0)
         self.controls: list[Any] = []
         self.boxes: list[Any] = []
         self._dragging: set[int] = set()
