@@ -96,6 +96,8 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
             "--smooth-sigma applies to --correspond plain only (the reference smooths at 6 mm)"
         );
     }
+    // One run per output folder: held until the report is written.
+    let _lock = seespot_sim::lock::OutputLock::acquire(&args.out)?;
     let name = args
         .method
         .record_name(args.finetune_steps, args.correspond);

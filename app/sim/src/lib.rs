@@ -29,6 +29,7 @@ pub mod action;
 pub mod actor;
 pub mod demo;
 pub mod heightmap;
+pub mod lock;
 pub mod metrics;
 pub mod noise;
 pub mod oracle;
