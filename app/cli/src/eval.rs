@@ -21,7 +21,7 @@ pub struct EvalArgs {
     #[arg(long, default_value = "all")]
     task: String,
     /// Trials per task.
-    #[arg(long, default_value_t = 50, value_parser = clap::value_parser!(u64).range(1..=100_000))]
+    #[arg(long, default_value_t = 50, value_parser = seespot_sim::bounds::parse_trials)]
     trials: u64,
     /// First seed; trial i uses seed + 2 i. 1 (the default) gives the test
     /// seeds 1, 3, ...; 10001 the validation seeds, for choosing settings.
@@ -45,24 +45,15 @@ pub struct EvalArgs {
     correspond: Correspondence,
     /// With `--correspond plain` only: Gaussian smoothing of the distance maps
     /// before the argmin, sigma in pixels; off by default.
-    #[arg(long, value_parser = parse_sigma)]
+    #[arg(long, value_parser = seespot_sim::bounds::parse_sigma)]
     smooth_sigma: Option<f32>,
     /// Finetune on the two demonstrations first: steps per policy (333 = the
     /// paper's 1k in all). With `--method spot-q` this gives "Good Robot finetuned".
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = seespot_sim::bounds::parse_finetune_steps)]
     finetune_steps: usize,
     /// Print one machine-readable summary object on stdout.
     #[arg(long)]
     json: bool,
-}
-
-fn parse_sigma(s: &str) -> Result<f32, String> {
-    let v: f32 = s.parse().map_err(|e| format!("not a number: {e}"))?;
-    if v.is_finite() && (0.0..=20.0).contains(&v) {
-        Ok(v)
-    } else {
-        Err(format!("{s} is out of range (0..=20 pixels)"))
-    }
 }
 
 fn parse_method(s: &str) -> Result<EvalMethod, String> {

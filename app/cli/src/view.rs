@@ -112,7 +112,7 @@ pub struct RecordArgs {
     #[arg(long, default_value = "stack")]
     pub task: TaskId,
     /// Number of trials.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..=100_000))]
+    #[arg(long, default_value_t = 1, value_parser = seespot_sim::bounds::parse_trials)]
     pub trials: u64,
     /// Seed of the first trial; the next ones are seed + 2, seed + 4, … (odd:
     /// test seeds; see `seespot_sim::seeds`).
@@ -181,7 +181,7 @@ pub struct BenchViewArgs {
     #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 224)]
     pub resolution: usize,
     /// Stop after this many actions.
-    #[arg(long, default_value_t = 30)]
+    #[arg(long, default_value_t = 30, value_parser = seespot_sim::bounds::parse_bench_actions)]
     pub actions: usize,
     /// Print the full report as JSON.
     #[arg(long)]

@@ -27,6 +27,7 @@
 
 pub mod action;
 pub mod actor;
+pub mod bounds;
 pub mod demo;
 pub mod heightmap;
 pub mod lock;

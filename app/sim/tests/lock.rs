@@ -18,7 +18,10 @@ fn issue_10_second_run_into_the_same_folder_is_refused() {
     let dir = tempfile::tempdir().expect("tempdir");
     let first = OutputLock::acquire(dir.path()).expect("first lock");
     let text = std::fs::read_to_string(dir.path().join(LOCK_FILE)).expect("lock file");
-    assert!(text.contains(&format!("pid={}", std::process::id())), "{text}");
+    assert!(
+        text.contains(&format!("pid={}", std::process::id())),
+        "{text}"
+    );
     match OutputLock::acquire(dir.path()) {
         Err(e @ LockError::Held { .. }) => {
             let msg = e.to_string();
@@ -49,7 +52,10 @@ fn issue_10_stale_lock_of_a_killed_run_is_taken_over() {
     .expect("write stale lock");
     let lock = OutputLock::acquire(dir.path()).expect("stale lock taken over");
     let text = std::fs::read_to_string(lock.path()).expect("lock file");
-    assert!(text.contains(&format!("pid={}", std::process::id())), "{text}");
+    assert!(
+        text.contains(&format!("pid={}", std::process::id())),
+        "{text}"
+    );
     drop(lock);
     assert!(!dir.path().join(LOCK_FILE).exists());
 }
