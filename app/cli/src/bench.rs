@@ -12,7 +12,7 @@ pub enum BenchCommand {
     /// The block world: drop + settle + render steps per second, and render alone.
     Sim {
         /// Number of drop-settle-render steps to time.
-        #[arg(long, default_value_t = 500)]
+        #[arg(long, default_value_t = 500, value_parser = seespot_sim::bounds::parse_bench_actions)]
         actions: usize,
         #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 224)]
         resolution: usize,
@@ -22,7 +22,7 @@ pub enum BenchCommand {
     /// The Q-networks: forward of 16 rotations (both primitives) at 224 and 112 px,
     /// one training step.
     Policy {
-        #[arg(long, default_value_t = 5)]
+        #[arg(long, default_value_t = 5, value_parser = seespot_sim::bounds::parse_bench_iterations)]
         iterations: usize,
         #[arg(long)]
         json: bool,
@@ -37,7 +37,7 @@ pub enum BenchCommand {
     Ssr {
         #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 224)]
         resolution: usize,
-        #[arg(long, default_value_t = 9)]
+        #[arg(long, default_value_t = 9, value_parser = seespot_sim::bounds::parse_bench_iterations)]
         iterations: usize,
         #[arg(long)]
         json: bool,

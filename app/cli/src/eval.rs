@@ -23,7 +23,7 @@ pub struct EvalArgs {
     #[arg(long, default_value = "all")]
     task: String,
     /// Trials per task.
-    #[arg(long, default_value_t = 50, value_parser = clap::value_parser!(u64).range(1..=100_000))]
+    #[arg(long, default_value_t = 50, value_parser = seespot_sim::bounds::parse_trials)]
     trials: u64,
     /// First seed; trial i uses seed + 2 i. 1 (the default) gives the test
     /// seeds 1, 3, ...; 10001 the validation seeds, for choosing settings.
@@ -47,11 +47,11 @@ pub struct EvalArgs {
     correspond: Correspondence,
     /// With `--correspond plain` only: Gaussian smoothing of the distance maps
     /// before the argmin, sigma in pixels; off by default.
-    #[arg(long, value_parser = parse_sigma)]
+    #[arg(long, value_parser = seespot_sim::bounds::parse_sigma)]
     smooth_sigma: Option<f32>,
     /// Finetune on the two demonstrations first: steps per policy (333 = the
     /// paper's 1k in all). With `--method spot-q` this gives "Good Robot finetuned".
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = seespot_sim::bounds::parse_finetune_steps)]
     finetune_steps: usize,
     /// Sensor noise for a domain-shift run: a scene file whose `[noise]` table
     /// is applied to every observation (its resolution must equal
@@ -66,15 +66,6 @@ pub struct EvalArgs {
     /// Print one machine-readable summary object on stdout.
     #[arg(long)]
     json: bool,
-}
-
-fn parse_sigma(s: &str) -> Result<f32, String> {
-    let v: f32 = s.parse().map_err(|e| format!("not a number: {e}"))?;
-    if v.is_finite() && (0.0..=20.0).contains(&v) {
-        Ok(v)
-    } else {
-        Err(format!("{s} is out of range (0..=20 pixels)"))
-    }
 }
 
 fn parse_method(s: &str) -> Result<EvalMethod, String> {
@@ -129,6 +120,8 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
             "--smooth-sigma applies to --correspond plain only (the reference smooths at 6 mm)"
         );
     }
+    // One run per output folder: held until the report is written.
+    let _lock = seespot_sim::lock::OutputLock::acquire(&args.out)?;
     let name = EvalMethod::record_name_of(&config);
     let bar = crate::progress_bar(tasks.len() as u64 * args.trials, false);
     for task in &tasks {

@@ -23,7 +23,7 @@ pub struct RunArgs {
     #[arg(long, default_value = "oracle")]
     policy: String,
     /// Number of trials (default 20, or the scene's seed count).
-    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=100_000))]
+    #[arg(long, value_parser = seespot_sim::bounds::parse_trials)]
     trials: Option<u64>,
     /// First seed; trial i uses seed + 2 i (default 1: the test seeds, or the
     /// scene's first seed; 10001 starts the validation seeds).

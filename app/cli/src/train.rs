@@ -15,7 +15,7 @@ pub struct TrainArgs {
     #[arg(long)]
     pub task: TaskId,
     /// Actions to execute in total (a resumed run continues up to this count).
-    #[arg(long, default_value_t = 2500)]
+    #[arg(long, default_value_t = 2500, value_parser = seespot_sim::bounds::parse_train_actions)]
     pub actions: usize,
     /// Run seed (training trials use even seeds derived from it).
     #[arg(long, default_value_t = 0)]
@@ -32,10 +32,10 @@ pub struct TrainArgs {
     #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 112)]
     pub resolution: usize,
     /// Checkpoint at the first trial end after every this many actions.
-    #[arg(long, default_value_t = 200)]
+    #[arg(long, default_value_t = 200, value_parser = seespot_sim::bounds::parse_train_actions)]
     pub checkpoint_every: usize,
     /// Own-task test trials (odd seeds) for the model card; 0 skips the evaluation.
-    #[arg(long, default_value_t = 50)]
+    #[arg(long, default_value_t = 50, value_parser = seespot_sim::bounds::parse_eval_trials)]
     pub eval_trials: usize,
     /// Pretrain by reinforcement learning alone, as the paper's SPOT-Q does: no
     /// oracle actions, exploration epsilon-greedy under the common-sense masks.

@@ -47,9 +47,15 @@ pub struct ViewArgs {
     /// Heightmap resolution, pixels per side (224 = the paper's 2 mm/px).
     #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 112)]
     pub resolution: usize,
-    /// Address to serve on; only loopback unless you ask (e.g. `--bind 0.0.0.0`).
+    /// Address to serve the page on. A non-loopback address (e.g. `0.0.0.0`)
+    /// needs `--allow-remote`.
     #[arg(long, default_value = "127.0.0.1")]
     pub bind: IpAddr,
+    /// Allow a non-loopback `--bind`: every request then needs this run's
+    /// random token (in the printed URL, then a cookie); the rerun viewer and
+    /// its gRPC stream stay on 127.0.0.1 (they cannot check a token).
+    #[arg(long)]
+    pub allow_remote: bool,
     /// Port of the page (0: any free port).
     #[arg(long, default_value_t = 8765)]
     pub port: u16,
@@ -173,12 +179,19 @@ pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
         layout,
         resolution,
         bind: args.bind,
+        allow_remote: args.allow_remote,
         port: args.port,
         viewer_port: args.viewer_port,
         grpc_port: args.grpc_port,
         save: args.save.clone(),
         no_viewer: args.no_viewer,
     };
+    if !args.bind.is_loopback() && args.allow_remote {
+        eprintln!(
+            "warning: serving the debugger on {}, reachable from other machines. Every request needs this run's token (in the URL below: share it only with whom you trust). The rerun viewer and its gRPC stream stay on 127.0.0.1: use --no-viewer, or an SSH tunnel to their ports.",
+            args.bind
+        );
+    }
     let rt = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()?;
@@ -210,7 +223,7 @@ pub struct RecordArgs {
     #[arg(long, default_value = "stack")]
     pub task: TaskId,
     /// Number of trials.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..=100_000))]
+    #[arg(long, default_value_t = 1, value_parser = seespot_sim::bounds::parse_trials)]
     pub trials: u64,
     /// Seed of the first trial; the next ones are seed + 2, seed + 4, … (odd:
     /// test seeds; see `seespot_sim::seeds`).
@@ -279,7 +292,7 @@ pub struct BenchViewArgs {
     #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 224)]
     pub resolution: usize,
     /// Stop after this many actions.
-    #[arg(long, default_value_t = 30)]
+    #[arg(long, default_value_t = 30, value_parser = seespot_sim::bounds::parse_bench_actions)]
     pub actions: usize,
     /// Print the full report as JSON.
     #[arg(long)]

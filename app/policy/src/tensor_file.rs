@@ -137,29 +137,26 @@ pub fn read(path: &Path) -> Result<TensorFile, PolicyError> {
         if dtype != "F32" {
             return Err(tensor_err(name, format!("dtype {dtype}, expected F32")));
         }
-        let shape: Vec<usize> = info
-            .get("shape")
-            .and_then(|s| s.as_array())
-            .map(|a| {
-                a.iter()
-                    .filter_map(|v| v.as_u64().map(|u| u as usize))
-                    .collect()
-            })
-            .ok_or_else(|| tensor_err(name, "no shape in the header".into()))?;
-        let offs: Vec<usize> = info
-            .get("data_offsets")
-            .and_then(|s| s.as_array())
-            .map(|a| {
-                a.iter()
-                    .filter_map(|v| v.as_u64().map(|u| u as usize))
-                    .collect()
-            })
-            .unwrap_or_default();
+        // Every entry a whole number (a `-1` or `"x"` is not skipped over).
+        let whole_numbers = |key: &str| -> Option<Vec<usize>> {
+            info.get(key)?
+                .as_array()?
+                .iter()
+                .map(|v| v.as_u64().and_then(|u| usize::try_from(u).ok()))
+                .collect()
+        };
+        let shape = whole_numbers("shape")
+            .ok_or_else(|| tensor_err(name, "no shape of whole numbers in the header".into()))?;
+        let offs = whole_numbers("data_offsets").unwrap_or_default();
         let [a, b] = offs[..] else {
             return Err(tensor_err(name, "no data offsets in the header".into()));
         };
-        let numel: usize = shape.iter().product();
-        if b < a || b - a != numel * 4 {
+        // Checked: a shape like [2^62] would wrap to 0 bytes and pass.
+        let size = shape
+            .iter()
+            .try_fold(4usize, |n, &d| n.checked_mul(d))
+            .ok_or_else(|| tensor_err(name, format!("shape {shape:?} is too large")))?;
+        if b < a || b - a != size {
             return Err(tensor_err(
                 name,
                 format!("data offsets {a}..{b} do not fit shape {shape:?}"),

@@ -27,8 +27,10 @@
 
 pub mod action;
 pub mod actor;
+pub mod bounds;
 pub mod demo;
 pub mod heightmap;
+pub mod lock;
 pub mod metrics;
 pub mod noise;
 pub mod oracle;

@@ -47,9 +47,9 @@ pub fn check_resolution(resolution: usize) -> Result<usize, String> {
 
 /// [`check_resolution`] of a command-line value.
 pub fn parse_resolution(text: &str) -> Result<usize, String> {
-    let r: usize = text
-        .parse()
-        .map_err(|_| format!("`{text}` is not a whole number of pixels"))?;
+    let r: usize = text.parse().map_err(|_| {
+        format!("`{text}` is not a whole number of pixels (a multiple of 8 in 32..=448)")
+    })?;
     check_resolution(r)
 }
 
@@ -148,12 +148,10 @@ impl Scene {
         if seed_start < 0 {
             return Err(field("seeds.start", format!("{seed_start} is negative")));
         }
-        if !(1..=100_000).contains(&seed_count) {
-            return Err(field(
-                "seeds.count",
-                format!("{seed_count} is out of range (1..=100000)"),
-            ));
-        }
+        let seed_count = u64::try_from(seed_count)
+            .map_err(|_| format!("{seed_count} is negative"))
+            .and_then(|c| crate::bounds::TRIALS.check(c))
+            .map_err(|e| field("seeds.count", e))?;
         let mut noise = SensorNoise::default();
         match table.get("noise") {
             None => {}
@@ -189,8 +187,8 @@ impl Scene {
             }
             Some(_) => return Err(field("noise", "must be a table".into())),
         }
-        let seeds = Seeds::new(seed_start as u64, seed_count as u64)
-            .map_err(|e| field("seeds", e.to_string()))?;
+        let seeds =
+            Seeds::new(seed_start as u64, seed_count).map_err(|e| field("seeds", e.to_string()))?;
         let blocks = match table.get("blocks") {
             None => None,
             Some(toml::Value::Array(items)) => Some(parse_blocks(items, path)?),

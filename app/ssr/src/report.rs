@@ -119,7 +119,7 @@ pub fn display_method(id: &str) -> String {
         "ssrccdfinetuned" => "SSR CCD finetuned".into(),
         "ssrl2cdfinetuned" => "SSR L2CD finetuned".into(),
         "ssrccdplain" => "SSR CCD, plain correspondence".into(),
-        "ssrccdloopbreak" => "SSR CCD + loop breaking (seespot's extension)".into(),
+        "ssrccdloopbreak" => "Extension: SSR CCD + loop breaking".into(),
         "ssrccdnoisy" => "SSR CCD, sensor noise".into(),
         "ssrl2cdplain" => "SSR L2CD, plain correspondence".into(),
         "spotq" => "SPOT-Q".into(),

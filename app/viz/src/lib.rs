@@ -6,6 +6,7 @@
 //! - [`session`]: a trial stepped phase by phase (embed, match, verify, act);
 //! - [`protocol`]: the WebSocket message types shared by the server and the page;
 //! - [`server`]: the local web server behind `web/` (assets, JSON API, WebSocket);
+//! - [`token`]: the per-run access token of a page server bound off loopback;
 //! - [`live`]: `view`, `record` and the latency / size benchmarks the CLI calls.
 
 pub mod b64;
@@ -18,6 +19,7 @@ pub mod recording;
 pub mod server;
 pub mod session;
 pub mod ssr;
+pub mod token;
 
 pub use decider::{Decider, FeatureDecider};
 pub use live::{

@@ -2,7 +2,7 @@
 //! the rerun web viewer), `record` (one `.rrd` per trial) and the latency and
 //! size benchmarks.
 
-use std::net::{IpAddr, SocketAddr, TcpListener as StdListener};
+use std::net::{IpAddr, Ipv4Addr, SocketAddr, TcpListener as StdListener};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -17,6 +17,7 @@ use crate::decider::{Decider, FeatureDecider, load_demos};
 use crate::recording::Recorder;
 use crate::server::{self, AppState};
 use crate::session::{DeciderFactory, Phase, Session, SessionConfig};
+use crate::token::AccessToken;
 
 /// Which decider drives the trial.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -99,7 +100,13 @@ pub struct ViewOptions {
     pub task: TaskId,
     pub seed: u64,
     pub resolution: usize,
+    /// Address of the page. Off loopback it needs `allow_remote`, and every
+    /// request then needs the run's token (in [`ViewUrls::page`]); the rerun
+    /// viewer and its gRPC stream, which cannot check a token, stay on
+    /// 127.0.0.1.
     pub bind: IpAddr,
+    /// Serve on a non-loopback `bind` (protected by a per-run token).
+    pub allow_remote: bool,
     /// Page port (0: any free port).
     pub port: u16,
     /// rerun web viewer port (0: any free port).
@@ -118,6 +125,7 @@ pub struct ViewOptions {
 /// The URLs a running `view` serves.
 #[derive(Clone, Debug, Serialize)]
 pub struct ViewUrls {
+    /// The page, with `?token=…` when the server is bound off loopback.
     pub page: String,
     pub viewer: Option<String>,
     pub grpc: Option<String>,
@@ -140,6 +148,19 @@ pub async fn serve_view(
     shutdown: impl std::future::Future<Output = ()> + Send + 'static,
 ) -> anyhow::Result<()> {
     let bind = opts.bind;
+    let remote = !bind.is_loopback();
+    if remote && !opts.allow_remote {
+        anyhow::bail!(
+            "--bind {bind} is not a loopback address: anyone who can reach it could drive the debugger; pass --allow-remote to serve it protected by a per-run token"
+        );
+    }
+    let token = remote.then(AccessToken::random);
+    // The rerun servers cannot check the token: they stay on loopback.
+    let rerun_bind = if remote {
+        IpAddr::V4(Ipv4Addr::LOCALHOST)
+    } else {
+        bind
+    };
     let world = WorldConfig {
         grid: Grid::new(opts.resolution),
         ..WorldConfig::default()
@@ -155,13 +176,13 @@ pub async fn serve_view(
         )
     } else {
         let grpc_port = if opts.grpc_port == 0 {
-            free_port(bind)?
+            free_port(rerun_bind)?
         } else {
             opts.grpc_port
         };
         let rec = Recorder::serve(
             opts.task,
-            &bind.to_string(),
+            &rerun_bind.to_string(),
             grpc_port,
             opts.save.as_deref(),
         )?;
@@ -169,7 +190,7 @@ pub async fn serve_view(
             Some(rec),
             Some(format!(
                 "rerun+http://{}/proxy",
-                SocketAddr::new(bind, grpc_port)
+                SocketAddr::new(rerun_bind, grpc_port)
             )),
         )
     };
@@ -177,7 +198,7 @@ pub async fn serve_view(
         None => None,
         Some(g) => {
             let cfg = rerun::web_viewer::WebViewerConfig {
-                bind_ip: bind.to_string(),
+                bind_ip: rerun_bind.to_string(),
                 web_port: opts.viewer_port.into(),
                 connect_to: vec![g.clone()],
                 open_browser: false,
@@ -217,12 +238,12 @@ pub async fn serve_view(
         .await
         .with_context(|| format!("cannot bind the page server to {bind}:{}", opts.port))?;
     let urls = ViewUrls {
-        page: server::url(listener.local_addr()?),
+        page: server::url(listener.local_addr()?, token.as_ref()),
         viewer: viewer_url,
         grpc: grpc_url,
     };
     ready(&urls);
-    server::serve_page(listener, state.clone(), shutdown).await?;
+    server::serve_page(listener, state.clone(), token, shutdown).await?;
     // Finish the recording: stop any run, then drop the stream (writes the footer).
     server::stop(&state);
     let st = state.clone();

@@ -7,6 +7,10 @@
 //!
 //! A tab that disconnects changes nothing: stepping runs on blocking tasks that
 //! finish whether or not anyone still listens.
+//!
+//! Access: every request must name this server in `Host` (and `Origin`, when
+//! present; see [`AllowedHosts`]). A server on a non-loopback address also
+//! needs the run's [`AccessToken`] on every request (`?token=` or its cookie).
 
 use std::collections::HashMap;
 use std::net::SocketAddr;
@@ -25,6 +29,7 @@ use tokio::sync::{broadcast, mpsc};
 
 use crate::protocol::{ClientMessage, ServerMessage};
 use crate::session::Session;
+use crate::token::AccessToken;
 
 /// The page's files, embedded at compile time: `(url path, content type, body)`.
 pub const ASSETS: &[(&str, &str, &str)] = &[
@@ -433,6 +438,10 @@ pub fn running(s: &AppState) -> bool {
 #[derive(Clone, Debug)]
 pub struct AllowedHosts {
     hosts: Vec<String>,
+    /// Any host name on this port (a token-protected server bound to every
+    /// interface, reached under names it cannot know); `Origin` must then be
+    /// the request's own `Host`.
+    any_host_on: Option<u16>,
 }
 
 impl AllowedHosts {
@@ -446,7 +455,23 @@ impl AllowedHosts {
         if !addr.ip().is_unspecified() && !addr.ip().is_loopback() {
             hosts.push(addr.to_string());
         }
-        Self { hosts }
+        Self {
+            hosts,
+            any_host_on: None,
+        }
+    }
+
+    /// For a server bound to `addr` that checks a token: as [`Self::for_addr`],
+    /// and, when `addr` is unspecified (`0.0.0.0`, `::`), any host name on its
+    /// port, with `Origin` (when present) equal to `http://` + that `Host`. The
+    /// token, not the name, then keeps other sites out: their pages get no
+    /// `SameSite=Strict` cookie and do not know the token.
+    pub fn for_token_server(addr: SocketAddr) -> Self {
+        let mut a = Self::for_addr(addr);
+        if addr.ip().is_unspecified() {
+            a.any_host_on = Some(addr.port());
+        }
+        a
     }
 
     /// Whether a request with these `Host` and `Origin` headers may be served:
@@ -454,6 +479,16 @@ impl AllowedHosts {
     /// be `http://` + one of them (a page of another site, `null` included,
     /// cannot drive the debugger; a rebound DNS name fails the `Host` check).
     pub fn allows(&self, host: Option<&str>, origin: Option<&str>) -> bool {
+        if let (Some(port), Some(host)) = (self.any_host_on, host) {
+            let on_port = host
+                .rsplit_once(':')
+                .is_some_and(|(name, p)| !name.is_empty() && p == port.to_string());
+            let same_origin = origin.is_none_or(|o| {
+                o.strip_prefix("http://")
+                    .is_some_and(|h| h.eq_ignore_ascii_case(host))
+            });
+            return on_port && same_origin;
+        }
         let ok_host = |h: &str| self.hosts.iter().any(|a| a.eq_ignore_ascii_case(h));
         let host_ok = host.is_some_and(ok_host);
         let origin_ok = origin.is_none_or(|o| o.strip_prefix("http://").is_some_and(ok_host));
@@ -461,9 +496,21 @@ impl AllowedHosts {
     }
 }
 
-/// Refuses (403) a request whose `Host` or `Origin` is not one of `allowed`.
+/// Who may use the page server: the names it answers to and, off loopback,
+/// the run's token.
+#[derive(Debug)]
+struct Access {
+    allowed: AllowedHosts,
+    token: Option<AccessToken>,
+    port: u16,
+}
+
+/// Refuses (403) a request whose `Host` or `Origin` is not one of `allowed`,
+/// or, on a token-protected server, that carries no valid token. A request
+/// whose token came in the query string gets the token's cookie, so the
+/// page's own requests carry it from then on.
 async fn guard(
-    State(allowed): State<Arc<AllowedHosts>>,
+    State(access): State<Arc<Access>>,
     request: axum::extract::Request,
     next: axum::middleware::Next,
 ) -> Response {
@@ -475,36 +522,88 @@ async fn guard(
             .map(str::to_owned)
     };
     let (host, origin) = (value(header::HOST), value(header::ORIGIN));
-    if allowed.allows(host.as_deref(), origin.as_deref()) {
-        next.run(request).await
-    } else {
-        (
+    if !access.allowed.allows(host.as_deref(), origin.as_deref()) {
+        return (
             StatusCode::FORBIDDEN,
             format!(
                 "seespot serves only its own page: Host {host:?} / Origin {origin:?} is not this server (127.0.0.1 or localhost on its port)"
             ),
         )
-            .into_response()
+            .into_response();
     }
+    let Some(token) = &access.token else {
+        return next.run(request).await;
+    };
+    let cookies = headers
+        .get_all(header::COOKIE)
+        .iter()
+        .filter_map(|v| v.to_str().ok());
+    let (in_query, in_cookie) = token.found_in(access.port, request.uri().query(), cookies);
+    if !in_query && !in_cookie {
+        return (
+            StatusCode::FORBIDDEN,
+            "this seespot page needs its token: open the URL `seespot view` printed (…/?token=…)",
+        )
+            .into_response();
+    }
+    let mut response = next.run(request).await;
+    if in_query
+        && !in_cookie
+        && let Ok(v) = header::HeaderValue::from_str(&token.set_cookie(access.port))
+    {
+        response.headers_mut().append(header::SET_COOKIE, v);
+    }
+    response
 }
 
-/// Binds the page server on `addr` and serves until `shutdown` resolves. Every
-/// request must name this server in `Host` (and `Origin`, when present; see
-/// [`AllowedHosts`]).
+/// Serves the page on `listener` until `shutdown` resolves. Every request must
+/// name this server in `Host` (and `Origin`, when present; see
+/// [`AllowedHosts`]). A listener on a non-loopback address is refused unless
+/// a `token` protects it; with one, every request must carry it.
 pub async fn serve_page(
     listener: tokio::net::TcpListener,
     state: Arc<AppState>,
+    token: Option<AccessToken>,
     shutdown: impl std::future::Future<Output = ()> + Send + 'static,
 ) -> anyhow::Result<()> {
-    let allowed = Arc::new(AllowedHosts::for_addr(listener.local_addr()?));
-    let app = router(state).layer(axum::middleware::from_fn_with_state(allowed, guard));
+    let addr = listener.local_addr()?;
+    if !addr.ip().is_loopback() && token.is_none() {
+        anyhow::bail!(
+            "the page server on {addr} would be reachable from other machines; it needs an access token (seespot view --allow-remote)"
+        );
+    }
+    let allowed = if token.is_some() {
+        AllowedHosts::for_token_server(addr)
+    } else {
+        AllowedHosts::for_addr(addr)
+    };
+    let access = Arc::new(Access {
+        allowed,
+        token,
+        port: addr.port(),
+    });
+    let app = router(state).layer(axum::middleware::from_fn_with_state(access, guard));
     axum::serve(listener, app)
         .with_graceful_shutdown(shutdown)
         .await?;
     Ok(())
 }
 
-/// The address the page server is bound to, as a URL.
-pub fn url(addr: SocketAddr) -> String {
-    format!("http://{addr}/")
+/// The address the page server is bound to, as a URL; with the run's token
+/// when it has one. An unspecified address (`0.0.0.0`) is shown as this
+/// machine's host name, which other machines can use.
+pub fn url(addr: SocketAddr, token: Option<&AccessToken>) -> String {
+    let host = if addr.ip().is_unspecified() {
+        std::fs::read_to_string("/proc/sys/kernel/hostname")
+            .ok()
+            .map(|h| h.trim().to_owned())
+            .filter(|h| !h.is_empty())
+            .map_or(addr.to_string(), |h| format!("{h}:{}", addr.port()))
+    } else {
+        addr.to_string()
+    };
+    match token {
+        Some(t) => format!("http://{host}/?token={}", t.as_str()),
+        None => format!("http://{host}/"),
+    }
 }

@@ -9,12 +9,24 @@ use seespot_sim::{Grid, TaskId, WorldConfig};
 use seespot_viz::live::{self, DeciderKind};
 use seespot_viz::server::{self, AppState};
 use seespot_viz::session::{Session, SessionConfig};
+use seespot_viz::token::AccessToken;
 use serde_json::Value;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;
 
-/// A server on a free port over a 64 px feature-baseline session.
+/// A server on a free loopback port over a 64 px feature-baseline session.
 async fn start() -> (std::net::SocketAddr, Arc<AppState>) {
+    let (listener, state) = bind_session("127.0.0.1:0").await;
+    let addr = listener.local_addr().expect("addr");
+    let st = state.clone();
+    tokio::spawn(
+        async move { server::serve_page(listener, st, None, std::future::pending()).await },
+    );
+    (addr, state)
+}
+
+/// A listener on `addr` and a 64 px feature-baseline session to serve.
+async fn bind_session(addr: &str) -> (tokio::net::TcpListener, Arc<AppState>) {
     let config = SessionConfig {
         task: TaskId::Stack,
         seed: 1,
@@ -36,13 +48,8 @@ async fn start() -> (std::net::SocketAddr, Arc<AppState>) {
         session,
         serde_json::json!({"viewer_url": null, "tasks": ["stack"]}),
     );
-    let listener = tokio::net::TcpListener::bind("127.0.0.1:0")
-        .await
-        .expect("bind");
-    let addr = listener.local_addr().expect("addr");
-    let st = state.clone();
-    tokio::spawn(async move { server::serve_page(listener, st, std::future::pending()).await });
-    (addr, state)
+    let listener = tokio::net::TcpListener::bind(addr).await.expect("bind");
+    (listener, state)
 }
 
 /// Sends a raw HTTP/1.1 request line for `target`; returns (status, body).
@@ -307,4 +314,137 @@ async fn issue_10_foreign_origin_and_host_are_refused() {
     )
     .await;
     assert!(line.contains(" 101"), "{line}");
+}
+
+/// A token-protected server bound to every interface (as `seespot view --bind
+/// 0.0.0.0 --allow-remote`), reached here over 127.0.0.1.
+async fn start_remote() -> (std::net::SocketAddr, AccessToken) {
+    let (listener, state) = bind_session("0.0.0.0:0").await;
+    let port = listener.local_addr().expect("addr").port();
+    let token = AccessToken::random();
+    let t = token.clone();
+    tokio::spawn(async move {
+        server::serve_page(listener, state, Some(t), std::future::pending()).await
+    });
+    (std::net::SocketAddr::from(([127, 0, 0, 1], port)), token)
+}
+
+/// The whole response head of a raw request (status line and headers).
+async fn head_with(addr: std::net::SocketAddr, target: &str, headers: &str) -> String {
+    let mut s = TcpStream::connect(addr).await.expect("connect");
+    let req = format!("GET {target} HTTP/1.1\r\n{headers}Connection: close\r\n\r\n");
+    s.write_all(req.as_bytes()).await.expect("write");
+    let mut head = Vec::new();
+    let mut b = [0u8; 1];
+    while !head.ends_with(b"\r\n\r\n") {
+        if s.read(&mut b).await.expect("read") == 0 {
+            break;
+        }
+        head.push(b[0]);
+    }
+    String::from_utf8_lossy(&head).into_owned()
+}
+
+const UPGRADE: &str = "Upgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n";
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn issue_10_non_loopback_bind_is_refused_without_allow_remote() {
+    let opts = live::ViewOptions {
+        task: TaskId::Stack,
+        seed: 1,
+        resolution: 64,
+        bind: "0.0.0.0".parse().expect("ip"),
+        allow_remote: false,
+        port: 0,
+        viewer_port: 0,
+        grpc_port: 0,
+        save: None,
+        no_viewer: true,
+        layout: None,
+    };
+    let factory = live::factory(
+        DeciderKind::Features,
+        "/nonexistent/models".into(),
+        "/nonexistent/demos".into(),
+    );
+    let e = live::serve_view(opts, factory, |_| panic!("served"), std::future::ready(()))
+        .await
+        .expect_err("a non-loopback bind without --allow-remote");
+    assert!(e.to_string().contains("--allow-remote"), "{e}");
+    // The server itself refuses to serve a non-loopback listener without a token.
+    let (listener, state) = bind_session("0.0.0.0:0").await;
+    let e = server::serve_page(listener, state, None, std::future::ready(()))
+        .await
+        .expect_err("a non-loopback listener without a token");
+    assert!(e.to_string().contains("token"), "{e}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn issue_10_remote_bind_needs_the_token_on_every_route() {
+    let (addr, token) = start_remote().await;
+    let host = format!("Host: {addr}\r\n");
+    // No token, or a wrong one: 403 on the page, the API and the WebSocket.
+    let wrong = "0".repeat(64);
+    for target in ["/", "/app.js", "/api/state", "/api/info", "/ws"] {
+        for (query, cookie) in [
+            ("".to_owned(), "".to_owned()),
+            (format!("?token={wrong}"), "".to_owned()),
+            ("?token=".to_owned(), "".to_owned()),
+            (
+                "".to_owned(),
+                format!("Cookie: seespot-token-{}={wrong}\r\n", addr.port()),
+            ),
+            (
+                "".to_owned(),
+                format!("Cookie: seespot-token-1={}\r\n", token.as_str()),
+            ),
+        ] {
+            let line = status_with(
+                addr,
+                &format!("{target}{query}"),
+                &format!("{host}{cookie}{UPGRADE}"),
+            )
+            .await;
+            assert!(line.contains(" 403"), "{target}{query} {cookie}: {line}");
+        }
+    }
+    // The printed URL's token opens the page and sets the cookie.
+    let head = head_with(addr, &format!("/?token={}", token.as_str()), &host).await;
+    assert!(head.starts_with("HTTP/1.1 200"), "{head}");
+    let set_cookie = head
+        .lines()
+        .find(|l| l.to_ascii_lowercase().starts_with("set-cookie:"))
+        .unwrap_or_else(|| panic!("no cookie set: {head}"));
+    let cookie_name = AccessToken::cookie_name(addr.port());
+    assert!(
+        set_cookie.contains(&format!("{cookie_name}={}", token.as_str())),
+        "{set_cookie}"
+    );
+    assert!(set_cookie.contains("HttpOnly"), "{set_cookie}");
+    assert!(set_cookie.contains("SameSite=Strict"), "{set_cookie}");
+    // With the cookie, as the page's own requests carry it: 200 and 101.
+    let cookie = format!("Cookie: other=1; {cookie_name}={}\r\n", token.as_str());
+    for target in ["/app.js", "/api/state", "/api/info"] {
+        let line = status_with(addr, target, &format!("{host}{cookie}")).await;
+        assert!(line.contains(" 200"), "{target}: {line}");
+    }
+    let origin = format!("Origin: http://{addr}\r\n");
+    let line = status_with(addr, "/ws", &format!("{host}{origin}{cookie}{UPGRADE}")).await;
+    assert!(line.contains(" 101"), "{line}");
+    // The token in the query string works for the WebSocket too.
+    let line = status_with(
+        addr,
+        &format!("/ws?token={}", token.as_str()),
+        &format!("{host}{UPGRADE}"),
+    )
+    .await;
+    assert!(line.contains(" 101"), "{line}");
+    // Another site's page cannot use it even with the cookie: its Origin is not the Host.
+    let line = status_with(
+        addr,
+        "/ws",
+        &format!("{host}Origin: http://evil.example\r\n{cookie}{UPGRADE}"),
+    )
+    .await;
+    assert!(line.contains(" 403"), "{line}");
 }

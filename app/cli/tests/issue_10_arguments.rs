@@ -1,0 +1,163 @@
+//! Issue 10's bad command-line arguments, against the real binary: each is
+//! refused before any work with an error naming the flag and the allowed range
+//! (they used to panic, wrap around, or allocate gigabytes). All the checks
+//! live in `seespot_sim::bounds`; these tests pin that every command uses them.
+
+use std::process::Command;
+
+const MAX: &str = "18446744073709551615";
+
+/// Runs `seespot args`; returns (exit code, stderr).
+fn seespot(args: &[&str]) -> (i32, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_seespot"))
+        .args(args)
+        .env("RUST_BACKTRACE", "0")
+        .output()
+        .expect("run seespot");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// `args` must be refused as a usage error (exit 2) naming `flag` and `range`.
+fn refused(args: &[&str], flag: &str, range: &str) {
+    let (code, err) = seespot(args);
+    assert_eq!(code, 2, "{args:?} exited {code}: {err}");
+    assert!(
+        err.contains(flag),
+        "{args:?}: the error names no {flag}: {err}"
+    );
+    assert!(
+        err.contains(range),
+        "{args:?}: the error names no range {range}: {err}"
+    );
+}
+
+#[test]
+fn issue_10_resolution_zero_or_off_grid_is_refused_by_every_command() {
+    let commands: [&[&str]; 10] = [
+        &["sim", "run", "--task", "stack"],
+        &["record", "--task", "stack"],
+        &[
+            "demo",
+            "record",
+            "--task",
+            "stack",
+            "--seed",
+            "0",
+            "--out",
+            "/nonexistent/x",
+        ],
+        &["bench", "sim"],
+        &["bench", "ssr"],
+        &["bench", "view"],
+        &["view"],
+        &["eval", "--task", "stack"],
+        &["train", "--task", "stack"],
+        &[
+            "sim",
+            "run",
+            "--task",
+            "stack",
+            "--policy",
+            "models/stack.safetensors",
+        ],
+    ];
+    for cmd in commands {
+        for r in [
+            "0", "1", "7", "33", "113", "456", "4096", "100000", "-8", "x",
+        ] {
+            let kv = format!("--resolution={r}");
+            let args = [cmd, &[kv.as_str()]].concat();
+            refused(&args, "--resolution", "32..=448");
+        }
+    }
+}
+
+#[test]
+fn issue_10_trials_zero_huge_or_wrapping_are_refused() {
+    for cmd in [
+        &["sim", "run", "--task", "stack"][..],
+        &["record", "--task", "stack"][..],
+        &["eval", "--task", "stack"][..],
+    ] {
+        for t in ["0", MAX, "10000000000000", "100001", "-1"] {
+            let kv = format!("--trials={t}");
+            let args = [cmd, &[kv.as_str()]].concat();
+            refused(&args, "--trials", "1..=100000");
+        }
+    }
+}
+
+#[test]
+fn issue_10_seed_near_u64_max_does_not_wrap() {
+    for args in [
+        &[
+            "sim", "run", "--task", "stack", "--seed", MAX, "--trials", "3",
+        ][..],
+        &["eval", "--task", "stack", "--seed", MAX][..],
+        &["record", "--task", "stack", "--seed", MAX, "--trials", "2"][..],
+    ] {
+        let (code, err) = seespot(args);
+        assert_eq!(code, 1, "{args:?} exited {code}: {err}");
+        assert!(err.contains(MAX), "{args:?}: {err}");
+    }
+}
+
+#[test]
+fn issue_10_smooth_sigma_nan_or_huge_is_refused() {
+    for s in ["NaN", "inf", "1e9", "-1"] {
+        let kv = format!("--smooth-sigma={s}");
+        refused(
+            &["eval", "--task", "stack", "--correspond", "plain", &kv],
+            "--smooth-sigma",
+            "0..=20",
+        );
+    }
+}
+
+#[test]
+fn issue_10_bench_actions_and_iterations_are_bounded() {
+    for a in ["0", "100001", MAX, "-3"] {
+        let kv = format!("--actions={a}");
+        refused(&["bench", "sim", &kv], "--actions", "1..=100000");
+        refused(&["bench", "view", &kv], "--actions", "1..=100000");
+    }
+    for i in ["0", "10001", MAX] {
+        refused(
+            &["bench", "policy", "--iterations", i],
+            "--iterations",
+            "1..=10000",
+        );
+        refused(
+            &["bench", "ssr", "--iterations", i],
+            "--iterations",
+            "1..=10000",
+        );
+    }
+}
+
+#[test]
+fn issue_10_training_and_finetuning_counts_are_bounded() {
+    refused(
+        &["train", "--task", "stack", "--actions", "0"],
+        "--actions",
+        "1..=10000000",
+    );
+    refused(
+        &["train", "--task", "stack", "--checkpoint-every", "0"],
+        "--checkpoint-every",
+        "1..=10000000",
+    );
+    refused(
+        &["train", "--task", "stack", "--eval-trials", MAX],
+        "--eval-trials",
+        "0..=100000",
+    );
+    refused(
+        &["eval", "--task", "stack", "--finetune-steps", MAX],
+        "--finetune-steps",
+        "0..=1000000",
+    );
+}

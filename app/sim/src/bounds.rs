@@ -1,0 +1,185 @@
+//! The one validation of every numeric command-line argument: each count a
+//! command takes has a [`Bound`] here, and every command (and, later, the
+//! Python bindings) parses it through that bound, so the allowed ranges are
+//! written once. The heightmap resolution, which scene files and model files
+//! carry too, is checked by [`check_resolution`] (re-exported from
+//! [`crate::scene`]); seed ranges by [`crate::Seeds::new`].
+//!
+//! Errors state the value and the allowed range; clap puts the flag's name in
+//! front (`invalid value '0' for '--actions <ACTIONS>': 0 is out of range
+//! (1..=100000 actions)`).
+//!
+//! ```
+//! use seespot_sim::bounds::{self, TRIALS};
+//! assert_eq!(bounds::parse_trials("50"), Ok(50));
+//! assert!(TRIALS.check(0).is_err());
+//! assert!(bounds::parse_trials("18446744073709551615").is_err());
+//! ```
+
+pub use crate::scene::{RESOLUTION_RANGE, check_resolution, parse_resolution};
+
+/// An inclusive range of whole numbers, and what they count (for messages).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Bound {
+    pub min: u64,
+    pub max: u64,
+    /// Plural noun of the counted thing: "trials", "actions".
+    pub unit: &'static str,
+}
+
+impl Bound {
+    /// `value` if it lies in the range, else a message with the range.
+    pub fn check(&self, value: u64) -> Result<u64, String> {
+        if (self.min..=self.max).contains(&value) {
+            Ok(value)
+        } else {
+            Err(format!(
+                "{value} is out of range ({}..={} {})",
+                self.min, self.max, self.unit
+            ))
+        }
+    }
+
+    /// [`Bound::check`] of a command-line value.
+    pub fn parse(&self, text: &str) -> Result<u64, String> {
+        let v: u64 = text.trim().parse().map_err(|_| {
+            format!(
+                "`{text}` is not a whole number in {}..={} {}",
+                self.min, self.max, self.unit
+            )
+        })?;
+        self.check(v)
+    }
+
+    /// [`Bound::parse`] as a `usize` (every bound fits one).
+    pub fn parse_usize(&self, text: &str) -> Result<usize, String> {
+        let v = self.parse(text)?;
+        usize::try_from(v).map_err(|_| format!("{v} does not fit this machine's usize"))
+    }
+}
+
+/// Trials of one run (`eval`, `sim run`, `record`; a scene's `seeds.count`).
+pub const TRIALS: Bound = Bound {
+    min: 1,
+    max: 100_000,
+    unit: "trials",
+};
+
+/// Own-task evaluation trials after training (0 skips the evaluation).
+pub const EVAL_TRIALS: Bound = Bound {
+    min: 0,
+    max: 100_000,
+    unit: "trials",
+};
+
+/// Timed actions of `bench sim` and `bench view`.
+pub const BENCH_ACTIONS: Bound = Bound {
+    min: 1,
+    max: 100_000,
+    unit: "actions",
+};
+
+/// Timed iterations of `bench policy` and `bench ssr`.
+pub const BENCH_ITERATIONS: Bound = Bound {
+    min: 1,
+    max: 10_000,
+    unit: "iterations",
+};
+
+/// Actions of one training run (`train --actions`) and its checkpoint interval.
+pub const TRAIN_ACTIONS: Bound = Bound {
+    min: 1,
+    max: 10_000_000,
+    unit: "actions",
+};
+
+/// Finetuning steps per policy (`eval --finetune-steps`; 0: no finetuning).
+pub const FINETUNE_STEPS: Bound = Bound {
+    min: 0,
+    max: 1_000_000,
+    unit: "steps",
+};
+
+/// Largest Gaussian smoothing sigma of the distance maps, pixels.
+pub const MAX_SMOOTH_SIGMA: f32 = 20.0;
+
+/// [`TRIALS`] of a command-line value.
+pub fn parse_trials(text: &str) -> Result<u64, String> {
+    TRIALS.parse(text)
+}
+
+/// [`EVAL_TRIALS`] of a command-line value.
+pub fn parse_eval_trials(text: &str) -> Result<usize, String> {
+    EVAL_TRIALS.parse_usize(text)
+}
+
+/// [`BENCH_ACTIONS`] of a command-line value.
+pub fn parse_bench_actions(text: &str) -> Result<usize, String> {
+    BENCH_ACTIONS.parse_usize(text)
+}
+
+/// [`BENCH_ITERATIONS`] of a command-line value.
+pub fn parse_bench_iterations(text: &str) -> Result<usize, String> {
+    BENCH_ITERATIONS.parse_usize(text)
+}
+
+/// [`TRAIN_ACTIONS`] of a command-line value.
+pub fn parse_train_actions(text: &str) -> Result<usize, String> {
+    TRAIN_ACTIONS.parse_usize(text)
+}
+
+/// [`FINETUNE_STEPS`] of a command-line value.
+pub fn parse_finetune_steps(text: &str) -> Result<usize, String> {
+    FINETUNE_STEPS.parse_usize(text)
+}
+
+/// A smoothing sigma in pixels: finite, in `0..=`[`MAX_SMOOTH_SIGMA`] (NaN and
+/// 1e9, which allocated a 24 GB kernel, are refused).
+pub fn parse_sigma(text: &str) -> Result<f32, String> {
+    let v: f32 = text
+        .trim()
+        .parse()
+        .map_err(|e| format!("`{text}` is not a number: {e}"))?;
+    if v.is_finite() && (0.0..=MAX_SMOOTH_SIGMA).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!(
+            "{text} is out of range (0..={MAX_SMOOTH_SIGMA} pixels)"
+        ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bounds_refuse_zero_huge_and_junk_naming_the_range() {
+        for (bound, bad) in [
+            (BENCH_ACTIONS, "0"),
+            (BENCH_ACTIONS, "100001"),
+            (BENCH_ITERATIONS, "0"),
+            (BENCH_ITERATIONS, "18446744073709551615"),
+            (TRIALS, "-1"),
+            (TRIALS, "1e3"),
+            (TRAIN_ACTIONS, ""),
+        ] {
+            let e = bound.parse(bad).expect_err(bad);
+            assert!(
+                e.contains(&format!("{}..={}", bound.min, bound.max)),
+                "{bad}: {e}"
+            );
+        }
+        assert_eq!(BENCH_ACTIONS.parse_usize("1"), Ok(1));
+        assert_eq!(BENCH_ITERATIONS.parse_usize("10000"), Ok(10_000));
+        assert_eq!(EVAL_TRIALS.parse_usize("0"), Ok(0));
+    }
+
+    #[test]
+    fn sigma_is_finite_and_bounded() {
+        assert_eq!(parse_sigma("3"), Ok(3.0));
+        for bad in ["NaN", "inf", "-1", "1e9", "x"] {
+            assert!(parse_sigma(bad).is_err(), "{bad}");
+        }
+    }
+}
