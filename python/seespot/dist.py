@@ -146,7 +146,7 @@ def evaluate(
                 for index, s in enumerate(seeds):
                     if s not in done[(m, t)]:
                         actor = actors[k % num_workers]
-                        pending.append(actor.run.remote(m, t, s, index))
+                        pending.append(actor.run.remote(m, t, s, index))  # type: ignore[attr-defined]
                         k += 1
         while pending:
             ready, pending = ray.wait(pending, num_returns=1)
