@@ -1,5 +1,5 @@
 //! `Evaluator`: trials of one method on one task, each returned as the JSON
-//! line `seespot eval` writes (the same [`TrialRecord`], provenance included),
+//! line `seespot eval` writes (the same [`seespot_sim::TrialRecord`], provenance included),
 //! so Python (and `seespot.dist` on Ray) writes records the CLI's report reads.
 
 use std::path::PathBuf;
