@@ -13,15 +13,9 @@ from pathlib import Path
 
 import pytest
 
-viser = pytest.importorskip("viser")
-
-from seespot.viz.viser import ViserView, pixel_to_world  # noqa: E402
+from seespot.viz.viser import ViserView, pixel_to_world
 
 ROOT = Path(__file__).resolve().parents[2]
-BIN = os.environ.get(
-    "SEESPOT_BIN",
-    str(Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target")) / "release" / "seespot"),
-)
 
 
 def free_port() -> int:
@@ -30,10 +24,10 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
-@pytest.fixture(scope="module")
-def page_url():
+@pytest.fixture
+def page_url(seespot_bin):
     proc = subprocess.Popen(
-        [BIN, "view", "--port", "0", "--no-viewer", "--task", "stack", "--seed", "1"],
+        [str(seespot_bin), "view", "--port", "0", "--no-viewer", "--task", "stack", "--seed", "1"],
         cwd=ROOT,
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,

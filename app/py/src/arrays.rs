@@ -1,0 +1,110 @@
+//! Argument validation: numpy arrays in, Rust buffers out, and `ValueError`s
+//! that name the argument.
+
+use numpy::{PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use seespot_sim::{Grid, Heightmaps, Primitive, TaskId};
+
+/// `ValueError("<arg>: <message>")`.
+pub fn bad(arg: &str, message: impl std::fmt::Display) -> PyErr {
+    PyValueError::new_err(format!("{arg}: {message}"))
+}
+
+/// A C-contiguous copy of a numpy array of element type `T` and rank `rank`,
+/// with its shape.
+fn array<T: numpy::Element + Copy>(
+    obj: &Bound<'_, PyAny>,
+    arg: &str,
+    dtype: &str,
+    rank: usize,
+) -> PyResult<(Vec<T>, Vec<usize>)> {
+    let a: PyReadonlyArrayDyn<'_, T> = obj.extract().map_err(|_| {
+        let found = obj
+            .getattr("dtype")
+            .map(|d| d.to_string())
+            .unwrap_or_else(|_| obj.get_type().to_string());
+        bad(arg, format!("expected a numpy {dtype} array, got {found}"))
+    })?;
+    let shape = a.shape().to_vec();
+    if shape.len() != rank {
+        return Err(bad(
+            arg,
+            format!("expected {rank} dimensions, got shape {shape:?}"),
+        ));
+    }
+    let data = a.as_array().iter().copied().collect();
+    Ok((data, shape))
+}
+
+/// A `float32` array of rank `rank` with only finite values.
+pub fn f32_array(
+    obj: &Bound<'_, PyAny>,
+    arg: &str,
+    rank: usize,
+) -> PyResult<(Vec<f32>, Vec<usize>)> {
+    let (data, shape) = array::<f32>(obj, arg, "float32", rank)?;
+    if let Some(i) = data.iter().position(|v| !v.is_finite()) {
+        return Err(bad(
+            arg,
+            format!("holds a non-finite value ({}) at flat index {i}", data[i]),
+        ));
+    }
+    Ok((data, shape))
+}
+
+/// A `bool` array of rank `rank`.
+pub fn bool_array(
+    obj: &Bound<'_, PyAny>,
+    arg: &str,
+    rank: usize,
+) -> PyResult<(Vec<bool>, Vec<usize>)> {
+    array::<bool>(obj, arg, "bool", rank)
+}
+
+/// Heightmaps from colour `uint8[H, W, 3]` and depth `float32[H, W]` (metres),
+/// with `H = W` a valid resolution.
+pub fn heightmaps(color: &Bound<'_, PyAny>, depth: &Bound<'_, PyAny>) -> PyResult<Heightmaps> {
+    let (color, cs) = array::<u8>(color, "color", "uint8", 3)?;
+    let (depth, ds) = f32_array(depth, "depth", 2)?;
+    if cs[2] != 3 || cs[0] != cs[1] {
+        return Err(bad(
+            "color",
+            format!("expected shape (H, H, 3), got {cs:?}"),
+        ));
+    }
+    if ds[..] != cs[..2] {
+        return Err(bad(
+            "depth",
+            format!("shape {ds:?} does not match color's {cs:?}"),
+        ));
+    }
+    let resolution = resolution(cs[0], "color")?;
+    Ok(Heightmaps {
+        grid: Grid::new(resolution),
+        color,
+        depth,
+    })
+}
+
+/// [`seespot_sim::scene::check_resolution`], naming `arg`.
+pub fn resolution(resolution: usize, arg: &str) -> PyResult<usize> {
+    seespot_sim::scene::check_resolution(resolution).map_err(|e| bad(arg, e))
+}
+
+pub fn task(s: &str) -> PyResult<TaskId> {
+    s.parse().map_err(|e| bad("task", e))
+}
+
+pub fn primitive(s: &str) -> PyResult<Primitive> {
+    Primitive::ALL
+        .into_iter()
+        .find(|p| p.as_str() == s)
+        .ok_or_else(|| bad("primitive", format!("'{s}' is not 'grasp' or 'place'")))
+}
+
+/// Validates a heightmap resolution (a multiple of 8 in 32..=448 pixels).
+#[pyfunction]
+pub fn check_resolution(resolution: usize) -> PyResult<usize> {
+    self::resolution(resolution, "resolution")
+}

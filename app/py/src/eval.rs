@@ -1,0 +1,159 @@
+//! `Evaluator`: trials of one method on one task, each returned as the JSON
+//! line `seespot eval` writes (the same [`seespot_sim::TrialRecord`], provenance included),
+//! so Python (and `seespot.dist` on Ray) writes records the CLI's report reads.
+
+use std::path::PathBuf;
+
+use pyo3::prelude::*;
+use seespot_policy::{PolicyNet, RandomActor};
+use seespot_sim::{Actor, Oracle, Provenance, Seeds, TaskId, Trial};
+use seespot_ssr::SsrPolicy;
+use seespot_ssr::eval::{EvalConfig, EvalMethod};
+use seespot_ssr::policy::model_path;
+
+use crate::arrays::{self, bad};
+use crate::trial::non_negative;
+
+/// One method's actor for one task (the policy set is loaded once), the run's
+/// provenance and the record name, as `seespot eval` makes them.
+#[pyclass(module = "seespot._core")]
+pub struct Evaluator {
+    actor: Box<dyn Actor + Send + Sync>,
+    task: TaskId,
+    config: EvalConfig,
+    name: String,
+    provenance: Provenance,
+}
+
+#[pymethods]
+impl Evaluator {
+    /// `method`: ssr-ccd, ssr-l2cd, spot-q, oracle or random (no finetuning);
+    /// `correspond`: `reference` or `plain` (SSR only).
+    #[new]
+    #[pyo3(signature = (method, task, models_dir = "models".into(), demos_dir = "demos".into(), resolution = 112, correspond = "reference"))]
+    fn new(
+        py: Python<'_>,
+        method: &str,
+        task: &str,
+        models_dir: PathBuf,
+        demos_dir: PathBuf,
+        resolution: i64,
+        correspond: &str,
+    ) -> PyResult<Self> {
+        let eval_method = EvalMethod::parse(method).ok_or_else(|| {
+            bad(
+                "method",
+                format!("'{method}' is not ssr-ccd, ssr-l2cd, spot-q, oracle or random"),
+            )
+        })?;
+        let task = arrays::task(task)?;
+        let resolution = non_negative(resolution, "resolution")?;
+        let resolution = arrays::resolution(resolution as usize, "resolution")?;
+        let ssr = crate::ssr::ssr_config(
+            if eval_method == EvalMethod::SsrL2cd {
+                "ssr-l2cd"
+            } else {
+                "ssr-ccd"
+            },
+            correspond,
+        )?;
+        let config = EvalConfig {
+            method: eval_method,
+            seeds: Seeds::new(1, 1).map_err(|e| bad("seeds", e))?,
+            out_dir: PathBuf::new(),
+            models_dir,
+            demos_dir,
+            world: seespot_ssr::eval::world_config(resolution),
+            correspond: ssr.correspond,
+            finetune_steps: 0,
+        };
+        let name = eval_method.record_name(0, ssr.correspond.mode);
+        let (actor, provenance) = py
+            .detach(|| {
+                let provenance =
+                    seespot_ssr::eval::provenance(&config, task).map_err(|e| e.to_string())?;
+                let actor: Box<dyn Actor + Send + Sync> = match eval_method {
+                    EvalMethod::SsrCcd | EvalMethod::SsrL2cd => Box::new(
+                        SsrPolicy::load(task, &config.models_dir, &config.demos_dir, ssr)
+                            .map_err(|e| e.to_string())?,
+                    ),
+                    EvalMethod::SpotQ => Box::new(
+                        PolicyNet::load(&model_path(&config.models_dir, task))
+                            .map_err(|e| e.to_string())?,
+                    ),
+                    EvalMethod::Oracle => Box::new(Oracle::new(task)),
+                    EvalMethod::Random => Box::new(RandomActor::default()),
+                };
+                Ok::<_, String>((actor, provenance))
+            })
+            .map_err(|e| bad("models_dir/demos_dir", e))?;
+        Ok(Self {
+            actor,
+            task,
+            config,
+            name,
+            provenance,
+        })
+    }
+
+    /// The method's name in records and file names (e.g. `ssr-ccd`, `oracle`).
+    #[getter]
+    fn record_name(&self) -> String {
+        self.name.clone()
+    }
+
+    #[getter]
+    fn task(&self) -> &'static str {
+        self.task.as_str()
+    }
+
+    /// Runs the trial of `seed` (trial number `index` of the run) to its end;
+    /// returns its record as one JSON line, the line `seespot eval` appends.
+    fn run(&mut self, py: Python<'_>, seed: i64, index: i64) -> PyResult<String> {
+        let seed = non_negative(seed, "seed")?;
+        let index = non_negative(index, "index")? as usize;
+        let (world, task, name) = (self.config.world, self.task, self.name.as_str());
+        let actor = &mut self.actor;
+        let provenance = &self.provenance;
+        py.detach(|| {
+            let mut trial = Trial::new(world, task, seed);
+            let mut record =
+                seespot_sim::run_trial(&mut trial, actor.as_mut(), name, index, &mut |_| {})
+                    .map_err(|e| e.to_string())?;
+            record.provenance = Some(provenance.clone());
+            record.to_json_line().map_err(|e| e.to_string())
+        })
+        .map_err(|e| bad("seed", e))
+    }
+}
+
+/// The seeds `seespot eval --seed start --trials count` runs (validated as
+/// the CLI validates them: one split, no overflow).
+#[pyfunction]
+pub fn test_seeds(start: i64, count: i64) -> PyResult<Vec<u64>> {
+    let start = non_negative(start, "start")?;
+    let count = non_negative(count, "count")?;
+    let seeds = Seeds::new(start, count).map_err(|e| bad("start/count", e))?;
+    Ok(seeds.iter().collect())
+}
+
+/// The records file `seespot eval` writes for (method, task) under `out_dir`.
+#[pyfunction]
+pub fn records_path(out_dir: PathBuf, method: &str, task: &str) -> PyResult<PathBuf> {
+    let task = arrays::task(task)?;
+    Ok(seespot_ssr::eval::records_path(&out_dir, method, task))
+}
+
+/// The method's name in records and file names: `method`, with `-plain` for
+/// SSR with the plain correspondence (no finetuning).
+#[pyfunction]
+pub fn record_name(method: &str, correspond: &str) -> PyResult<String> {
+    let m = EvalMethod::parse(method).ok_or_else(|| {
+        bad(
+            "method",
+            format!("'{method}' is not ssr-ccd, ssr-l2cd, spot-q, oracle or random"),
+        )
+    })?;
+    let config = crate::ssr::ssr_config("ssr-ccd", correspond)?;
+    Ok(m.record_name(0, config.correspond.mode))
+}

@@ -1,0 +1,48 @@
+//! `seespot._core`: the Rust core of the `seespot` Python package (pyo3).
+//!
+//! Arrays cross the boundary as numpy arrays: heightmaps are `uint8[H, W, 3]`
+//! colour and `float32[H, W]` depth (metres above the table), Q maps
+//! `float32[R, H, W]`, action-state embeddings `float32[R, H, W, D]`. Arrays
+//! made in Rust are handed over without a copy (the `Vec` becomes the array's
+//! buffer). Every argument is validated before it reaches the simulator or the
+//! networks: a bad array or value raises `ValueError` naming the argument.
+//! Every call that steps physics, runs a network or scans embeddings releases
+//! the GIL (`Python::detach`), so threads stepping separate trials run in
+//! parallel.
+//!
+//! The pure-Python parts (the gymnasium environments, `seespot.dist`) live in
+//! `python/seespot`; `python/seespot/_core.pyi` types this module.
+
+use pyo3::prelude::*;
+
+mod arrays;
+mod correspond;
+mod eval;
+mod policy;
+mod ssr;
+mod trial;
+
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", seespot_sim::VERSION)?;
+    m.add(
+        "TASKS",
+        seespot_sim::TaskId::ALL.map(|t| t.as_str()).to_vec(),
+    )?;
+    m.add("NUM_ROTATIONS", seespot_sim::NUM_ROTATIONS)?;
+    m.add("MAX_TRIAL_ACTIONS", seespot_sim::task::MAX_TRIAL_ACTIONS)?;
+    m.add_class::<trial::Trial>()?;
+    m.add_class::<policy::Policy>()?;
+    m.add_class::<ssr::Ssr>()?;
+    m.add_class::<eval::Evaluator>()?;
+    m.add_function(wrap_pyfunction!(arrays::check_resolution, m)?)?;
+    m.add_function(wrap_pyfunction!(eval::test_seeds, m)?)?;
+    m.add_function(wrap_pyfunction!(eval::records_path, m)?)?;
+    m.add_function(wrap_pyfunction!(eval::record_name, m)?)?;
+    m.add_function(wrap_pyfunction!(correspond::match_queries, m)?)?;
+    m.add_function(wrap_pyfunction!(correspond::rematch, m)?)?;
+    m.add_function(wrap_pyfunction!(correspond::ccd, m)?)?;
+    m.add_function(wrap_pyfunction!(correspond::correspond, m)?)?;
+    m.add_function(wrap_pyfunction!(correspond::distance_map, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,131 @@
+//! `Ssr`: See-SPOT-Run over the shipped policies and demonstrations, with the
+//! whole explanation of each decision as numpy arrays.
+
+use numpy::IntoPyArray;
+use numpy::ndarray::Array2;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+use seespot_sim::Action;
+use seespot_ssr::correspond::Correspondence;
+use seespot_ssr::{CorrespondOptions, Method, SsrConfig, SsrPolicy};
+
+use crate::arrays::{self, bad};
+
+/// `(rotation, y, x)` of an action.
+pub fn action_tuple(a: &Action) -> (usize, usize, usize) {
+    (a.rotation, a.y, a.x)
+}
+
+/// See-SPOT-Run for one task (Sec. 4): the SPOT-Q policies of the other three
+/// tasks (M = 3) and the task's two demonstrations (N = 2).
+#[pyclass(module = "seespot._core")]
+pub struct Ssr {
+    ssr: SsrPolicy,
+}
+
+/// An [`SsrConfig`] from the method and correspondence names.
+pub fn ssr_config(method: &str, correspond: &str) -> PyResult<SsrConfig> {
+    let method = match method {
+        "ssr-ccd" => Method::SsrCcd,
+        "ssr-l2cd" => Method::SsrL2cd,
+        _ => {
+            return Err(bad(
+                "method",
+                format!("'{method}' is not ssr-ccd or ssr-l2cd"),
+            ));
+        }
+    };
+    let mode: Correspondence = correspond.parse().map_err(|e| bad("correspond", e))?;
+    Ok(SsrConfig {
+        method,
+        correspond: CorrespondOptions {
+            mode,
+            smooth_sigma: None,
+        },
+    })
+}
+
+#[pymethods]
+impl Ssr {
+    /// Loads `models_dir/<other task>.safetensors` (default `models`) and the demonstrations of
+    /// `task` under `demos_dir`. `method`: `ssr-ccd` (Eq. 8) or `ssr-l2cd`
+    /// (Eq. 9); `correspond`: `reference` or `plain`.
+    #[new]
+    #[pyo3(signature = (task, models_dir = "models".into(), demos_dir = "demos".into(), method = "ssr-ccd", correspond = "reference"))]
+    fn new(
+        py: Python<'_>,
+        task: &str,
+        models_dir: std::path::PathBuf,
+        demos_dir: std::path::PathBuf,
+        method: &str,
+        correspond: &str,
+    ) -> PyResult<Self> {
+        let task = arrays::task(task)?;
+        let config = ssr_config(method, correspond)?;
+        let ssr = py
+            .detach(|| SsrPolicy::load(task, &models_dir, &demos_dir, config))
+            .map_err(|e| bad("models_dir/demos_dir", e))?;
+        Ok(Self { ssr })
+    }
+
+    /// The tasks of the M policies, in pair order.
+    #[getter]
+    fn policy_tasks(&self) -> Vec<&'static str> {
+        self.ssr.policy_tasks().iter().map(|t| t.as_str()).collect()
+    }
+
+    /// One decision in the state given by colour `uint8[H, W, 3]` and depth
+    /// `float32[H, W]` heightmaps at task progress `progress` (1..=4) for
+    /// `primitive`. Returns a dict: `action` `(rotation, y, x)`, `chosen` (the
+    /// pair acted on), and `pairs`, one dict per (policy, demo): `policy`,
+    /// `demo`, `demo_step`, `demo_action`, `l` (L, Eq. 4), `matched` (F, Eq. 5),
+    /// `rematch` (Eq. 6), `rematch_l`, `c` (C, Eq. 7, pixels), `match_map` and
+    /// `rematch_map` (`float32[H, W]` distance maps, `inf` where masked).
+    fn decide<'py>(
+        &mut self,
+        py: Python<'py>,
+        color: &Bound<'py, PyAny>,
+        depth: &Bound<'py, PyAny>,
+        progress: i64,
+        primitive: &str,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let hm = arrays::heightmaps(color, depth)?;
+        let primitive = arrays::primitive(primitive)?;
+        let progress = u8::try_from(progress)
+            .ok()
+            .filter(|p| (1..=4).contains(p))
+            .ok_or_else(|| bad("progress", format!("{progress} is outside 1..=4")))?;
+        let ssr = &mut self.ssr;
+        let d = py
+            .detach(|| ssr.decide(&hm, progress, primitive))
+            .map_err(|e| bad("color", e))?;
+        let n = d.resolution;
+        let pairs = PyList::empty(py);
+        for p in d.pairs {
+            let e = PyDict::new(py);
+            e.set_item("policy", p.policy.as_str())?;
+            e.set_item("demo", p.demo)?;
+            e.set_item("demo_step", p.demo_step)?;
+            e.set_item("demo_action", action_tuple(&p.demo_action))?;
+            e.set_item("l", p.l)?;
+            e.set_item("matched", action_tuple(&p.matched))?;
+            e.set_item("rematch", action_tuple(&p.rematch))?;
+            e.set_item("rematch_l", p.rematch_l)?;
+            e.set_item("c", p.c)?;
+            for (key, map) in [("match_map", p.match_map), ("rematch_map", p.rematch_map)] {
+                let a = Array2::from_shape_vec((n, n), map).map_err(|e| bad(key, e))?;
+                e.set_item(key, a.into_pyarray(py))?;
+            }
+            pairs.append(e)?;
+        }
+        let out = PyDict::new(py);
+        out.set_item("primitive", d.primitive.as_str())?;
+        out.set_item("progress", d.progress)?;
+        out.set_item("action", action_tuple(&d.action))?;
+        out.set_item("chosen", d.chosen)?;
+        out.set_item("pairs", pairs)?;
+        out.set_item("embed_ms", d.embed_ms)?;
+        out.set_item("correspond_ms", d.correspond_ms)?;
+        Ok(out)
+    }
+}

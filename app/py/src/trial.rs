@@ -1,0 +1,182 @@
+//! `Trial`: one trial of a task in the block world, observed as numpy arrays.
+
+use numpy::ndarray::{Array2, Array3};
+use numpy::{IntoPyArray, PyArray2, PyArray3};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use seespot_sim::{Action, Heightmaps, Scene, Trial as SimTrial};
+
+use crate::arrays::{self, bad};
+
+/// A non-negative integer argument as `u64`.
+pub fn non_negative(v: i64, arg: &str) -> PyResult<u64> {
+    u64::try_from(v).map_err(|_| bad(arg, format!("{v} is negative")))
+}
+
+/// One trial of a task from a seed: the block world, its heightmaps and the
+/// task's progress; ends on success, a block leaving the workspace or the
+/// 30-action limit.
+#[pyclass(module = "seespot._core")]
+pub struct Trial {
+    pub trial: SimTrial,
+}
+
+/// Colour `uint8[H, W, 3]` and depth `float32[H, W]` heightmaps as numpy arrays.
+pub type HeightmapArrays<'py> = (Bound<'py, PyArray3<u8>>, Bound<'py, PyArray2<f32>>);
+
+/// Heightmaps as numpy arrays, moving the buffers (no copy).
+pub fn heightmap_arrays(py: Python<'_>, hm: Heightmaps) -> PyResult<HeightmapArrays<'_>> {
+    let n = hm.resolution();
+    let color = Array3::from_shape_vec((n, n, 3), hm.color).map_err(|e| bad("color", e))?;
+    let depth = Array2::from_shape_vec((n, n), hm.depth).map_err(|e| bad("depth", e))?;
+    Ok((color.into_pyarray(py), depth.into_pyarray(py)))
+}
+
+#[pymethods]
+impl Trial {
+    /// A test trial of `task` (stack, row, unstack, vertical-square) from
+    /// `seed` at `resolution` pixels per side.
+    #[new]
+    #[pyo3(signature = (task, seed, resolution = 112))]
+    fn new(py: Python<'_>, task: &str, seed: i64, resolution: i64) -> PyResult<Self> {
+        let task = arrays::task(task)?;
+        let seed = non_negative(seed, "seed")?;
+        let resolution = non_negative(resolution, "resolution")?;
+        let resolution = arrays::resolution(resolution as usize, "resolution")?;
+        let config = seespot_ssr::eval::world_config(resolution);
+        let trial = py.detach(|| SimTrial::new(config, task, seed));
+        Ok(Self { trial })
+    }
+
+    /// A trial of a scene file's task and world (resolution, sensor noise) from
+    /// trial `index` of its seeds.
+    #[staticmethod]
+    #[pyo3(signature = (path, index = 0))]
+    fn from_scene(py: Python<'_>, path: std::path::PathBuf, index: i64) -> PyResult<Self> {
+        let scene = Scene::load(&path).map_err(|e| bad("path", e))?;
+        let index = non_negative(index, "index")?;
+        let seed = scene.seeds.get(index).ok_or_else(|| {
+            bad(
+                "index",
+                format!("{index} is past the scene's {} seeds", scene.seeds.count()),
+            )
+        })?;
+        let config = scene.world_config();
+        let trial = py.detach(|| SimTrial::new(config, scene.task, seed));
+        Ok(Self { trial })
+    }
+
+    #[getter]
+    fn task(&self) -> &'static str {
+        self.trial.task().as_str()
+    }
+
+    #[getter]
+    fn seed(&self) -> u64 {
+        self.trial.seed()
+    }
+
+    /// Heightmap pixels per side.
+    #[getter]
+    fn resolution(&self) -> usize {
+        self.trial.world().grid().resolution
+    }
+
+    /// Progress P in 1..=4 (Sec. 3 of the paper).
+    #[getter]
+    fn progress(&self) -> u8 {
+        self.trial.progress()
+    }
+
+    #[getter]
+    fn max_progress(&self) -> u8 {
+        self.trial.max_progress()
+    }
+
+    /// Actions executed so far.
+    #[getter]
+    fn actions(&self) -> usize {
+        self.trial.actions()
+    }
+
+    /// Why the trial ended (`success`, `action-limit`, `out-of-workspace`), or None.
+    #[getter]
+    fn end(&self) -> Option<&'static str> {
+        self.trial.end().map(|e| match e {
+            seespot_sim::TrialEnd::Success => "success",
+            seespot_sim::TrialEnd::ActionLimit => "action-limit",
+            seespot_sim::TrialEnd::OutOfWorkspace => "out-of-workspace",
+        })
+    }
+
+    /// The primitive the next action must use: `grasp` or `place`.
+    #[getter]
+    fn next_primitive(&self) -> &'static str {
+        self.trial.world().next_primitive().as_str()
+    }
+
+    /// The block poses, `float32[4, 7]`: position (x, y, z) in metres in the
+    /// table frame, then the rotation quaternion (x, y, z, w).
+    fn block_poses<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let poses = self.trial.world().block_poses();
+        let flat: Vec<f32> = poses
+            .iter()
+            .flat_map(|p| p.position.into_iter().chain(p.rotation))
+            .collect();
+        let a = Array2::from_shape_vec((poses.len(), 7), flat).map_err(|e| bad("poses", e))?;
+        Ok(a.into_pyarray(py))
+    }
+
+    /// The heightmaps the robot observes now (with the world's sensor noise):
+    /// colour `uint8[H, W, 3]` and depth `float32[H, W]` in metres above the table.
+    fn observe<'py>(&mut self, py: Python<'py>) -> PyResult<HeightmapArrays<'py>> {
+        let world = self.trial.world_mut();
+        let hm = py.detach(|| world.observe());
+        heightmap_arrays(py, hm)
+    }
+
+    /// Executes `(rotation, y, x)` with the next primitive (`grasp` after a
+    /// place, `place` while a block is held); returns what happened: the
+    /// primitive, whether it succeeded, progress before and after, and the end.
+    fn step<'py>(
+        &mut self,
+        py: Python<'py>,
+        rotation: i64,
+        y: i64,
+        x: i64,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        if self.trial.end().is_some() {
+            return Err(bad("step", "the trial has ended; make a new one"));
+        }
+        let n = self.resolution() as i64;
+        let r_max = seespot_sim::NUM_ROTATIONS as i64;
+        for (arg, v, max) in [("rotation", rotation, r_max), ("y", y, n), ("x", x, n)] {
+            if !(0..max).contains(&v) {
+                return Err(bad(arg, format!("{v} is outside 0..{max}")));
+            }
+        }
+        let primitive = self.trial.world().next_primitive();
+        let action = Action::new(primitive, rotation as usize, y as usize, x as usize);
+        let trial = &mut self.trial;
+        let step = py.detach(|| trial.step(action).clone());
+        let d = PyDict::new(py);
+        d.set_item("primitive", primitive.as_str())?;
+        d.set_item("primitive_success", step.outcome.success)?;
+        d.set_item("progress_before", step.progress_before)?;
+        d.set_item("progress_after", step.progress_after)?;
+        d.set_item("reversal", step.reversal)?;
+        d.set_item("end", self.end())?;
+        Ok(d)
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Trial(task='{}', seed={}, resolution={}, progress={}, actions={})",
+            self.task(),
+            self.seed(),
+            self.resolution(),
+            self.progress(),
+            self.actions()
+        )
+    }
+}

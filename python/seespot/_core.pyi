@@ -1,0 +1,132 @@
+"""Types of the Rust core ``seespot._core`` (app/py); see its module docs."""
+
+import os
+import pathlib
+from typing import Any, TypeAlias, final
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = [
+    "MAX_TRIAL_ACTIONS",
+    "NUM_ROTATIONS",
+    "TASKS",
+    "Evaluator",
+    "Policy",
+    "Ssr",
+    "Trial",
+    "__version__",
+    "ccd",
+    "check_resolution",
+    "correspond",
+    "distance_map",
+    "match_queries",
+    "record_name",
+    "records_path",
+    "rematch",
+    "test_seeds",
+]
+
+__version__: str
+TASKS: list[str]
+NUM_ROTATIONS: int
+MAX_TRIAL_ACTIONS: int
+
+_Ix3: TypeAlias = tuple[int, int, int]
+
+@final
+class Trial:
+    def __new__(cls, task: str, seed: int, resolution: int = 112) -> Trial: ...
+    @staticmethod
+    def from_scene(path: str | os.PathLike[str], index: int = 0) -> Trial: ...
+    @property
+    def task(self) -> str: ...
+    @property
+    def seed(self) -> int: ...
+    @property
+    def resolution(self) -> int: ...
+    @property
+    def progress(self) -> int: ...
+    @property
+    def max_progress(self) -> int: ...
+    @property
+    def actions(self) -> int: ...
+    @property
+    def end(self) -> str | None: ...
+    @property
+    def next_primitive(self) -> str: ...
+    def block_poses(self) -> npt.NDArray[np.float32]: ...
+    def observe(self) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.float32]]: ...
+    def step(self, rotation: int, y: int, x: int) -> dict[str, Any]: ...
+
+@final
+class Policy:
+    def __new__(cls, path: str | os.PathLike[str]) -> Policy: ...
+    @property
+    def task(self) -> str: ...
+    @property
+    def resolution(self) -> int: ...
+    def q_values(
+        self, color: npt.ArrayLike, depth: npt.ArrayLike, primitive: str
+    ) -> npt.NDArray[np.float32]: ...
+    def embed(
+        self, color: npt.ArrayLike, depth: npt.ArrayLike, primitive: str
+    ) -> npt.NDArray[np.float32]: ...
+
+@final
+class Ssr:
+    def __new__(
+        cls,
+        task: str,
+        models_dir: str | os.PathLike[str] = ...,
+        demos_dir: str | os.PathLike[str] = ...,
+        method: str = "ssr-ccd",
+        correspond: str = "reference",
+    ) -> Ssr: ...
+    @property
+    def policy_tasks(self) -> list[str]: ...
+    def decide(
+        self, color: npt.ArrayLike, depth: npt.ArrayLike, progress: int, primitive: str
+    ) -> dict[str, Any]: ...
+
+@final
+class Evaluator:
+    def __new__(
+        cls,
+        method: str,
+        task: str,
+        models_dir: str | os.PathLike[str] = ...,
+        demos_dir: str | os.PathLike[str] = ...,
+        resolution: int = 112,
+        correspond: str = "reference",
+    ) -> Evaluator: ...
+    @property
+    def record_name(self) -> str: ...
+    @property
+    def task(self) -> str: ...
+    def run(self, seed: int, index: int) -> str: ...
+
+def check_resolution(resolution: int) -> int: ...
+def test_seeds(start: int, count: int) -> list[int]: ...
+def records_path(out_dir: str | os.PathLike[str], method: str, task: str) -> pathlib.Path: ...
+def record_name(method: str, correspond: str) -> str: ...
+def match_queries(
+    live: npt.ArrayLike, queries: npt.ArrayLike, mask: npt.ArrayLike | None = None
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float32]]: ...
+def rematch(
+    demo: npt.ArrayLike,
+    query: npt.ArrayLike,
+    rotation: int | None = None,
+    mask: npt.ArrayLike | None = None,
+) -> tuple[_Ix3, float]: ...
+def ccd(demo_action: _Ix3, rematch: _Ix3) -> float: ...
+def correspond(
+    live: npt.ArrayLike,
+    demo: npt.ArrayLike,
+    demo_action: _Ix3,
+    live_mask: npt.ArrayLike | None = None,
+    demo_mask: npt.ArrayLike | None = None,
+) -> dict[str, Any]: ...
+def distance_map(
+    embeddings: npt.ArrayLike, query: npt.ArrayLike, rotation: int
+) -> npt.NDArray[np.float32]: ...

@@ -1,0 +1,128 @@
+"""The gymnasium environments: one per task, ``seespot/Stack-v0``,
+``seespot/Row-v0``, ``seespot/Unstack-v0``, ``seespot/VerticalSquare-v0``.
+
+Observation: a dict of ``color`` (``uint8[H, W, 3]``), ``depth``
+(``float32[H, W]``, metres above the table, clipped to ``[0, 1]``) and
+``primitive`` (0 = grasp, 1 = place: the primitive the next action uses).
+Action: ``(rotation, y, x)`` in ``MultiDiscrete([16, H, W])``. Reward: the
+change in task progress (Sec. 3 of the paper; progress runs 1..=4).
+``terminated`` on success or a block leaving the workspace, ``truncated`` at
+30 actions; ``info`` holds ``progress``, ``max_progress``, ``seed`` and the
+last step's outcome.
+"""
+
+from __future__ import annotations
+
+from typing import Any, SupportsFloat
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from seespot._core import MAX_TRIAL_ACTIONS, NUM_ROTATIONS, Trial, check_resolution
+
+ENV_IDS = {
+    "stack": "seespot/Stack-v0",
+    "row": "seespot/Row-v0",
+    "unstack": "seespot/Unstack-v0",
+    "vertical-square": "seespot/VerticalSquare-v0",
+}
+
+# Depth above the table is at most a few blocks (5 cm each); 1 m bounds it.
+MAX_DEPTH = 1.0
+
+Obs = dict[str, Any]
+
+
+class SeespotEnv(gym.Env[Obs, np.ndarray]):
+    """One task of the block world as a gymnasium environment. Seeds: an
+    explicit ``reset(seed=s)`` starts trial ``s`` (odd seeds are the test
+    split); without one, the next seed is drawn from ``np_random``."""
+
+    metadata: dict[str, Any] = {"render_modes": ["rgb_array"]}
+
+    def __init__(self, task: str, resolution: int = 112, render_mode: str | None = None):
+        if task not in ENV_IDS:
+            raise ValueError(f"task: unknown task '{task}' (expected one of {sorted(ENV_IDS)})")
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"render_mode: '{render_mode}' is not None or 'rgb_array'")
+        self.task = task
+        self.resolution = check_resolution(resolution)
+        self.render_mode = render_mode
+        n = self.resolution
+        self.observation_space = spaces.Dict(
+            {
+                "color": spaces.Box(0, 255, shape=(n, n, 3), dtype=np.uint8),
+                "depth": spaces.Box(0.0, MAX_DEPTH, shape=(n, n), dtype=np.float32),
+                "primitive": spaces.Discrete(2),
+            }
+        )
+        self.action_space = spaces.MultiDiscrete([NUM_ROTATIONS, n, n])
+        self._trial: Trial | None = None
+        self._color: np.ndarray | None = None
+
+    def _obs(self) -> Obs:
+        assert self._trial is not None
+        color, depth = self._trial.observe()
+        np.clip(depth, 0.0, MAX_DEPTH, out=depth)
+        self._color = color
+        return {
+            "color": color,
+            "depth": depth,
+            "primitive": 0 if self._trial.next_primitive == "grasp" else 1,
+        }
+
+    def _info(self) -> dict[str, Any]:
+        assert self._trial is not None
+        t = self._trial
+        return {
+            "progress": t.progress,
+            "max_progress": t.max_progress,
+            "seed": t.seed,
+            "actions": t.actions,
+            "end": t.end,
+        }
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[Obs, dict[str, Any]]:
+        super().reset(seed=seed)
+        trial_seed = seed if seed is not None else int(self.np_random.integers(0, 2**31))
+        self._trial = Trial(self.task, trial_seed, self.resolution)
+        return self._obs(), self._info()
+
+    def step(self, action: Any) -> tuple[Obs, SupportsFloat, bool, bool, dict[str, Any]]:
+        if self._trial is None:
+            raise RuntimeError("step() before reset()")
+        a = np.asarray(action)
+        if a.shape != (3,):
+            raise ValueError(f"action: expected (rotation, y, x), got shape {a.shape}")
+        before = self._trial.progress
+        outcome = self._trial.step(int(a[0]), int(a[1]), int(a[2]))
+        obs = self._obs()
+        info = self._info()
+        info["primitive_success"] = outcome["primitive_success"]
+        end = outcome["end"]
+        terminated = end in ("success", "out-of-workspace")
+        truncated = end == "action-limit" or (
+            end is None and self._trial.actions >= MAX_TRIAL_ACTIONS
+        )
+        reward = float(self._trial.progress - before)
+        return obs, reward, terminated, truncated, info
+
+    def render(self) -> np.ndarray | None:  # type: ignore[override]
+        if self.render_mode == "rgb_array" and self._color is not None:
+            return self._color
+        return None
+
+
+def register_envs() -> None:
+    """Registers the four environments (idempotent)."""
+    for task, env_id in ENV_IDS.items():
+        if env_id not in gym.registry:
+            gym.register(
+                id=env_id,
+                entry_point="seespot.env:SeespotEnv",
+                kwargs={"task": task},
+                max_episode_steps=None,
+            )

@@ -1,0 +1,72 @@
+"""The Ray evaluation writes the records the serial run writes, and binds to
+127.0.0.1 only."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import psutil
+import pytest
+
+import seespot
+from seespot import dist
+
+from conftest import without_timing
+
+ray = pytest.importorskip("ray")
+
+# IPv4 loopback, also as seen on an IPv6 socket.
+LOOPBACK = {"127.0.0.1", "::ffff:127.0.0.1", "::1"}
+
+
+def _listening_addresses() -> set[str]:
+    """The addresses this process and its children (the local Ray) listen on."""
+    me = psutil.Process(os.getpid())
+    pids = {me.pid} | {p.pid for p in me.children(recursive=True)}
+    return {
+        c.laddr.ip
+        for c in psutil.net_connections(kind="inet")
+        if c.status == psutil.CONN_LISTEN and c.pid in pids
+    }
+
+
+def test_ray_records_equal_serial(tmp_path: Path) -> None:
+    methods, tasks, seeds = ["oracle", "random"], ["stack", "row"], seespot.test_seeds(1, 3)
+    dist.init_local_ray(num_workers=2, threads_per_worker=1)
+    try:
+        result = dist.evaluate(methods, tasks, seed=1, trials=3, out_dir=tmp_path, num_workers=2)
+        nodes = [n["NodeManagerAddress"] for n in ray.nodes()]
+        gcs = ray.get_runtime_context().gcs_address
+        addresses = _listening_addresses()
+    finally:
+        ray.shutdown()
+    print(f"\nRay node {nodes}, GCS {gcs}; sockets listening on {sorted(addresses)}")
+    assert nodes == ["127.0.0.1"]
+    assert gcs.startswith("127.0.0.1:")
+    assert addresses and addresses <= LOOPBACK
+    equal = 0
+    for m in methods:
+        for t in tasks:
+            path = Path(seespot.records_path(tmp_path, m, t))
+            on_disk = sorted((json.loads(x) for x in path.read_text().splitlines()), key=lambda r: r["seed"])
+            assert [r["seed"] for r in on_disk] == seeds
+            assert [without_timing(r) for r in result[(m, t)]] == [without_timing(r) for r in on_disk]
+            serial_ev = seespot.Evaluator(m, t)
+            serial = [json.loads(serial_ev.run(s, i)) for i, s in enumerate(seeds)]
+            assert [without_timing(r) for r in on_disk] == [without_timing(r) for r in serial]
+            equal += len(serial)
+    print(f"Ray records equal to serial: {equal}/{equal}")
+
+
+def test_resume_skips_recorded_seeds(tmp_path: Path) -> None:
+    path = Path(seespot.records_path(tmp_path, "oracle", "stack"))
+    dist.append(path, seespot.Evaluator("oracle", "stack").run(1, 0))
+    dist.init_local_ray(num_workers=1, threads_per_worker=1)
+    try:
+        dist.evaluate(["oracle"], ["stack"], seed=1, trials=2, out_dir=tmp_path, num_workers=1)
+    finally:
+        ray.shutdown()
+    seeds = [json.loads(x)["seed"] for x in path.read_text().splitlines()]
+    assert seeds == [1, 3]
