@@ -59,7 +59,7 @@ const SPOT_Q_TRAIN_STEPS: u64 = 40_000;
 pub fn paper_results() -> Vec<PaperResult> {
     // (method, train steps, [(success %, progress %); stack, unstack, row, vsq, mean])
     type Row = (&'static str, u64, [(f64, f64); 5]);
-    let rows: [Row; 4] = [
+    let rows: [Row; 6] = [
         (
             "SSR CCD",
             0,
@@ -79,6 +79,16 @@ pub fn paper_results() -> Vec<PaperResult> {
             "SSR CCD finetuned",
             1_000,
             [(58., 90.), (72., 87.), (40., 84.), (34., 83.), (51., 86.)],
+        ),
+        (
+            "TransporterNet finetuned",
+            1_000,
+            [(54., 74.), (56., 64.), (24., 44.), (28., 46.), (41., 57.)],
+        ),
+        (
+            "Good Robot finetuned",
+            1_000,
+            [(64., 80.), (59., 82.), (20., 90.), (0., 68.), (34., 80.)],
         ),
     ];
     let mut out = Vec::new();
@@ -125,6 +135,7 @@ pub fn display_method(id: &str) -> String {
         "spotq" => "SPOT-Q".into(),
         "goodrobotfinetuned" => "Good Robot finetuned".into(),
         "transporternet" | "transporter" => "TransporterNet".into(),
+        "transporternetfinetuned" | "transporterfinetuned" => "TransporterNet finetuned".into(),
         "oracle" => "Oracle".into(),
         "random" => "Random".into(),
         _ => id.to_string(),
@@ -924,7 +935,11 @@ mod tests {
     #[test]
     fn paper_numbers_are_complete() {
         let p = paper_results();
-        assert_eq!(p.len(), 4 * 5 + 1);
+        assert_eq!(p.len(), 6 * 5 + 1);
+        assert_eq!(
+            paper_result("good-robot-finetuned", Some(TaskId::VerticalSquare)).map(|r| r.success),
+            Some(0.0)
+        );
         let ccd = paper_result("ssr-ccd", None).expect("SSR CCD mean");
         assert_eq!((ccd.success, ccd.progress), (0.36, 0.79));
         assert_eq!(paper_result("spot-q", None).map(|r| r.success), Some(0.91));
