@@ -76,6 +76,9 @@ def test_viser_view_shows_the_trial_and_a_drag_changes_the_decision(page_url, tm
         assert after != before
         moved = view.client.state()["blocks"][i]["position"]
         assert abs(moved[1] - 0.17) < 3e-3
+        # The layout saves as a scene file from Python too.
+        text = view.client.save_layout(str(tmp_path / "layout.toml"))
+        assert text.count("[[blocks]]") == 4 and "task = \"stack\"" in text
         # Back in time and live again, through the GUI's handlers.
         assert view.back()["history"]["viewing"] is not None
         assert view.step("live")["history"]["viewing"] is None

@@ -26,6 +26,7 @@ import base64
 import json
 import threading
 import time
+import urllib.error
 import urllib.parse
 import urllib.request
 from typing import Any, Callable
@@ -89,6 +90,18 @@ class DebuggerClient:
 
     def state(self) -> dict[str, Any]:
         return self.get("/api/state")
+
+    def save_layout(self, path: str) -> str:
+        """Writes the session's current block layout as a scene file
+        (``seespot view --scene PATH`` starts from it) and returns its text."""
+        try:
+            with urllib.request.urlopen(self.base + "/api/scene", timeout=self.timeout) as r:
+                text = r.read().decode()
+        except urllib.error.HTTPError as e:
+            raise RuntimeError(e.read().decode()) from e
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(text)
+        return text
 
     def on_state(self, listener: Callable[[dict[str, Any]], None]) -> None:
         """Calls ``listener(state)`` (from a background thread) on every change."""
