@@ -26,7 +26,7 @@ from typing import Any
 
 from seespot._core import TASKS, Evaluator, record_name, records_path, test_seeds
 
-METHODS = ("ssr-ccd", "ssr-l2cd", "spot-q", "oracle", "random")
+METHODS = ("ssr-ccd", "ssr-l2cd", "ssr-ccd-loopbreak", "spot-q", "oracle", "random")
 
 
 def init_local_ray(num_workers: int, threads_per_worker: int) -> None:

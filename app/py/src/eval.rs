@@ -43,17 +43,19 @@ impl Evaluator {
         let eval_method = EvalMethod::parse(method).ok_or_else(|| {
             bad(
                 "method",
-                format!("'{method}' is not ssr-ccd, ssr-l2cd, spot-q, oracle or random"),
+                format!(
+                    "'{method}' is not ssr-ccd, ssr-l2cd, ssr-ccd-loopbreak, spot-q, oracle or random"
+                ),
             )
         })?;
         let task = arrays::task(task)?;
         let resolution = non_negative(resolution, "resolution")?;
         let resolution = arrays::resolution(resolution as usize, "resolution")?;
         let ssr = crate::ssr::ssr_config(
-            if eval_method == EvalMethod::SsrL2cd {
-                "ssr-l2cd"
-            } else {
-                "ssr-ccd"
+            match eval_method {
+                EvalMethod::SsrL2cd => "ssr-l2cd",
+                EvalMethod::SsrCcdLoopBreak => "ssr-ccd-loopbreak",
+                _ => "ssr-ccd",
             },
             correspond,
         )?;
@@ -67,16 +69,18 @@ impl Evaluator {
             correspond: ssr.correspond,
             finetune_steps: 0,
         };
-        let name = eval_method.record_name(0, ssr.correspond.mode);
+        let name = EvalMethod::record_name_of(&config);
         let (actor, provenance) = py
             .detach(|| {
                 let provenance =
                     seespot_ssr::eval::provenance(&config, task).map_err(|e| e.to_string())?;
                 let actor: Box<dyn Actor + Send + Sync> = match eval_method {
-                    EvalMethod::SsrCcd | EvalMethod::SsrL2cd => Box::new(
-                        SsrPolicy::load(task, &config.models_dir, &config.demos_dir, ssr)
-                            .map_err(|e| e.to_string())?,
-                    ),
+                    EvalMethod::SsrCcd | EvalMethod::SsrL2cd | EvalMethod::SsrCcdLoopBreak => {
+                        Box::new(
+                            SsrPolicy::load(task, &config.models_dir, &config.demos_dir, ssr)
+                                .map_err(|e| e.to_string())?,
+                        )
+                    }
                     EvalMethod::SpotQ => Box::new(
                         PolicyNet::load(&model_path(&config.models_dir, task))
                             .map_err(|e| e.to_string())?,
@@ -151,9 +155,11 @@ pub fn record_name(method: &str, correspond: &str) -> PyResult<String> {
     let m = EvalMethod::parse(method).ok_or_else(|| {
         bad(
             "method",
-            format!("'{method}' is not ssr-ccd, ssr-l2cd, spot-q, oracle or random"),
+            format!(
+                "'{method}' is not ssr-ccd, ssr-l2cd, ssr-ccd-loopbreak, spot-q, oracle or random"
+            ),
         )
     })?;
     let config = crate::ssr::ssr_config("ssr-ccd", correspond)?;
-    Ok(m.record_name(0, config.correspond.mode))
+    Ok(m.record_name(0, config.correspond.mode, false))
 }

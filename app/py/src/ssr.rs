@@ -25,13 +25,14 @@ pub struct Ssr {
 
 /// An [`SsrConfig`] from the method and correspondence names.
 pub fn ssr_config(method: &str, correspond: &str) -> PyResult<SsrConfig> {
-    let method = match method {
-        "ssr-ccd" => Method::SsrCcd,
-        "ssr-l2cd" => Method::SsrL2cd,
+    let (method, loop_break) = match method {
+        "ssr-ccd" => (Method::SsrCcd, false),
+        "ssr-l2cd" => (Method::SsrL2cd, false),
+        "ssr-ccd-loopbreak" => (Method::SsrCcd, true),
         _ => {
             return Err(bad(
                 "method",
-                format!("'{method}' is not ssr-ccd or ssr-l2cd"),
+                format!("'{method}' is not ssr-ccd, ssr-l2cd or ssr-ccd-loopbreak"),
             ));
         }
     };
@@ -42,6 +43,7 @@ pub fn ssr_config(method: &str, correspond: &str) -> PyResult<SsrConfig> {
             mode,
             smooth_sigma: None,
         },
+        loop_break,
     })
 }
 
