@@ -69,7 +69,9 @@ def test_viser_view_shows_the_trial_and_a_drag_changes_the_decision(page_url, tm
             + (view.controls[k].position[1] - y) ** 2,
         )
         view.controls[i].position = (0.17 if x < 0 else -0.17, 0.17, 0.025)
+        t0 = time.perf_counter()
         after_state = view.drop(i)
+        print(f"viser: drop -> new trial settled and decided in {1e3 * (time.perf_counter() - t0):.0f} ms")
         assert after_state is not None, view.gui_status.content
         assert after_state["phase"] == "embed" and after_state["action_index"] == 0
         after = view.client.get("/api/decision")["action"]
