@@ -199,15 +199,7 @@ fn record_failed(
             "--record failed records SSR (not finetuned, noiseless) and oracle trials, not {name}"
         ),
     };
-    let ssr = seespot_ssr::SsrConfig {
-        method: if config.method == EvalMethod::SsrL2cd {
-            seespot_ssr::Method::SsrL2cd
-        } else {
-            seespot_ssr::Method::SsrCcd
-        },
-        correspond: config.correspond,
-        loop_break: config.method == EvalMethod::SsrCcdLoopBreak,
-    };
+    let ssr = config.ssr_config();
     let factory = live::factory_with(
         kind,
         config.models_dir.clone(),

@@ -121,15 +121,7 @@ fn replay(
             m.as_str()
         ),
     };
-    let ssr = seespot_ssr::SsrConfig {
-        method: if config.method == EvalMethod::SsrL2cd {
-            seespot_ssr::Method::SsrL2cd
-        } else {
-            seespot_ssr::Method::SsrCcd
-        },
-        correspond: config.correspond,
-        loop_break: config.method == EvalMethod::SsrCcdLoopBreak,
-    };
+    let ssr = config.ssr_config();
     let factory = live::factory_with(
         kind,
         args.decider.models.clone(),

@@ -118,6 +118,23 @@ pub struct EvalConfig {
     pub finetune_steps: usize,
 }
 
+impl EvalConfig {
+    /// How See-SPOT-Run runs for this configuration's method: CCD (also for
+    /// the loop-breaking extension) or L2CD, the correspondence, and whether
+    /// loops are broken.
+    pub fn ssr_config(&self) -> SsrConfig {
+        SsrConfig {
+            method: if self.method == EvalMethod::SsrL2cd {
+                Method::SsrL2cd
+            } else {
+                Method::SsrCcd
+            },
+            correspond: self.correspond,
+            loop_break: self.method == EvalMethod::SsrCcdLoopBreak,
+        }
+    }
+}
+
 /// Why an evaluation stopped.
 #[derive(Debug, thiserror::Error)]
 pub enum EvalError {
@@ -374,16 +391,12 @@ pub fn run_task(
 fn make_actor(config: &EvalConfig, task: TaskId) -> Result<Box<dyn Actor>, EvalError> {
     Ok(match config.method {
         EvalMethod::SsrCcd | EvalMethod::SsrL2cd | EvalMethod::SsrCcdLoopBreak => {
-            let ssr_config = SsrConfig {
-                method: if config.method == EvalMethod::SsrL2cd {
-                    Method::SsrL2cd
-                } else {
-                    Method::SsrCcd
-                },
-                correspond: config.correspond,
-                loop_break: config.method == EvalMethod::SsrCcdLoopBreak,
-            };
-            let mut ssr = SsrPolicy::load(task, &config.models_dir, &config.demos_dir, ssr_config)?;
+            let mut ssr = SsrPolicy::load(
+                task,
+                &config.models_dir,
+                &config.demos_dir,
+                config.ssr_config(),
+            )?;
             if config.finetune_steps > 0 {
                 let demos = ssr.demos().to_vec();
                 for (i, (_, policy)) in ssr.policies_mut().iter_mut().enumerate() {
