@@ -262,22 +262,8 @@ pub fn write_report(
     finetune_steps: usize,
 ) -> anyhow::Result<Report> {
     let mut records = Vec::new();
-    let trials = out.join("trials");
-    let mut files = Vec::new();
-    for method in
-        std::fs::read_dir(&trials).with_context(|| format!("reading {}", trials.display()))?
-    {
-        let method = method?.path();
-        if method.is_dir() {
-            for f in std::fs::read_dir(&method)? {
-                let f = f?.path();
-                if f.extension().is_some_and(|e| e == "jsonl") {
-                    files.push(f);
-                }
-            }
-        }
-    }
-    files.sort();
+    let files = seespot_ssr::eval::records_files(out)
+        .with_context(|| format!("reading {}", out.join("trials").display()))?;
     let mut by_file = Vec::new();
     for f in files {
         let rs = read_records(&f)?;

@@ -160,6 +160,30 @@ pub fn records_path(out_dir: &Path, method: &str, task: TaskId) -> PathBuf {
         .join(format!("{}.jsonl", task.as_str()))
 }
 
+/// Every records file under `<out_dir>/trials/` (`<method>/<task>.jsonl`),
+/// sorted; what the report and `seespot review` read.
+pub fn records_files(out_dir: &Path) -> Result<Vec<PathBuf>, RecordError> {
+    let trials = out_dir.join("trials");
+    let io = |e: std::io::Error| RecordError::Io {
+        path: trials.display().to_string(),
+        source: e,
+    };
+    let mut files = Vec::new();
+    for method in std::fs::read_dir(&trials).map_err(io)? {
+        let method = method.map_err(io)?.path();
+        if method.is_dir() {
+            for f in std::fs::read_dir(&method).map_err(io)? {
+                let f = f.map_err(io)?.path();
+                if f.extension().is_some_and(|e| e == "jsonl") {
+                    files.push(f);
+                }
+            }
+        }
+    }
+    files.sort();
+    Ok(files)
+}
+
 /// sha256 (hex) of a file's bytes.
 pub fn sha256_file(path: &Path) -> Result<String, EvalError> {
     use sha2::{Digest, Sha256};

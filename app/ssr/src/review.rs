@@ -117,24 +117,7 @@ pub struct ReviewedTrial {
 /// Every trial of every records file under `<out>/trials/`, in (method, task,
 /// seed) order.
 pub fn review_dir(out: &Path) -> Result<Vec<ReviewedTrial>, RecordError> {
-    let trials = out.join("trials");
-    let mut files = Vec::new();
-    let io = |e: std::io::Error| RecordError::Io {
-        path: trials.display().to_string(),
-        source: e,
-    };
-    for method in std::fs::read_dir(&trials).map_err(io)? {
-        let method = method.map_err(io)?.path();
-        if method.is_dir() {
-            for f in std::fs::read_dir(&method).map_err(io)? {
-                let f = f.map_err(io)?.path();
-                if f.extension().is_some_and(|e| e == "jsonl") {
-                    files.push(f);
-                }
-            }
-        }
-    }
-    files.sort();
+    let files = crate::eval::records_files(out)?;
     let mut out = Vec::new();
     for f in files {
         for r in read_records(&f)? {
