@@ -14,7 +14,9 @@ use seespot_ssr::report;
 
 #[derive(clap::Args, Debug)]
 pub struct EvalArgs {
-    /// ssr-ccd, ssr-l2cd, spot-q, oracle or random; ssr-ccd-loopbreak is
+    /// ssr-ccd, ssr-l2cd, spot-q, oracle, random or transporter (the
+    /// TransporterNet baseline; with --finetune-steps, another task's
+    /// TransporterNet finetuned that many iterations); ssr-ccd-loopbreak is
     /// seespot's extension (SSR CCD that does not repeat an action which left
     /// the scene unchanged), not the paper's method.
     #[arg(long, default_value = "ssr-ccd", value_parser = parse_method)]
@@ -50,7 +52,9 @@ pub struct EvalArgs {
     #[arg(long, value_parser = seespot_sim::bounds::parse_sigma)]
     smooth_sigma: Option<f32>,
     /// Finetune on the two demonstrations first: steps per policy (333 = the
-    /// paper's 1k in all). With `--method spot-q` this gives "Good Robot finetuned".
+    /// paper's 1k in all). With `--method spot-q` this gives "Good Robot
+    /// finetuned"; with `--method transporter`, iterations of another task's
+    /// TransporterNet on the demonstrations (1000 = the paper's finetuned row).
     #[arg(long, default_value_t = 0, value_parser = seespot_sim::bounds::parse_finetune_steps)]
     finetune_steps: usize,
     /// Sensor noise for a domain-shift run: a scene file whose `[noise]` table
@@ -71,7 +75,7 @@ pub struct EvalArgs {
 fn parse_method(s: &str) -> Result<EvalMethod, String> {
     EvalMethod::parse(s).ok_or_else(|| {
         format!(
-            "unknown method '{s}' (expected ssr-ccd, ssr-l2cd, ssr-ccd-loopbreak, spot-q, oracle or random)"
+            "unknown method '{s}' (expected ssr-ccd, ssr-l2cd, ssr-ccd-loopbreak, spot-q, oracle, random or transporter)"
         )
     })
 }
@@ -273,9 +277,37 @@ pub fn write_report(
     for (_, rs) in by_file {
         records.extend(rs);
     }
+    // Finetuning steps per (method, task), as the records' provenance states.
+    let mut finetuned = std::collections::BTreeMap::new();
+    for r in &records {
+        if let Some(n) = r.provenance.as_ref().and_then(|p| {
+            p.settings
+                .split(", ")
+                .find_map(|kv| kv.strip_prefix("finetune_steps="))
+                .and_then(|v| v.parse::<u64>().ok())
+        }) {
+            finetuned.insert((r.method.clone(), r.task), n);
+        }
+    }
     let train_steps = |method: &str, task: TaskId| -> u64 {
+        let steps = finetuned
+            .get(&(method.to_owned(), task))
+            .copied()
+            .unwrap_or(finetune_steps as u64);
+        if method.starts_with("transporter") {
+            if method.contains("-finetuned") {
+                return steps;
+            }
+            return seespot_policy::TransporterNet::load(&seespot_ssr::eval::transporter_path(
+                models, task,
+            ))
+            .ok()
+            .and_then(|n| n.meta.extra.get("iterations").and_then(|s| s.parse().ok()))
+            .unwrap_or(0);
+        }
         if method.contains("-finetuned") {
-            return 3 * finetune_steps as u64;
+            // SSR: each of three policies; "Good Robot": one policy, as many in all.
+            return 3 * steps;
         }
         if method.trim_end_matches("-noisy") != "spot-q" {
             return 0;
@@ -299,7 +331,10 @@ pub fn write_report(
         demo_actions.insert(task, n);
     }
     let annotated = |method: &str, task: TaskId| -> usize {
-        if method.starts_with("ssr") || method.contains("-finetuned") {
+        if method.starts_with("ssr")
+            || method.starts_with("transporter")
+            || method.contains("-finetuned")
+        {
             annotated_actions(demo_actions.get(&task).copied().unwrap_or(0))
         } else {
             0

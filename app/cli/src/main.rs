@@ -6,6 +6,7 @@ mod eval;
 mod review;
 mod sim;
 mod train;
+mod transporter;
 #[cfg(feature = "viewer")]
 mod view;
 
@@ -34,6 +35,9 @@ enum Command {
     Review(review::ReviewArgs),
     /// Train one task's SPOT-Q policy (resumable from its run directory).
     Train(train::TrainArgs),
+    /// The TransporterNet baseline: train it on a task's demonstrations.
+    #[command(subcommand)]
+    Transporter(transporter::TransporterCommand),
     /// Run a live SSR trial and serve the browser debugger and the rerun web viewer.
     #[cfg(feature = "viewer")]
     View(view::ViewArgs),
@@ -53,6 +57,7 @@ fn main() -> anyhow::Result<()> {
         Command::Bench(c) => bench::run(c),
         Command::Eval(a) => eval::run(a),
         Command::Train(a) => train::run(a),
+        Command::Transporter(c) => transporter::run(c),
         Command::Review(a) => review::run(a),
         #[cfg(feature = "viewer")]
         Command::View(a) => view::run_view(a),

@@ -31,6 +31,7 @@ pub mod reward;
 pub mod rotation;
 pub mod tensor_file;
 pub mod trainer;
+pub mod transporter;
 
 pub use actors::{RandomActor, own_task_eval};
 pub use embedding::{AseMap, EMBEDDING_DIM, QMap};
@@ -39,3 +40,4 @@ pub use finetune::finetune;
 pub use mask::{common_sense_mask, random_action};
 pub use policy::{PolicyMeta, PolicyNet, greedy_action, masked_argmax};
 pub use trainer::{TrainConfig, TrainOutcome, TrainProgress, train};
+pub use transporter::{TransporterActor, TransporterNet};

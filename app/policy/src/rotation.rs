@@ -23,7 +23,7 @@ use crate::input::{INPUT_CHANNELS, NetInput, fill_values};
 
 /// Bilinear sample of channel plane `plane` (`n x n`) at continuous `(fx, fy)`;
 /// taps outside the image read `fill`.
-fn sample_fill(plane: &[f32], n: usize, fx: f32, fy: f32, fill: f32) -> f32 {
+pub(crate) fn sample_fill(plane: &[f32], n: usize, fx: f32, fy: f32, fill: f32) -> f32 {
     let x0 = fx.floor();
     let y0 = fy.floor();
     let tx = fx - x0;

@@ -8,7 +8,8 @@
 
 use std::path::{Path, PathBuf};
 
-use seespot_policy::{PolicyNet, RandomActor, finetune};
+use seespot_policy::transporter::finetune_transporter;
+use seespot_policy::{PolicyNet, RandomActor, TransporterActor, TransporterNet, finetune};
 use seespot_sim::record::{RecordError, append_record, read_records};
 use seespot_sim::{
     Actor, Demo, Grid, Oracle, Provenance, Seeds, TaskId, Trial, TrialRecord, WorldConfig,
@@ -34,16 +35,21 @@ pub enum EvalMethod {
     Oracle,
     /// Uniform random actions under the common-sense masks.
     Random,
+    /// The paper's few-shot baseline: a TransporterNet trained by imitation on
+    /// the test task's two demonstrations (`models/transporter/<task>`); with
+    /// finetuning steps, another task's TransporterNet finetuned on them.
+    Transporter,
 }
 
 impl EvalMethod {
-    pub const ALL: [EvalMethod; 6] = [
+    pub const ALL: [EvalMethod; 7] = [
         Self::SsrCcd,
         Self::SsrL2cd,
         Self::SsrCcdLoopBreak,
         Self::SpotQ,
         Self::Oracle,
         Self::Random,
+        Self::Transporter,
     ];
 
     pub fn as_str(self) -> &'static str {
@@ -54,6 +60,7 @@ impl EvalMethod {
             Self::SpotQ => "spot-q",
             Self::Oracle => "oracle",
             Self::Random => "random",
+            Self::Transporter => "transporter",
         }
     }
 
@@ -84,6 +91,7 @@ impl EvalMethod {
         match (self, finetune_steps) {
             (_, 0) => format!("{}{plain}{noise}", self.as_str()),
             (Self::SpotQ, _) => format!("good-robot-finetuned{noise}"),
+            (Self::Transporter, _) => format!("transporter-finetuned{noise}"),
             (_, _) if self.is_ssr() => format!("{}{plain}-finetuned{noise}", self.as_str()),
             _ => format!("{}{noise}", self.as_str()),
         }
@@ -226,6 +234,14 @@ pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalE
             if let Some(base) = TaskId::ALL.into_iter().find(|t| *t != task) {
                 paths.push(model_path(&config.models_dir, base));
             }
+            paths.extend(demos()?);
+        }
+        (EvalMethod::Transporter, 0) => {
+            paths.push(transporter_path(&config.models_dir, task));
+            paths.extend(demos()?);
+        }
+        (EvalMethod::Transporter, _) => {
+            paths.push(transporter_path(&config.models_dir, finetune_base(task)));
             paths.extend(demos()?);
         }
         (EvalMethod::Oracle | EvalMethod::Random, _) => {}
@@ -432,21 +448,52 @@ fn make_actor(config: &EvalConfig, task: TaskId) -> Result<Box<dyn Actor>, EvalE
         EvalMethod::SpotQ if config.finetune_steps > 0 => {
             // "Good Robot finetuned": the first other-task policy, finetuned on the
             // demonstrations for as many steps as SSR's three together, run greedily.
-            let base = TaskId::ALL
-                .into_iter()
-                .find(|t| *t != task)
-                .unwrap_or(TaskId::Stack);
-            let policy = PolicyNet::load(&model_path(&config.models_dir, base))?;
-            let demos = demo_dirs(&config.demos_dir, task)
-                .iter()
-                .map(|d| Demo::read(d))
-                .collect::<Result<Vec<_>, _>>()?;
-            Box::new(finetune(policy, &demos, 3 * config.finetune_steps, 0)?)
+            let policy = PolicyNet::load(&model_path(&config.models_dir, finetune_base(task)))?;
+            Box::new(finetune(
+                policy,
+                &read_demos(config, task)?,
+                3 * config.finetune_steps,
+                0,
+            )?)
         }
+        EvalMethod::Transporter if config.finetune_steps > 0 => {
+            let base =
+                TransporterNet::load(&transporter_path(&config.models_dir, finetune_base(task)))?;
+            let net =
+                finetune_transporter(&base, &read_demos(config, task)?, config.finetune_steps, 0)?;
+            Box::new(TransporterActor::new(net))
+        }
+        EvalMethod::Transporter => Box::new(TransporterActor::new(TransporterNet::load(
+            &transporter_path(&config.models_dir, task),
+        )?)),
         EvalMethod::SpotQ => Box::new(PolicyNet::load(&model_path(&config.models_dir, task))?),
         EvalMethod::Oracle => Box::new(Oracle::new(task)),
         EvalMethod::Random => Box::new(RandomActor::default()),
     })
+}
+
+/// The other task whose model the finetuned rows start from: the first in
+/// [`TaskId::ALL`] that is not `task`.
+pub fn finetune_base(task: TaskId) -> TaskId {
+    TaskId::ALL
+        .into_iter()
+        .find(|t| *t != task)
+        .unwrap_or(TaskId::Stack)
+}
+
+/// The TransporterNet trained on `task`'s demonstrations:
+/// `<models>/transporter/<task>.safetensors`.
+pub fn transporter_path(models_dir: &Path, task: TaskId) -> PathBuf {
+    models_dir
+        .join("transporter")
+        .join(format!("{}.safetensors", task.as_str()))
+}
+
+fn read_demos(config: &EvalConfig, task: TaskId) -> Result<Vec<Demo>, EvalError> {
+    Ok(demo_dirs(&config.demos_dir, task)
+        .iter()
+        .map(|d| Demo::read(d))
+        .collect::<Result<Vec<_>, _>>()?)
 }
 
 /// Default world of an evaluation at `resolution` px.

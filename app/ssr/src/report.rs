@@ -470,7 +470,7 @@ pub const SSR_METHODS: [&str; 7] = [
 
 /// The pairs of methods the report tests on paired seeds (exact McNemar), with
 /// what each comparison asks; pairs without shared seeds are skipped.
-pub const COMPARISONS: [(&str, &str, &str); 6] = [
+pub const COMPARISONS: [(&str, &str, &str); 8] = [
     (
         "ssr-ccd",
         "ssr-l2cd",
@@ -493,6 +493,16 @@ pub const COMPARISONS: [(&str, &str, &str); 6] = [
         "the test task's own policy against SSR",
     ),
     ("ssr-ccd", "random", "SSR against random actions"),
+    (
+        "ssr-ccd",
+        "transporter",
+        "SSR against the few-shot baseline trained on the same demonstrations",
+    ),
+    (
+        "transporter-finetuned",
+        "transporter",
+        "TransporterNet finetuned from another task against trained from scratch",
+    ),
 ];
 
 /// Every comparison of [`COMPARISONS`] that the records allow.
