@@ -125,9 +125,10 @@ function renderPairs(s) {
     body.appendChild(tr);
   });
   const pick = (k) => (k === null || k === undefined || !s.pairs[k] ? '…' : act(s.pairs[k].matched));
-  $('method-choices').textContent = s.pairs.length
-    ? `On this state SSR CCD would take ${pick(s.ccd_choice)}; SSR L2CD would take ${pick(s.l2cd_choice)}.`
-    : '';
+  $('method-choices').textContent = !s.pairs.length ? ''
+    : s.method === 'transporter'
+      ? 'TransporterNet: the match map is its score map for this primitive (best score minus score: 0 at the action, larger is worse); no rematch.'
+      : `On this state SSR CCD would take ${pick(s.ccd_choice)}; SSR L2CD would take ${pick(s.l2cd_choice)}.`;
   if (!s.pairs.length) {
     const tr = document.createElement('tr');
     tr.innerHTML = `<td colspan="7" class="pending">${s.phase ? 'this decider gives no explanation' : 'step to the embed phase'}</td>`;

@@ -196,11 +196,14 @@ fn record_failed(
     use seespot_viz::live::{self, DeciderKind, RecordOptions};
     let kind = match config.method {
         EvalMethod::Oracle => DeciderKind::Oracle,
-        m if m.is_ssr() && config.finetune_steps == 0 && config.world.noise.is_none() => {
-            DeciderKind::Ssr
-        }
+        m if config.finetune_steps > 0 || !config.world.noise.is_none() => anyhow::bail!(
+            "--record failed records trials that are not finetuned and noiseless, not {name} ({})",
+            m.as_str()
+        ),
+        EvalMethod::Transporter => DeciderKind::Transporter,
+        m if m.is_ssr() => DeciderKind::Ssr,
         _ => anyhow::bail!(
-            "--record failed records SSR (not finetuned, noiseless) and oracle trials, not {name}"
+            "--record failed records SSR, TransporterNet and oracle trials, not {name}"
         ),
     };
     let ssr = config.ssr_config();

@@ -14,7 +14,8 @@ use seespot_viz::live::{self, DeciderKind, ViewOptions};
 pub struct DeciderArgs {
     /// What picks the actions: `ssr` (See-SPOT-Run with the shipped policies
     /// and demonstrations), `features` (SSR's loop over handcrafted features, no
-    /// trained weights) or `oracle`.
+    /// trained weights), `oracle`, or `transporter` (the TransporterNet
+    /// baseline of `<models>/transporter/`, its scores shown as match maps).
     #[arg(long, default_value = "ssr")]
     pub decider: DeciderKind,
     /// Folder of the shipped policies (`<task>.safetensors`).
@@ -114,9 +115,10 @@ fn replay(
         .with_context(|| format!("cannot replay {} seed {}", path.display(), args.seed))?;
     let kind = match config.method {
         EvalMethod::Oracle => DeciderKind::Oracle,
+        EvalMethod::Transporter => DeciderKind::Transporter,
         m if m.is_ssr() => DeciderKind::Ssr,
         m => anyhow::bail!(
-            "{}: the debugger replays SSR and oracle trials, not {}",
+            "{}: the debugger replays SSR, TransporterNet and oracle trials, not {}",
             path.display(),
             m.as_str()
         ),

@@ -31,7 +31,8 @@ fn shipped_transporters_load_and_plan() {
                 .chain(&maps.transport)
                 .all(|v| v.is_finite())
         );
-        assert_eq!(maps.attention.len(), 16 * 112 * 112);
+        let g = seespot_policy::transporter::GRID;
+        assert_eq!(maps.attention.len(), 16 * g * g);
     }
 }
 

@@ -12,6 +12,10 @@ pub enum Method {
     SsrCcd,
     /// Smallest embedding distance L (Eq. 9).
     SsrL2cd,
+    /// Not See-SPOT-Run: the TransporterNet baseline, whose pick and place
+    /// scores the debugger shows in SSR's views (one pair per decision, its
+    /// match map the score map as a distance, `C` = 0).
+    Transporter,
 }
 
 /// One (policy m, demo n) pair's correspondence.

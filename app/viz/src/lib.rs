@@ -20,6 +20,7 @@ pub mod server;
 pub mod session;
 pub mod ssr;
 pub mod token;
+pub mod transporter;
 
 pub use decider::{Decider, FeatureDecider};
 pub use live::{

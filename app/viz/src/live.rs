@@ -31,10 +31,13 @@ pub enum DeciderKind {
     Features,
     /// The scripted oracle (no explanation).
     Oracle,
+    /// The TransporterNet baseline (`<models>/transporter/<task>.safetensors`),
+    /// its pick and place scores shown as the match map.
+    Transporter,
 }
 
 impl DeciderKind {
-    pub const ALL: [Self; 3] = [Self::Ssr, Self::Features, Self::Oracle];
+    pub const ALL: [Self; 4] = [Self::Ssr, Self::Features, Self::Oracle, Self::Transporter];
 
     /// The kebab-case name used on the command line.
     pub fn as_str(self) -> &'static str {
@@ -42,6 +45,7 @@ impl DeciderKind {
             Self::Ssr => "ssr",
             Self::Features => "features",
             Self::Oracle => "oracle",
+            Self::Transporter => "transporter",
         }
     }
 }
@@ -53,7 +57,9 @@ impl std::str::FromStr for DeciderKind {
         Self::ALL
             .into_iter()
             .find(|k| k.as_str() == s)
-            .ok_or_else(|| format!("unknown decider '{s}' (expected ssr, features or oracle)"))
+            .ok_or_else(|| {
+                format!("unknown decider '{s}' (expected ssr, features, oracle or transporter)")
+            })
     }
 }
 
@@ -84,6 +90,9 @@ pub fn factory_with(
                 }
                 DeciderKind::Ssr => {
                     crate::ssr::load_with(task, &models_dir, &demos_dir, world, ssr)
+                }
+                DeciderKind::Transporter => {
+                    crate::transporter::load(task, &models_dir, &demos_dir, world)
                 }
                 DeciderKind::Features => {
                     let (demos, note) = load_demos(task, &demos_dir, world)?;

@@ -85,6 +85,19 @@ pub fn corr_arrows(policy: TaskId, n: usize) -> String {
     format!("{}/arrows", corr(policy, n))
 }
 
+/// `corr/{policy}/{n}/pca_live`: the policy's live embeddings at the
+/// matched rotation, as RGB of their first three principal components
+/// (computed jointly with [`corr_pca_demo`]).
+pub fn corr_pca_live(policy: TaskId, n: usize) -> String {
+    format!("{}/pca_live", corr(policy, n))
+}
+
+/// `corr/{policy}/{n}/pca_demo`: the policy's embeddings of demo `n`'s step
+/// at the demonstrated rotation, in the same colours as [`corr_pca_live`].
+pub fn corr_pca_demo(policy: TaskId, n: usize) -> String {
+    format!("{}/pca_demo", corr(policy, n))
+}
+
 /// `corr/{policy}/{n}/l`.
 pub fn corr_l(policy: TaskId, n: usize) -> String {
     format!("{}/l", corr(policy, n))

@@ -74,8 +74,25 @@ pub fn blueprint(task: TaskId) -> Blueprint {
                     format!("+ /{}", paths::corr_rematch(*p, n)),
                     format!("+ /{}", paths::corr_arrows(*p, n)),
                 ]);
+            let sees = |name: String, path: String| {
+                Spatial2DView::new(name)
+                    .with_origin("/")
+                    .with_contents([format!("+ /{path}")])
+            };
+            let pca = Vertical::new([
+                sees(
+                    format!("what {} sees · live", p.as_str()),
+                    paths::corr_pca_live(*p, n),
+                )
+                .into(),
+                sees(
+                    format!("what {} sees · demo {n}", p.as_str()),
+                    paths::corr_pca_demo(*p, n),
+                )
+                .into(),
+            ]);
             tabs.push(
-                Horizontal::new([matched.into(), rematch.into()])
+                Horizontal::new([matched.into(), rematch.into(), pca.into()])
                     .with_name(format!("{} / demo {n}", p.as_str()))
                     .into(),
             );
@@ -313,6 +330,28 @@ impl Recorder {
             }
         }
         self.log_status(trial, action, phase, decision);
+    }
+
+    /// Logs what `policy` sees in the chosen pair (with demo `demo`): its live
+    /// and demo embeddings as RGB of their joint first three principal
+    /// components, `n x n` each (from [`crate::Decider::embedding_rgb`]).
+    pub fn log_embedding_rgb(
+        &self,
+        policy: TaskId,
+        demo: usize,
+        live: &[u8],
+        demo_rgb: &[u8],
+        n: usize,
+    ) {
+        let image = |rgb: &[u8]| rerun::Image::from_rgb24(rgb.to_vec(), [n as u32, n as u32]);
+        self.warn(
+            self.rec
+                .log(paths::corr_pca_live(policy, demo), &image(live)),
+        );
+        self.warn(
+            self.rec
+                .log(paths::corr_pca_demo(policy, demo), &image(demo_rgb)),
+        );
     }
 
     /// Logs a finished trial into the running metrics.

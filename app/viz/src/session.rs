@@ -344,7 +344,27 @@ impl Session {
         self.phase = Some(next);
         self.version += 1;
         self.remember(next);
+        // What the chosen pair's policy sees, for the recording (one joint PCA
+        // per decision).
+        let seen = match (&self.recorder, &self.decision) {
+            (Some(_), Some(d)) if next == Phase::Embed => d.pairs.get(d.chosen).and_then(|p| {
+                let index = self
+                    .decider
+                    .policies()
+                    .iter()
+                    .position(|t| *t == p.policy)?;
+                self.decider
+                    .embedding_rgb(index, p.demo, p.demo_step, p.matched.rotation)
+                    .ok()
+                    .flatten()
+                    .map(|rgb| (p.policy, p.demo, rgb))
+            }),
+            _ => None,
+        };
         if let (Some(r), Some(hm)) = (&mut self.recorder, &self.decided_on) {
+            if let Some((policy, demo, (live, demo_rgb))) = &seen {
+                r.log_embedding_rgb(*policy, *demo, live, demo_rgb, hm.resolution());
+            }
             r.log_phase(
                 &self.trial,
                 action_index,
@@ -612,7 +632,7 @@ impl Session {
         if phase >= Phase::Match {
             out["match_map"] = json!(b64::f32s(&p.match_map));
         }
-        if phase >= Phase::Verify {
+        if phase >= Phase::Verify && !p.rematch_map.is_empty() {
             out["rematch_map"] = json!(b64::f32s(&p.rematch_map));
         }
         out
