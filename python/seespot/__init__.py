@@ -23,6 +23,7 @@ from typing import Any
 
 from seespot._core import (
     MAX_TRIAL_ACTIONS,
+    METHODS,
     NUM_ROTATIONS,
     TASKS,
     Evaluator,
@@ -44,6 +45,7 @@ from seespot.env import register_envs
 
 __all__ = [
     "MAX_TRIAL_ACTIONS",
+    "METHODS",
     "NUM_ROTATIONS",
     "TASKS",
     "Evaluator",

@@ -9,6 +9,7 @@ import numpy.typing as npt
 
 __all__ = [
     "MAX_TRIAL_ACTIONS",
+    "METHODS",
     "NUM_ROTATIONS",
     "TASKS",
     "Evaluator",
@@ -29,6 +30,7 @@ __all__ = [
 
 __version__: str
 TASKS: list[str]
+METHODS: list[str]
 NUM_ROTATIONS: int
 MAX_TRIAL_ACTIONS: int
 

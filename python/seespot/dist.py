@@ -24,9 +24,7 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
-from seespot._core import TASKS, Evaluator, record_name, records_path, test_seeds
-
-METHODS = ("ssr-ccd", "ssr-l2cd", "ssr-ccd-loopbreak", "spot-q", "oracle", "random")
+from seespot._core import METHODS, TASKS, Evaluator, record_name, records_path, test_seeds
 
 
 def init_local_ray(num_workers: int, threads_per_worker: int) -> None:

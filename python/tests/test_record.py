@@ -24,3 +24,18 @@ def test_oracle_record_equals_cli(tmp_path: Path, seespot_bin: Path) -> None:
     for index, r in enumerate(cli):
         py = seespot.run_trial("oracle", "stack", r["seed"], index=index)
         assert without_timing(py) == without_timing(r)
+
+
+def test_transporter_record_equals_cli(tmp_path: Path, seespot_bin: Path) -> None:
+    assert "transporter" in seespot.METHODS
+    subprocess.run(
+        [str(seespot_bin), "eval", "--method", "transporter", "--task", "unstack", "--trials", "1",
+         "--seed", "1", "--out", str(tmp_path)],
+        check=True,
+        capture_output=True,
+    )
+    path = seespot.records_path(tmp_path, "transporter", "unstack")
+    (r,) = [json.loads(line) for line in Path(path).read_text().splitlines()]
+    assert r["provenance"]["files"]["models/transporter/unstack.safetensors"]
+    py = seespot.run_trial("transporter", "unstack", 1, index=0)
+    assert without_timing(py) == without_timing(r)

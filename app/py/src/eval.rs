@@ -27,7 +27,7 @@ pub struct Evaluator {
 
 #[pymethods]
 impl Evaluator {
-    /// `method`: ssr-ccd, ssr-l2cd, spot-q, oracle or random (no finetuning);
+    /// `method`: ssr-ccd, ssr-l2cd, spot-q, oracle, random or transporter (no finetuning);
     /// `correspond`: `reference` or `plain` (SSR only).
     #[new]
     #[pyo3(signature = (method, task, models_dir = "models".into(), demos_dir = "demos".into(), resolution = 112, correspond = "reference"))]
@@ -44,7 +44,7 @@ impl Evaluator {
             bad(
                 "method",
                 format!(
-                    "'{method}' is not ssr-ccd, ssr-l2cd, ssr-ccd-loopbreak, spot-q, oracle or random"
+                    "'{method}' is not ssr-ccd, ssr-l2cd, ssr-ccd-loopbreak, spot-q, oracle, random or transporter"
                 ),
             )
         })?;
@@ -87,6 +87,13 @@ impl Evaluator {
                     ),
                     EvalMethod::Oracle => Box::new(Oracle::new(task)),
                     EvalMethod::Random => Box::new(RandomActor::default()),
+                    EvalMethod::Transporter => Box::new(seespot_policy::TransporterActor::new(
+                        seespot_policy::TransporterNet::load(&seespot_ssr::eval::transporter_path(
+                            &config.models_dir,
+                            task,
+                        ))
+                        .map_err(|e| e.to_string())?,
+                    )),
                 };
                 Ok::<_, String>((actor, provenance))
             })
@@ -156,7 +163,7 @@ pub fn record_name(method: &str, correspond: &str) -> PyResult<String> {
         bad(
             "method",
             format!(
-                "'{method}' is not ssr-ccd, ssr-l2cd, ssr-ccd-loopbreak, spot-q, oracle or random"
+                "'{method}' is not ssr-ccd, ssr-l2cd, ssr-ccd-loopbreak, spot-q, oracle, random or transporter"
             ),
         )
     })?;

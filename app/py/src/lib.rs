@@ -29,6 +29,12 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
         "TASKS",
         seespot_sim::TaskId::ALL.map(|t| t.as_str()).to_vec(),
     )?;
+    m.add(
+        "METHODS",
+        seespot_ssr::eval::EvalMethod::ALL
+            .map(|m| m.as_str())
+            .to_vec(),
+    )?;
     m.add("NUM_ROTATIONS", seespot_sim::NUM_ROTATIONS)?;
     m.add("MAX_TRIAL_ACTIONS", seespot_sim::task::MAX_TRIAL_ACTIONS)?;
     m.add_class::<trial::Trial>()?;
