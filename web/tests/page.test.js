@@ -409,5 +409,12 @@ test('Ctrl-C finishes the --save recording', async () => {
   if (process.env.RERUN_BIN) {
     const r = spawnSync(process.env.RERUN_BIN, ['rrd', 'verify', rrd], { encoding: 'utf8' });
     assert.equal(r.status, 0, `rerun rrd verify failed:\n${r.stdout}\n${r.stderr}`);
+    if ((process.env.SEESPOT_DECIDER || 'ssr') === 'ssr') {
+      // What the chosen pair's policy sees (joint PCA colours) is in the recording.
+      const p = spawnSync(process.env.RERUN_BIN, ['rrd', 'print', rrd], { encoding: 'utf8', maxBuffer: 256 << 20 });
+      assert.equal(p.status, 0, `rerun rrd print failed:\n${p.stderr}`);
+      assert.match(p.stdout, /corr\/[a-z-]+\/[01]\/pca_live/);
+      assert.match(p.stdout, /corr\/[a-z-]+\/[01]\/pca_demo/);
+    }
   }
 });
