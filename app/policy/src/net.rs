@@ -97,6 +97,24 @@ pub fn param_shapes() -> Vec<(String, Vec<usize>)> {
     v
 }
 
+/// A freshly initialised parameter: zero for a `.bias`, else Kaiming-uniform
+/// over its fan-in (scaled by 0.1 for a `head`), drawn from `rng`.
+pub(crate) fn init_param(
+    name: &str,
+    shape: Vec<usize>,
+    rng: &mut ChaCha8Rng,
+) -> candle_core::Result<Var> {
+    let n: usize = shape.iter().product();
+    let data: Vec<f32> = if name.ends_with(".bias") {
+        vec![0.0; n]
+    } else {
+        let fan_in: usize = shape[1..].iter().product();
+        let bound = (6.0 / fan_in as f32).sqrt() * if name.starts_with("head") { 0.1 } else { 1.0 };
+        (0..n).map(|_| rng.random_range(-bound..bound)).collect()
+    };
+    Var::from_tensor(&Tensor::from_vec(data, shape, &Device::Cpu)?)
+}
+
 /// One primitive's Q-network. Parameters are candle [`Var`]s, in the order of
 /// [`param_shapes`].
 #[derive(Clone, Debug)]
@@ -111,20 +129,7 @@ impl QNet {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let mut params = Vec::new();
         for (name, shape) in param_shapes() {
-            let n: usize = shape.iter().product();
-            let data: Vec<f32> = if name.ends_with(".bias") {
-                vec![0.0; n]
-            } else {
-                let fan_in: usize = shape[1..].iter().product();
-                let bound =
-                    (6.0 / fan_in as f32).sqrt() * if name.starts_with("head") { 0.1 } else { 1.0 };
-                (0..n).map(|_| rng.random_range(-bound..bound)).collect()
-            };
-            params.push(Var::from_tensor(&Tensor::from_vec(
-                data,
-                shape,
-                &Device::Cpu,
-            )?)?);
+            params.push(init_param(&name, shape, &mut rng)?);
         }
         Ok(Self { params })
     }

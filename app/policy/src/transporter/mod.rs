@@ -45,7 +45,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use candle_core::{D, Device, Tensor, Var};
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use seespot_sim::action::rotation_angle;
 use seespot_sim::{Action, Heightmaps, NUM_ROTATIONS, Primitive, TaskId};
@@ -269,20 +269,7 @@ impl Fcn {
     pub fn new(out: usize, rng: &mut ChaCha8Rng) -> candle_core::Result<Self> {
         let mut params = Vec::new();
         for (name, shape) in fcn_shapes(out) {
-            let n: usize = shape.iter().product();
-            let data: Vec<f32> = if name.ends_with(".bias") {
-                vec![0.0; n]
-            } else {
-                let fan_in: usize = shape[1..].iter().product();
-                let scale = if name.starts_with("head") { 0.1 } else { 1.0 };
-                let bound = (6.0 / fan_in as f32).sqrt() * scale;
-                (0..n).map(|_| rng.random_range(-bound..bound)).collect()
-            };
-            params.push(Var::from_tensor(&Tensor::from_vec(
-                data,
-                shape,
-                &Device::Cpu,
-            )?)?);
+            params.push(crate::net::init_param(&name, shape, rng)?);
         }
         Ok(Self { params, out })
     }
@@ -694,6 +681,7 @@ pub fn label(rotation: usize, y: usize, x: usize, n: usize) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::Rng;
 
     #[test]
     fn shapes_and_pixel_maps() {
