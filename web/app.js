@@ -77,7 +77,10 @@ function onState(s) {
   $('primitive').textContent = s.holding !== null ? `place (holding)` : s.primitive;
   $('end').textContent = s.end ? (s.succeeded ? 'success ✓' : s.end) : (app.running ? 'running…' : 'in progress');
   $('method').textContent = s.method ? s.method.toUpperCase() : '';
-  $('decider').textContent = `${s.decider}. ${s.decider_note}` + (s.recording ? ` Recording to ${s.recording}.` : '');
+  $('decider').textContent = (s.replay ? `${s.replay[0].toUpperCase()}${s.replay.slice(1)}. ` : '')
+    + `${s.decider}. ${s.decider_note}` + (s.recording ? ` Recording to ${s.recording}.` : '');
+  $('replay-banner').hidden = !s.replay;
+  $('replay-banner').textContent = s.replay ? `▶ ${s.replay}` : '';
   const ended = !!s.end;
   for (const id of ['next-phase', 'next-action', 'run']) $(id).disabled = ended;
 

@@ -12,7 +12,7 @@
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import { spawn, spawnSync } from 'node:child_process';
-import { mkdtempSync, mkdirSync, rmSync, statSync, existsSync, writeFileSync, renameSync } from 'node:fs';
+import { mkdtempSync, mkdirSync, rmSync, statSync, existsSync, writeFileSync, renameSync, readdirSync, readFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join, dirname, resolve } from 'node:path';
 import { fileURLToPath } from 'node:url';
@@ -391,6 +391,107 @@ test('the rerun web viewer loads and shows the recording', async () => {
   assert.equal(await page.getByTestId('viewer').getAttribute('src'), urls.viewer);
   await page.frameLocator('[data-testid=viewer]').locator('canvas').first().waitFor({ timeout: 120_000 });
   await waitForBlocks(page.getByTestId('viewer'), 'the viewer embedded in the page', 120_000);
+});
+
+/** The committed evaluation's records, `method/task` -> records, read here
+ * from the JSONL files themselves. */
+function committedRecords() {
+  const dir = join(root, 'results', 'trials');
+  const out = new Map();
+  for (const m of readdirSync(dir)) {
+    for (const f of readdirSync(join(dir, m))) {
+      if (!f.endsWith('.jsonl')) continue;
+      const recs = readFileSync(join(dir, m, f), 'utf8').split('\n').filter((l) => l.trim()).map((l) => JSON.parse(l));
+      out.set(`${m}/${f.slice(0, -'.jsonl'.length)}`, recs);
+    }
+  }
+  return out;
+}
+
+test('the review lists the evaluation with the JSONL\'s counts, sorted by failure kind, and replays a failure', async () => {
+  const want = committedRecords();
+  const review = await context.newPage();
+  review.on('pageerror', (e) => pageErrors.push(String(e)));
+  await review.goto(new URL('/review', urls.page).href);
+  await review.waitForFunction(() => window.seespotReview.data !== null, null, { timeout: 120_000 });
+  const rows = await review.$$eval('[data-testid=counts] tbody tr', (trs) => trs.map((tr) => ({
+    key: `${tr.dataset.method}/${tr.dataset.task}`, cells: [...tr.children].map((td) => td.textContent),
+  })));
+  assert.equal(rows.length, want.size);
+  const kinds = await review.evaluate(() => window.seespotReview.data.kinds.length);
+  for (const r of rows) {
+    const recs = want.get(r.key);
+    assert.ok(recs, `the page lists ${r.key}, which has no records file`);
+    const ok = recs.filter((x) => x.success).length;
+    assert.equal(Number(r.cells[2]), recs.length, r.key);
+    assert.equal(r.cells[3].split(' ')[0], String(ok), r.key);
+    // Every failure has exactly one kind.
+    const byKind = r.cells.slice(4, 4 + kinds).map(Number);
+    assert.equal(byKind.reduce((a, b) => a + b, 0), recs.length - ok, `${r.key}: ${r.cells}`);
+  }
+  // Listed failures come sorted by kind.
+  const order = await review.evaluate(() => {
+    const labels = window.seespotReview.data.kinds.map((k) => k.label);
+    return [...document.querySelectorAll('[data-testid=trials] tbody tr')].map((tr) => labels.indexOf(tr.children[3].textContent));
+  });
+  assert.ok(order.length > 0);
+  assert.ok(order.every((k, i) => k >= 0 && (i === 0 || k >= order[i - 1])), `kinds out of order: ${order}`);
+  await review.screenshot({ path: join(shots, 'review.png'), fullPage: false });
+
+  // A count narrows the list to its trials.
+  const cellsOfKind = review.locator('[data-testid=counts] tbody tr[data-method=ssr-ccd] td.count');
+  await cellsOfKind.first().click();
+  const n = Number(await cellsOfKind.first().textContent());
+  assert.equal(await review.locator('[data-testid=trials] tbody tr').count(), n);
+
+  // Replay the first SSR CCD failure of that kind: the debugger opens on it,
+  // and its first action is the record's.
+  const first = review.locator('[data-testid=trials] tbody tr').first();
+  const [method, task, seed] = (await first.locator('td').allTextContents()).slice(0, 3);
+  const rec = want.get(`${method}/${task}`).find((r) => r.seed === Number(seed));
+  const replayButton = first.getByTestId('replay');
+  if (process.env.SEESPOT_MODELS) {
+    // Other models than the records were made with: refused, and said why.
+    assert.ok(await replayButton.isDisabled());
+    assert.match(await replayButton.getAttribute('title'), /checksum|differ|made with/);
+    await review.close();
+    return;
+  }
+  await replayButton.click();
+  await review.waitForURL((u) => u.pathname === '/', { timeout: 120_000 });
+  await review.waitForFunction(() => window.seespot && window.seespot.state && window.seespot.state.replay, null, { timeout: 120_000 });
+  const s0 = await review.evaluate(() => window.seespot.state);
+  assert.equal(s0.task, task);
+  assert.equal(s0.seed, Number(seed));
+  assert.match(s0.replay, new RegExp(`replay of ${method} on ${task} seed ${seed}`));
+  assert.ok(await review.getByTestId('replay-banner').isVisible());
+  const v0 = s0.version;
+  await review.getByTestId('next-action').click();
+  await review.waitForFunction((v) => window.seespot.state.version > v && window.seespot.state.steps.length === 1, v0, { timeout: 120_000 });
+  const s1 = await review.evaluate(() => window.seespot.state);
+  assert.deepEqual(s1.steps[0].action, rec.actions_log[0].action);
+  assert.equal(s1.steps[0].progress_after, rec.actions_log[0].progress_after);
+  await review.screenshot({ path: join(shots, 'replay.png'), fullPage: false });
+  await review.close();
+
+  // The shortest replayable SSR CCD trial as a rerun recording.
+  const short = [...want.get(`ssr-ccd/unstack`)].sort((a, b) => a.actions - b.actions)[0];
+  const q = new URLSearchParams({ method: 'ssr-ccd', task: 'unstack', seed: String(short.seed) });
+  const res = await fetch(new URL(`/api/replay.rrd?${q}`, urls.page));
+  assert.equal(res.status, 200, await res.clone().text());
+  assert.match(res.headers.get('content-disposition'), /ssr-ccd-unstack-\d+\.rrd/);
+  const bytes = Buffer.from(await res.arrayBuffer());
+  assert.ok(bytes.length > 10_000, `${bytes.length} bytes`);
+  if (process.env.RERUN_BIN) {
+    const f = join(tmp, 'replay.rrd');
+    writeFileSync(f, bytes);
+    const r = spawnSync(process.env.RERUN_BIN, ['rrd', 'verify', f], { encoding: 'utf8' });
+    assert.equal(r.status, 0, `rerun rrd verify failed:\n${r.stdout}\n${r.stderr}`);
+  }
+  // A trial that is not in the review is refused, naming what was asked for.
+  const bad = await fetch(new URL('/api/replay.rrd?method=..%2Fmodels&task=stack&seed=1', urls.page));
+  assert.equal(bad.status, 409);
+  assert.match(await bad.text(), /no records of method/);
 });
 
 test('the page raised no script errors', () => {

@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use seespot_ssr::review::{FailureKind, counts, review_dir};
+use seespot_ssr::review::{FailureKind, counts, failures_json, review_dir};
 
 #[derive(clap::Args, Debug)]
 pub struct ReviewArgs {
@@ -39,9 +39,7 @@ pub fn run(args: ReviewArgs) -> anyhow::Result<()> {
             .map(|(m, t, n, ok, kinds)| {
                 serde_json::json!({
                     "method": m, "task": t, "trials": n, "successes": ok,
-                    "failures": FailureKind::ALL.iter().zip(kinds)
-                        .map(|(k, c)| (k.as_str().to_owned(), serde_json::json!(c)))
-                        .collect::<serde_json::Map<_, _>>(),
+                    "failures": failures_json(kinds),
                 })
             })
             .collect();

@@ -4,8 +4,6 @@
 use std::net::IpAddr;
 use std::path::PathBuf;
 
-use anyhow::Context;
-
 use seespot_sim::TaskId;
 use seespot_viz::live::{self, DeciderKind, ViewOptions};
 
@@ -84,65 +82,25 @@ pub struct ViewArgs {
     /// such files).
     #[arg(long, conflicts_with = "replay")]
     pub scene: Option<PathBuf>,
+    /// The evaluation the page's review (`/review`) lists: an output folder of
+    /// `seespot eval` (`trials/<method>/<task>.jsonl`). Its trials replay in
+    /// this session with --models and --demos.
+    #[arg(long, default_value = "results")]
+    pub review: PathBuf,
     #[command(flatten)]
     pub decider: DeciderArgs,
 }
 
 /// The view options and decider factory that replay `args.seed` of the records
-/// file `path` exactly.
+/// file `path` exactly (see `seespot_viz::review::replay`).
 fn replay(
     args: &ViewArgs,
     path: &std::path::Path,
 ) -> anyhow::Result<(TaskId, usize, seespot_viz::session::DeciderFactory)> {
-    use seespot_ssr::eval::{EvalMethod, replay_config};
-    let records = seespot_sim::record::read_records(path)?;
-    let record = records
-        .iter()
-        .find(|r| r.seed == args.seed)
-        .with_context(|| {
-            format!(
-                "{}: no trial of seed {} (it holds seeds {})",
-                path.display(),
-                args.seed,
-                records
-                    .iter()
-                    .map(|r| r.seed.to_string())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )
-        })?;
-    let config = replay_config(record, &args.decider.models, &args.decider.demos)
-        .with_context(|| format!("cannot replay {} seed {}", path.display(), args.seed))?;
-    let kind = match config.method {
-        EvalMethod::Oracle => DeciderKind::Oracle,
-        EvalMethod::Transporter => DeciderKind::Transporter,
-        m if m.is_ssr() => DeciderKind::Ssr,
-        m => anyhow::bail!(
-            "{}: the debugger replays SSR, TransporterNet and oracle trials, not {}",
-            path.display(),
-            m.as_str()
-        ),
-    };
-    let ssr = config.ssr_config();
-    let factory = live::factory_with(
-        kind,
-        args.decider.models.clone(),
-        args.decider.demos.clone(),
-        ssr,
-    );
-    println!(
-        "replaying {} on {} seed {} ({} actions, {}): the files it was made with match today's",
-        record.method,
-        record.task,
-        record.seed,
-        record.actions,
-        if record.success {
-            "succeeded"
-        } else {
-            "failed"
-        }
-    );
-    Ok((record.task, config.world.grid.resolution, factory))
+    let r =
+        seespot_viz::review::replay(path, args.seed, &args.decider.models, &args.decider.demos)?;
+    println!("{}: the files it was made with match today's", r.summary);
+    Ok((r.task, r.resolution, r.factory))
 }
 
 /// Runs `seespot view` until Ctrl-C.
@@ -179,6 +137,11 @@ pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
         grpc_port: args.grpc_port,
         save: args.save.clone(),
         no_viewer: args.no_viewer,
+        review: Some(seespot_viz::review::ReviewSource {
+            dir: args.review.clone(),
+            models: args.decider.models.clone(),
+            demos: args.decider.demos.clone(),
+        }),
     };
     if !args.bind.is_loopback() && args.allow_remote {
         eprintln!(
@@ -194,6 +157,7 @@ pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
         factory,
         |urls| {
             println!("seespot page:       {}", urls.page);
+            println!("review of {}: {}", args.review.display(), urls.review);
             if let Some(v) = &urls.viewer {
                 println!("rerun web viewer:   {v}");
             }

@@ -327,21 +327,43 @@ pub fn replay_config(
             prov.settings, now.settings
         )));
     }
-    let differ: Vec<&String> = prov
+    // The record names files as the evaluation found them (e.g.
+    // `models/row.safetensors`); today's may sit under other folders. A file
+    // matches when the record holds the same contents under a path ending in
+    // its path inside today's models or demos folder.
+    let tail = |key: &str| -> String {
+        let p = Path::new(key);
+        p.strip_prefix(models_dir)
+            .or_else(|_| p.strip_prefix(demos_dir))
+            .map_or_else(|_| key.to_owned(), |t| t.display().to_string())
+    };
+    let recorded = |tail: &str, hash: &String| {
+        prov.files
+            .iter()
+            .any(|(k, v)| v == hash && (k == tail || k.ends_with(&format!("/{tail}"))))
+    };
+    let differ: Vec<&String> = now
         .files
         .iter()
-        .filter(|(k, v)| now.files.get(*k) != Some(*v))
+        .filter(|(k, v)| !recorded(&tail(k), v))
         .map(|(k, _)| k)
-        .chain(now.files.keys().filter(|k| !prov.files.contains_key(*k)))
         .collect();
-    if !differ.is_empty() {
+    if !differ.is_empty() || now.files.len() != prov.files.len() {
         return Err(EvalError::Invalid(format!(
             "today's files differ from the ones the record was made with: {}",
-            differ
-                .iter()
-                .map(|s| s.as_str())
-                .collect::<Vec<_>>()
-                .join(", ")
+            if differ.is_empty() {
+                format!(
+                    "the record names {} files, today's method reads {}",
+                    prov.files.len(),
+                    now.files.len()
+                )
+            } else {
+                differ
+                    .iter()
+                    .map(|s| s.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            }
         )));
     }
     Ok(config)

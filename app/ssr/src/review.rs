@@ -160,6 +160,23 @@ pub fn counts(trials: &[ReviewedTrial]) -> Vec<(String, TaskId, usize, usize, [u
     out
 }
 
+/// A counts row's failures as `{"<kind>": n, ...}` (kebab-case kinds, in
+/// [`FailureKind::ALL`] order).
+pub fn failures_json(kinds: &[usize; 5]) -> serde_json::Value {
+    FailureKind::ALL
+        .iter()
+        .zip(kinds)
+        .map(|(k, c)| {
+            let key = serde_json::to_value(k)
+                .ok()
+                .and_then(|v| v.as_str().map(str::to_owned))
+                .unwrap_or_else(|| k.as_str().to_owned());
+            (key, serde_json::json!(c))
+        })
+        .collect::<serde_json::Map<_, _>>()
+        .into()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

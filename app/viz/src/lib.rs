@@ -7,6 +7,7 @@
 //! - [`protocol`]: the WebSocket message types shared by the server and the page;
 //! - [`server`]: the local web server behind `web/` (assets, JSON API, WebSocket);
 //! - [`token`]: the per-run access token of a page server bound off loopback;
+//! - [`review`]: the page's review of an evaluation and replays of its trials;
 //! - [`live`]: `view`, `record` and the latency / size benchmarks the CLI calls.
 
 pub mod b64;
@@ -16,6 +17,7 @@ pub mod paths;
 pub mod phase;
 pub mod protocol;
 pub mod recording;
+pub mod review;
 pub mod server;
 pub mod session;
 pub mod ssr;

@@ -129,6 +129,8 @@ pub struct ViewOptions {
     /// Start from these block poses (a scene file's `[[blocks]]`) instead of
     /// the start drawn from the seed.
     pub layout: Option<[seespot_sim::BlockPose; seespot_sim::NUM_BLOCKS]>,
+    /// The evaluation the page's `/review` lists and replays.
+    pub review: Option<crate::review::ReviewSource>,
 }
 
 /// The URLs a running `view` serves.
@@ -136,6 +138,8 @@ pub struct ViewOptions {
 pub struct ViewUrls {
     /// The page, with `?token=…` when the server is bound off loopback.
     pub page: String,
+    /// The review of an evaluation (`/review`, with the token when needed).
+    pub review: String,
     pub viewer: Option<String>,
     pub grpc: Option<String>,
 }
@@ -242,12 +246,13 @@ pub async fn serve_view(
         "seespot_version": seespot_sim::VERSION,
         "tasks": TaskId::ALL.iter().map(|t| t.as_str()).collect::<Vec<_>>(),
     });
-    let state = AppState::new(session, info);
+    let state = AppState::with_review(session, info, opts.review.clone());
     let listener = tokio::net::TcpListener::bind(SocketAddr::new(bind, opts.port))
         .await
         .with_context(|| format!("cannot bind the page server to {bind}:{}", opts.port))?;
     let urls = ViewUrls {
         page: server::url(listener.local_addr()?, token.as_ref()),
+        review: server::url_of(listener.local_addr()?, "/review", token.as_ref()),
         viewer: viewer_url,
         grpc: grpc_url,
     };

@@ -7,7 +7,8 @@
 //! `{"type": "reset", "task": "row", "seed": 3}` (both optional: the current
 //! trial's), `{"type": "goto", "index": 5}` (time travel: show phase 5 of the
 //! trial's history as it was shown live), `{"type": "live"}` (back to the live
-//! trial), `{"type": "query", "pair": 0, "policy": 1, "y": 40, "x": 60}`
+//! trial), `{"type": "replay", "method": "ssr-ccd", "task": "row", "seed": 5}`
+//! (replay a trial of the reviewed evaluation), `{"type": "query", "pair": 0, "policy": 1, "y": 40, "x": 60}`
 //! (pixel `(y, x)` of the demo heightmap of pair `pair`, under policy index
 //! `policy`).
 //!
@@ -52,6 +53,13 @@ pub enum ClientMessage {
     SetBlocks {
         blocks: Vec<seespot_sim::BlockPose>,
     },
+    /// Replay trial `seed` of `method` on `task` from the reviewed evaluation
+    /// (the page's `/review`); answered with `{"type": "replay", ...}`.
+    Replay {
+        method: String,
+        task: TaskId,
+        seed: u64,
+    },
     /// Click-to-query: the distance map of one demo pixel's ASE over the live scene.
     Query {
         pair: usize,
@@ -75,6 +83,7 @@ impl ClientMessage {
             Self::Goto { .. } => "goto",
             Self::Live => "live",
             Self::SetBlocks { .. } => "set_blocks",
+            Self::Replay { .. } => "replay",
             Self::Query { .. } => "query",
         }
     }

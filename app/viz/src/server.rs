@@ -28,8 +28,10 @@ use serde_json::{Value, json};
 use tokio::sync::{broadcast, mpsc};
 
 use crate::protocol::{ClientMessage, ServerMessage};
+use crate::review::ReviewSource;
 use crate::session::Session;
 use crate::token::AccessToken;
+use seespot_sim::TaskId;
 
 /// The page's files, embedded at compile time: `(url path, content type, body)`.
 pub const ASSETS: &[(&str, &str, &str)] = &[
@@ -59,6 +61,16 @@ pub const ASSETS: &[(&str, &str, &str)] = &[
         include_str!("../../../web/style.css"),
     ),
     (
+        "/review",
+        "text/html; charset=utf-8",
+        include_str!("../../../web/review.html"),
+    ),
+    (
+        "/review.js",
+        "text/javascript; charset=utf-8",
+        include_str!("../../../web/review.js"),
+    ),
+    (
         "/favicon.svg",
         "image/svg+xml",
         include_str!("../../../web/favicon.svg"),
@@ -75,6 +87,9 @@ pub struct AppState {
     running: AtomicBool,
     /// Static facts for the page: the rerun viewer's URL, versions.
     info: Value,
+    /// The evaluation `/review` lists, and its document once built.
+    review: Option<ReviewSource>,
+    review_doc: Mutex<Option<Value>>,
 }
 
 impl std::fmt::Debug for AppState {
@@ -87,12 +102,19 @@ impl std::fmt::Debug for AppState {
 
 impl AppState {
     pub fn new(session: Session, info: Value) -> Arc<Self> {
+        Self::with_review(session, info, None)
+    }
+
+    /// [`Self::new`] with an evaluation for `/review` to list and replay.
+    pub fn with_review(session: Session, info: Value, review: Option<ReviewSource>) -> Arc<Self> {
         let (tx, _) = broadcast::channel(64);
         Arc::new(Self {
             session: Mutex::new(session),
             tx,
             running: AtomicBool::new(false),
             info,
+            review,
+            review_doc: Mutex::new(None),
         })
     }
 
@@ -119,6 +141,8 @@ pub fn router(state: Arc<AppState>) -> Router {
         .route("/api/frame", get(api_frame))
         .route("/api/scene", get(api_scene))
         .route("/api/embedding", get(api_embedding))
+        .route("/api/review", get(api_review))
+        .route("/api/replay.rrd", get(api_replay_rrd))
         .route("/ws", get(ws))
         .fallback(asset)
         .with_state(state)
@@ -194,6 +218,86 @@ async fn api_embedding(
     let st = s.clone();
     match tokio::task::spawn_blocking(move || st.session().embedding(pair)).await {
         Ok(Ok(v)) => axum::Json(v).into_response(),
+        Ok(Err(e)) => (StatusCode::CONFLICT, format!("{e:#}")).into_response(),
+        Err(e) => (
+            StatusCode::INTERNAL_SERVER_ERROR,
+            format!("internal error: {e}"),
+        )
+            .into_response(),
+    }
+}
+
+/// The review of the server's evaluation ([`ReviewSource::document`]); 404
+/// when it reviews none, 409 when its records cannot be read.
+async fn api_review(State(s): State<Arc<AppState>>) -> Response {
+    let Some(src) = s.review.clone() else {
+        return (
+            StatusCode::NOT_FOUND,
+            "this debugger reviews no evaluation (seespot view --review DIR)",
+        )
+            .into_response();
+    };
+    let st = s.clone();
+    let doc = tokio::task::spawn_blocking(move || {
+        let mut cached = st
+            .review_doc
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        if cached.is_none() {
+            *cached = Some(src.document()?);
+        }
+        anyhow::Ok(cached.clone().unwrap_or_default())
+    })
+    .await;
+    match doc {
+        Ok(Ok(v)) => axum::Json(v).into_response(),
+        Ok(Err(e)) => (StatusCode::CONFLICT, format!("{e:#}")).into_response(),
+        Err(e) => (
+            StatusCode::INTERNAL_SERVER_ERROR,
+            format!("internal error: {e}"),
+        )
+            .into_response(),
+    }
+}
+
+/// A trial of the reviewed evaluation, named by `method`, `task` and `seed`,
+/// run again to its end: its rerun recording as a download.
+async fn api_replay_rrd(
+    State(s): State<Arc<AppState>>,
+    Query(q): Query<HashMap<String, String>>,
+) -> Response {
+    let Some(src) = s.review.clone() else {
+        return (StatusCode::NOT_FOUND, "this debugger reviews no evaluation").into_response();
+    };
+    let field = |k: &str| {
+        q.get(k)
+            .cloned()
+            .ok_or_else(|| format!("query field `{k}` is missing"))
+    };
+    let parsed = (|| {
+        let method = field("method")?;
+        let task: TaskId = field("task")?
+            .parse()
+            .map_err(|e| format!("query field `task`: {e}"))?;
+        let seed: u64 = field("seed")?
+            .parse()
+            .map_err(|e| format!("query field `seed`: {e}"))?;
+        Ok::<_, String>((method, task, seed))
+    })();
+    let (method, task, seed) = match parsed {
+        Ok(p) => p,
+        Err(e) => return (StatusCode::BAD_REQUEST, e).into_response(),
+    };
+    let name = format!("attachment; filename=\"{method}-{task}-{seed}.rrd\"");
+    match tokio::task::spawn_blocking(move || src.record(&method, task, seed)).await {
+        Ok(Ok(bytes)) => (
+            [
+                (header::CONTENT_TYPE, "application/octet-stream".to_owned()),
+                (header::CONTENT_DISPOSITION, name),
+            ],
+            bytes,
+        )
+            .into_response(),
         Ok(Err(e)) => (StatusCode::CONFLICT, format!("{e:#}")).into_response(),
         Err(e) => (
             StatusCode::INTERNAL_SERVER_ERROR,
@@ -346,6 +450,25 @@ pub async fn handle(s: &Arc<AppState>, text: &str) -> Option<String> {
         }
         ClientMessage::Goto { index } => step(st, move |ses| ses.goto(index)).await,
         ClientMessage::SetBlocks { blocks } => step(st, move |ses| ses.set_blocks(&blocks)).await,
+        ClientMessage::Replay { method, task, seed } => {
+            let Some(src) = s.review.clone() else {
+                return Some(error(
+                    "this debugger reviews no evaluation (seespot view --review DIR)",
+                    Some(kind),
+                ));
+            };
+            let m = method.clone();
+            let r = step(st, move |ses| {
+                let replay = src.replay(&m, task, seed)?;
+                ses.load_replay(replay)
+            })
+            .await;
+            return Some(match r {
+                Ok(()) => json!({"type": "replay", "method": method, "task": task, "seed": seed})
+                    .to_string(),
+                Err(e) => error(e, Some(kind)),
+            });
+        }
         ClientMessage::Live => {
             step(st, |ses| {
                 ses.go_live();
@@ -593,6 +716,12 @@ pub async fn serve_page(
 /// when it has one. An unspecified address (`0.0.0.0`) is shown as this
 /// machine's host name, which other machines can use.
 pub fn url(addr: SocketAddr, token: Option<&AccessToken>) -> String {
+    url_of(addr, "/", token)
+}
+
+/// The URL of `path` (starting with `/`) on the server at `addr`, with the
+/// token when it needs one.
+pub fn url_of(addr: SocketAddr, path: &str, token: Option<&AccessToken>) -> String {
     let host = if addr.ip().is_unspecified() {
         std::fs::read_to_string("/proc/sys/kernel/hostname")
             .ok()
@@ -603,7 +732,7 @@ pub fn url(addr: SocketAddr, token: Option<&AccessToken>) -> String {
         addr.to_string()
     };
     match token {
-        Some(t) => format!("http://{host}/?token={}", t.as_str()),
-        None => format!("http://{host}/"),
+        Some(t) => format!("http://{host}{path}?token={}", t.as_str()),
+        None => format!("http://{host}{path}"),
     }
 }

@@ -75,6 +75,8 @@ pub struct Session {
     viewing: Option<usize>,
     /// An explicit start layout for (task, seed) (from a scene file).
     layout: Option<(TaskId, u64, [BlockPose; NUM_BLOCKS])>,
+    /// The evaluation trial being replayed (task, seed, summary), if any.
+    replay_of: Option<(TaskId, u64, String)>,
 }
 
 impl std::fmt::Debug for Session {
@@ -112,6 +114,7 @@ impl Session {
             history: VecDeque::new(),
             viewing: None,
             layout: None,
+            replay_of: None,
         };
         s.begin();
         Ok(s)
@@ -205,6 +208,28 @@ impl Session {
         self.version += 1;
         self.begin();
         Ok(())
+    }
+
+    /// Replays a trial of an evaluation (see [`crate::review`]): its decider
+    /// and resolution replace this session's, and its trial starts from the
+    /// beginning. Later resets keep that decider.
+    pub fn load_replay(&mut self, r: crate::review::Replay) -> anyhow::Result<()> {
+        let world = crate::review::world(r.resolution);
+        let (decider, note) = (r.factory)(r.task, world)?;
+        self.factory = r.factory;
+        self.decider = decider;
+        self.decider_note = note;
+        self.config.world = world;
+        self.layout = None;
+        if r.task != self.config.task
+            && let Some(rec) = &self.recorder
+        {
+            rec.send_blueprint(r.task);
+        }
+        // The decider is loaded: `reset` must not load it again.
+        self.config.task = r.task;
+        self.replay_of = Some((r.task, r.seed, r.summary));
+        self.reset(r.task, r.seed)
     }
 
     /// Restarts the current trial (same task and seed) from the block poses
@@ -534,6 +559,9 @@ impl Session {
             "resolution": self.config.world.grid.resolution,
             "decider": self.decider.name(),
             "decider_note": self.decider_note,
+            "replay": self.replay_of.as_ref()
+                .filter(|(task, seed, _)| *task == t.task() && *seed == t.seed() && self.layout.is_none())
+                .map(|(_, _, summary)| summary),
             "policies": self.decider.policies().iter().map(|p| p.as_str()).collect::<Vec<_>>(),
             "phase": phase.map(Phase::as_str),
             "action_index": t.actions(),

@@ -361,6 +361,7 @@ async fn issue_10_non_loopback_bind_is_refused_without_allow_remote() {
         save: None,
         no_viewer: true,
         layout: None,
+        review: None,
     };
     let factory = live::factory(
         DeciderKind::Features,

@@ -1,0 +1,247 @@
+//! Review of an evaluation in the debugger: the page's `/review` route lists
+//! every trial of an evaluation's records (`seespot_ssr::review`: outcome and
+//! failure kind), and one click replays a trial in the live session or
+//! downloads a rerun recording of it.
+//!
+//! A replay is refused unless today's models, demonstrations and settings are
+//! the ones the record's provenance names (trials are deterministic given
+//! those). Requests name a trial by (method, task, seed); the records file is
+//! looked up among the files the review lists, so no path from a request ever
+//! reaches the file system.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use seespot_sim::{Grid, TaskId, WorldConfig};
+use seespot_ssr::eval::{EvalMethod, records_files, replay_config};
+use seespot_ssr::review::{FailureKind, counts, review_dir};
+use serde_json::{Value, json};
+
+use crate::live::{DeciderKind, factory_with};
+use crate::recording::Recorder;
+use crate::session::{DeciderFactory, Session, SessionConfig};
+
+/// A trial of an evaluation, ready to be run again.
+pub struct Replay {
+    pub task: TaskId,
+    pub seed: u64,
+    pub resolution: usize,
+    pub factory: DeciderFactory,
+    /// What is replayed and how it ended, in one line.
+    pub summary: String,
+}
+
+impl std::fmt::Debug for Replay {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Replay")
+            .field("summary", &self.summary)
+            .finish_non_exhaustive()
+    }
+}
+
+/// The replay of trial `seed` of the records file `path`, deciding with the
+/// models in `models` and demonstrations in `demos`; refused when they (or
+/// the settings) differ from the ones the record was made with, and for
+/// methods the debugger cannot run (SPOT-Q, random, finetuned, noisy).
+pub fn replay(path: &Path, seed: u64, models: &Path, demos: &Path) -> anyhow::Result<Replay> {
+    let records = seespot_sim::record::read_records(path)?;
+    let record = records.iter().find(|r| r.seed == seed).with_context(|| {
+        format!(
+            "{}: no trial of seed {seed} (it holds seeds {})",
+            path.display(),
+            records
+                .iter()
+                .map(|r| r.seed.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    })?;
+    let config = replay_config(record, models, demos)
+        .with_context(|| format!("cannot replay {} seed {seed}", path.display()))?;
+    let kind = match config.method {
+        EvalMethod::Oracle => DeciderKind::Oracle,
+        EvalMethod::Transporter => DeciderKind::Transporter,
+        m if m.is_ssr() => DeciderKind::Ssr,
+        m => anyhow::bail!(
+            "{}: the debugger replays SSR, TransporterNet and oracle trials, not {}",
+            path.display(),
+            m.as_str()
+        ),
+    };
+    let factory = factory_with(
+        kind,
+        models.to_owned(),
+        demos.to_owned(),
+        config.ssr_config(),
+    );
+    let summary = format!(
+        "replay of {} on {} seed {} ({} actions, {})",
+        record.method,
+        record.task,
+        record.seed,
+        record.actions,
+        if record.success {
+            "succeeded"
+        } else {
+            "failed"
+        }
+    );
+    Ok(Replay {
+        task: record.task,
+        seed,
+        resolution: config.world.grid.resolution,
+        factory,
+        summary,
+    })
+}
+
+/// The evaluation the page reviews and the files replays decide with.
+#[derive(Clone, Debug)]
+pub struct ReviewSource {
+    /// An evaluation's output folder (`trials/<method>/<task>.jsonl`).
+    pub dir: PathBuf,
+    pub models: PathBuf,
+    pub demos: PathBuf,
+}
+
+impl ReviewSource {
+    /// The records file of `method` on `task`, if the review lists one.
+    pub fn records_file(&self, method: &str, task: TaskId) -> anyhow::Result<PathBuf> {
+        let want = self
+            .dir
+            .join("trials")
+            .join(method)
+            .join(format!("{task}.jsonl"));
+        records_files(&self.dir)?
+            .into_iter()
+            .find(|f| *f == want)
+            .with_context(|| {
+                format!(
+                    "{}: no records of method `{method}` on {task}",
+                    self.dir.display()
+                )
+            })
+    }
+
+    /// The replay of trial (method, task, seed) of the review.
+    pub fn replay(&self, method: &str, task: TaskId, seed: u64) -> anyhow::Result<Replay> {
+        let file = self.records_file(method, task)?;
+        replay(&file, seed, &self.models, &self.demos)
+    }
+
+    /// The page's document: the failure kinds, per (method, fold) the counts
+    /// and whether its trials can be replayed (and why not), and every trial.
+    pub fn document(&self) -> anyhow::Result<Value> {
+        let trials =
+            review_dir(&self.dir).with_context(|| format!("reviewing {}", self.dir.display()))?;
+        let rows: Vec<Value> = counts(&trials)
+            .iter()
+            .map(|(method, task, n, ok, kinds)| {
+                // One record stands for its file: a file never mixes provenances.
+                let first = trials
+                    .iter()
+                    .find(|t| &t.method == method && t.task == *task);
+                let replay = match first.map(|t| replay(&t.file, t.seed, &self.models, &self.demos))
+                {
+                    Some(Ok(_)) => json!({"ok": true, "reason": null}),
+                    Some(Err(e)) => json!({"ok": false, "reason": format!("{e:#}")}),
+                    None => json!({"ok": false, "reason": "no records"}),
+                };
+                json!({
+                    "method": method, "task": task, "trials": n, "successes": ok,
+                    "failures": seespot_ssr::review::failures_json(kinds),
+                    "replay": replay,
+                })
+            })
+            .collect();
+        Ok(json!({
+            "dir": self.dir.display().to_string(),
+            "kinds": FailureKind::ALL.iter().map(|k| json!({"key": k, "label": k.as_str()})).collect::<Vec<_>>(),
+            "counts": rows,
+            "trials": trials,
+        }))
+    }
+
+    /// Runs trial (method, task, seed) again to its end with a recording in
+    /// memory and returns the `.rrd` bytes.
+    pub fn record(&self, method: &str, task: TaskId, seed: u64) -> anyhow::Result<Vec<u8>> {
+        let r = self.replay(method, task, seed)?;
+        let world = world(r.resolution);
+        let (recorder, storage) = Recorder::memory(task)?;
+        let mut s = Session::new(
+            r.factory,
+            SessionConfig { task, seed, world },
+            Some(recorder),
+        )?;
+        while !s.ended() {
+            s.next_action()?;
+        }
+        drop(s.take_recorder());
+        storage
+            .drain_as_bytes()
+            .context("cannot encode the recording")
+    }
+}
+
+/// The world of a replay at `resolution`.
+pub fn world(resolution: usize) -> WorldConfig {
+    WorldConfig {
+        grid: Grid::new(resolution),
+        ..WorldConfig::default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn source() -> ReviewSource {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        ReviewSource {
+            dir: root.join("results"),
+            models: root.join("models"),
+            demos: root.join("demos"),
+        }
+    }
+
+    #[test]
+    fn only_listed_records_files_are_opened() {
+        let s = source();
+        for bad in [
+            "../models",
+            "ssr-ccd/../../models",
+            "",
+            "/etc",
+            "no-such-method",
+        ] {
+            let e = s.records_file(bad, TaskId::Stack).expect_err(bad);
+            assert!(format!("{e:#}").contains("no records of method"), "{e:#}");
+        }
+        assert!(s.records_file("ssr-ccd", TaskId::Stack).is_ok());
+    }
+
+    #[test]
+    fn the_document_counts_every_record_and_says_what_replays() {
+        let s = source();
+        let doc = s.document().expect("document");
+        let trials = doc["trials"].as_array().expect("trials");
+        let counted: u64 = doc["counts"]
+            .as_array()
+            .expect("counts")
+            .iter()
+            .map(|c| c["trials"].as_u64().expect("n"))
+            .sum();
+        assert_eq!(counted as usize, trials.len());
+        let row = |m: &str| {
+            doc["counts"]
+                .as_array()
+                .and_then(|c| c.iter().find(|c| c["method"] == m && c["task"] == "stack"))
+                .cloned()
+                .expect(m)
+        };
+        assert_eq!(row("ssr-ccd")["replay"]["ok"], true, "{}", row("ssr-ccd"));
+        assert_eq!(row("random")["replay"]["ok"], false);
+        let why = row("random")["replay"]["reason"].to_string();
+        assert!(why.contains("random"), "{why}");
+    }
+}
