@@ -20,6 +20,7 @@ pub mod curve;
 pub mod embedding;
 pub mod error;
 pub mod finetune;
+pub mod infer;
 pub mod input;
 pub mod learner;
 pub mod mask;

@@ -10,7 +10,7 @@ use seespot_sim::{Action, Heightmaps, NUM_ROTATIONS, Primitive, TaskId};
 
 use crate::embedding::{AseMap, EMBEDDING_DIM, QMap};
 use crate::error::PolicyError;
-use crate::input::{INPUT_CHANNELS, NET_RESOLUTION, NetInput};
+use crate::input::{NET_RESOLUTION, NetInput};
 use crate::mask::common_sense_mask;
 use crate::net::{FEATURE_RESOLUTION, QNet, TRUNK_STRIDE, param_shapes};
 use crate::rotation::{BackMap, rotate_input_batch, sample_back};
@@ -85,8 +85,25 @@ impl PolicyNet {
         let input = NetInput::from_heightmaps(hm);
         let rotations: Vec<usize> = (0..NUM_ROTATIONS).collect();
         let batch = rotate_input_batch(&input, &rotations);
+        let trunk = crate::infer::InferTrunk::new(self.net(primitive))?;
+        let features = trunk.forward(&batch, NUM_ROTATIONS, NET_RESOLUTION);
+        Ok(RotatedFeatures { features, input })
+    }
+
+    /// [`Self::rotated_features`] through candle's `conv2d` (the training
+    /// path, [`QNet::trunk`]): the reference the inference pass
+    /// ([`crate::infer`]) is tested and benchmarked against.
+    pub fn rotated_features_candle(
+        &self,
+        hm: &Heightmaps,
+        primitive: Primitive,
+    ) -> Result<RotatedFeatures, PolicyError> {
+        let input = NetInput::from_heightmaps(hm);
+        let rotations: Vec<usize> = (0..NUM_ROTATIONS).collect();
+        let batch = rotate_input_batch(&input, &rotations);
         let n = NET_RESOLUTION;
-        let x = Tensor::from_vec(batch, (NUM_ROTATIONS, INPUT_CHANNELS, n, n), &Device::Cpu)?;
+        let shape = (NUM_ROTATIONS, crate::input::INPUT_CHANNELS, n, n);
+        let x = Tensor::from_vec(batch, shape, &Device::Cpu)?;
         let f = self
             .net(primitive)
             .trunk(&x)?
@@ -94,6 +111,17 @@ impl PolicyNet {
             .contiguous()?;
         let features = f.flatten_all()?.to_vec1::<f32>()?;
         Ok(RotatedFeatures { features, input })
+    }
+
+    /// [`Self::embed`] through candle's `conv2d` (see
+    /// [`Self::rotated_features_candle`]).
+    pub fn embed_candle(
+        &self,
+        hm: &Heightmaps,
+        primitive: Primitive,
+    ) -> Result<AseMap, PolicyError> {
+        let rf = self.rotated_features_candle(hm, primitive)?;
+        Ok(self.ase_from(&rf, hm, primitive))
     }
 
     /// Q-values of the low-resolution rotated cells (`R x 28 x 28`).
