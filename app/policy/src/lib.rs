@@ -16,6 +16,7 @@
 
 pub mod actors;
 pub mod bench;
+pub mod cells;
 pub mod curve;
 pub mod embedding;
 pub mod error;
@@ -35,6 +36,7 @@ pub mod trainer;
 pub mod transporter;
 
 pub use actors::{RandomActor, own_task_eval};
+pub use cells::CellAse;
 pub use embedding::{AseMap, EMBEDDING_DIM, QMap};
 pub use error::PolicyError;
 pub use finetune::finetune;

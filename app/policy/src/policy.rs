@@ -8,6 +8,7 @@ use candle_core::{Device, Tensor};
 use rayon::prelude::*;
 use seespot_sim::{Action, Heightmaps, NUM_ROTATIONS, Primitive, TaskId};
 
+use crate::cells::{CellAse, Taps};
 use crate::embedding::{AseMap, EMBEDDING_DIM, QMap};
 use crate::error::PolicyError;
 use crate::input::{NET_RESOLUTION, NetInput};
@@ -122,6 +123,29 @@ impl PolicyNet {
     ) -> Result<AseMap, PolicyError> {
         let rf = self.rotated_features_candle(hm, primitive)?;
         Ok(self.ase_from(&rf, hm, primitive))
+    }
+
+    /// [`Self::embed`] kept at the trunk's cells ([`crate::cells`]): the same
+    /// embeddings and common-sense mask without the `R x H x W x 64` map.
+    pub fn embed_cells(
+        &self,
+        hm: &Heightmaps,
+        primitive: Primitive,
+    ) -> Result<CellAse, PolicyError> {
+        let rf = self.rotated_features(hm, primitive)?;
+        let h = hm.resolution();
+        let map = BackMap::new(&rf.input, h, TRUNK_STRIDE);
+        let taps = Taps::shared(&map, FEATURE_RESOLUTION, NUM_ROTATIONS, h);
+        let pixel_mask = common_sense_mask(hm, primitive);
+        Ok(CellAse::new(
+            primitive,
+            h,
+            FEATURE_RESOLUTION,
+            EMBEDDING_DIM,
+            rf.features,
+            taps,
+            &pixel_mask,
+        ))
     }
 
     /// Q-values of the low-resolution rotated cells (`R x 28 x 28`).

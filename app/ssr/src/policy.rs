@@ -25,14 +25,15 @@
 //! distances, a windowed unmasked rematch, C in squared 2 mm pixels, ties to the
 //! first pair); [`Correspondence::Plain`] keeps seespot's first formulation (ties
 //! broken by the other distance). Pairs are ordered by policy (in `TaskId::ALL`
-//! order) then demo. Masked actions never match (their norms are infinite in the
-//! [`AseMap`]).
+//! order) then demo. Masked actions never match. Embeddings are kept at the
+//! trunk's cells ([`CellAse`]); the plain formulation rebuilds full
+//! [`seespot_policy::AseMap`]s from them.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use seespot_policy::{AseMap, PolicyError, PolicyNet};
+use seespot_policy::{CellAse, PolicyError, PolicyNet};
 use seespot_sim::actor::{Actor, ActorError, Choice, ChosenPair};
 use seespot_sim::{Action, Demo, DemoError, Heightmaps, Primitive, TaskId, Trial};
 
@@ -101,10 +102,10 @@ pub struct SsrPolicy {
     config: SsrConfig,
     policies: Vec<(TaskId, PolicyNet)>,
     demos: Vec<Demo>,
-    /// Demo ASE maps by (policy, demo, step).
-    demo_cache: HashMap<(usize, usize, usize), AseMap>,
-    /// The live ASE maps of the last decision, one per policy.
-    live: Vec<AseMap>,
+    /// Demo ASEs by (policy, demo, step).
+    demo_cache: HashMap<(usize, usize, usize), CellAse>,
+    /// The live ASEs of the last decision, one per policy.
+    live: Vec<CellAse>,
     /// The last decision and the exact input it was made from: a failed grasp
     /// leaves the scene bit-identical, and the same input gives the same
     /// decision, so it is reused instead of recomputed.
@@ -214,8 +215,8 @@ impl SsrPolicy {
         self.last = None;
     }
 
-    /// The live ASE maps of the last decision, one per policy.
-    pub fn live_maps(&self) -> &[AseMap] {
+    /// The live ASEs of the last decision, one per policy.
+    pub fn live_maps(&self) -> &[CellAse] {
         &self.live
     }
 
@@ -236,13 +237,13 @@ impl SsrPolicy {
         policy: usize,
         demo: usize,
         step: usize,
-    ) -> Result<&AseMap, SsrError> {
+    ) -> Result<&CellAse, SsrError> {
         let key = (policy, demo, step);
         if !self.demo_cache.contains_key(&key) {
             let s = &self.demos[demo].steps[step];
             let map = self.policies[policy]
                 .1
-                .embed(&s.heightmaps, s.meta.action.primitive)?;
+                .embed_cells(&s.heightmaps, s.meta.action.primitive)?;
             // Keep memory bounded: a trial needs at most a few progress levels at once.
             if self.demo_cache.len() >= 4 * self.policies.len() * self.demos.len() {
                 self.demo_cache.clear();
@@ -296,7 +297,7 @@ impl SsrPolicy {
             self.live = self
                 .policies
                 .iter()
-                .map(|(_, p)| p.embed(hm, primitive))
+                .map(|(_, p)| p.embed_cells(hm, primitive))
                 .collect::<Result<Vec<_>, _>>()?;
         }
         let opts = self.config.correspond;
@@ -334,31 +335,37 @@ impl SsrPolicy {
                 .enumerate()
                 .map(|(d, &s)| self.demos[d].steps[s].meta.action)
                 .collect();
-            let queries: Vec<&[f32]> = demo_actions
+            let queries: Vec<Vec<f32>> = demo_actions
                 .iter()
                 .enumerate()
                 .map(|(d, a)| self.demo_cache[&(m, d, steps[d])].feature(a.flat_index(n)))
                 .collect();
-            let matches = if reference {
-                correspond::reference::match_reference(live, &queries, sigma_px)
-            } else {
-                correspond::match_queries_with(live, &queries, &opts)
+            let query_refs: Vec<&[f32]> = queries.iter().map(Vec::as_slice).collect();
+            // The plain formulation scans full maps, rebuilt from the cells.
+            let live_full = (!reference).then(|| live.to_ase_map());
+            let matches = match &live_full {
+                None => correspond::cells::match_reference_cells(live, &query_refs, sigma_px),
+                Some(full) => correspond::match_queries_with(full, &query_refs, &opts),
             };
             for (d, found) in matches.into_iter().enumerate() {
                 let demo_map = &self.demo_cache[&(m, d, steps[d])];
                 let demo_action = demo_actions[d];
                 let matched = found.action(primitive, n);
                 let f = live.feature(found.index);
-                let re = if reference {
-                    correspond::reference::rematch_reference(
+                let re = match &live_full {
+                    None => correspond::cells::rematch_reference_cells(
                         demo_map,
-                        f,
+                        &f,
                         &demo_action,
                         half_window,
                         sigma_px,
-                    )
-                } else {
-                    correspond::rematch_with(demo_map, f, Some(demo_action.rotation), &opts)
+                    ),
+                    Some(_) => correspond::rematch_with(
+                        &demo_map.to_ase_map(),
+                        &f,
+                        Some(demo_action.rotation),
+                        &opts,
+                    ),
                 };
                 let rematch = re.action(primitive, n);
                 let c = if reference {
@@ -396,9 +403,10 @@ impl SsrPolicy {
             let live = &self.live[m];
             let demo_map = &self.demo_cache[&(m, p.demo, p.demo_step)];
             let query = demo_map.feature(p.demo_action.flat_index(n));
-            p.match_map = correspond::distance_map(live, query, p.matched.rotation);
+            p.match_map = correspond::cells::distance_map_cells(live, &query, p.matched.rotation);
             let f = live.feature(p.matched.flat_index(n));
-            p.rematch_map = correspond::distance_map(demo_map, f, p.demo_action.rotation);
+            p.rematch_map =
+                correspond::cells::distance_map_cells(demo_map, &f, p.demo_action.rotation);
         }
         Ok(Decision {
             method: self.config.method,
@@ -486,10 +494,13 @@ impl SsrPolicy {
         }
         let rotation = self.demos[demo].steps[step].meta.action.rotation;
         let demo_map = self.demo_map(policy, demo, step)?;
-        let q = demo_map.feature((rotation * n + y) * n + x).to_vec();
+        let q = demo_map.feature((rotation * n + y) * n + x);
         let mut best = vec![f32::INFINITY; n * n];
         for r in 0..live.rotations {
-            for (b, v) in best.iter_mut().zip(correspond::distance_map(&live, &q, r)) {
+            for (b, v) in best
+                .iter_mut()
+                .zip(correspond::cells::distance_map_cells(&live, &q, r))
+            {
                 *b = b.min(v);
             }
         }
@@ -518,15 +529,13 @@ impl SsrPolicy {
             .get(policy)
             .ok_or_else(|| SsrError::Invalid(format!("no live embedding of policy {policy} yet")))?
             .clone();
-        let (n, dim) = (live.resolution, live.dim);
+        let dim = live.dim;
         if live_rotation >= live.rotations {
             return Err(SsrError::Invalid(format!("no rotation {live_rotation}")));
         }
         let demo_rotation = self.demos[demo].steps[step].meta.action.rotation;
         let demo_map = self.demo_map(policy, demo, step)?;
-        let plane =
-            |m: &AseMap, r: usize| m.features[r * n * n * dim..(r + 1) * n * n * dim].to_vec();
-        let (a, b) = (plane(&live, live_rotation), plane(demo_map, demo_rotation));
+        let (a, b) = (live.plane(live_rotation), demo_map.plane(demo_rotation));
         let mut rgb = crate::pca::pca_rgb(&[&a, &b], dim).into_iter();
         match (rgb.next(), rgb.next()) {
             (Some(l), Some(d)) => Ok((l, d)),

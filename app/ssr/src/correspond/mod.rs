@@ -21,6 +21,7 @@
 //! `(r * H + y) * W + x` wins, independent of how the scan was split over threads.
 
 mod bench;
+pub mod cells;
 pub mod reference;
 mod smooth;
 
@@ -28,7 +29,7 @@ pub use bench::{
     CorrespondBenchInput, bandwidth_baseline, bench_correspond, correspond_step,
     correspond_step_naive, random_ase_map,
 };
-pub use smooth::smooth;
+pub use smooth::{smooth, smooth_with_weights, smoothed_weights};
 
 use std::ops::Range;
 

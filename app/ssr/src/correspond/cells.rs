@@ -1,0 +1,218 @@
+//! The reference Correspond ([`super::reference`]) on cell-level embeddings
+//! ([`CellAse`]): the same masks, smoothing, window and C, with each
+//! rotation's squared-distance map computed from one dot product per trunk
+//! cell instead of a scan of the full-resolution map. Agrees with the
+//! full-map functions to float rounding (the distances are summed in another
+//! order); a test compares both on real scenes.
+
+use rayon::prelude::*;
+use seespot_policy::CellAse;
+use seespot_sim::Action;
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, OnceLock};
+
+use super::{Best, Match, smooth_with_weights, smoothed_weights};
+
+/// The smoothing normalizer of an `n x n` map with no masked entry (the
+/// rematch's), computed once per (n, sigma).
+fn unmasked_weights(n: usize, sigma: f32) -> Option<Arc<Vec<f32>>> {
+    static CACHE: OnceLock<Mutex<HashMap<(usize, u32), Arc<Vec<f32>>>>> = OnceLock::new();
+    let mut c = CACHE
+        .get_or_init(|| Mutex::new(HashMap::new()))
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    if let Some(w) = c.get(&(n, sigma.to_bits())) {
+        return Some(w.clone());
+    }
+    let w = Arc::new(smoothed_weights(&vec![true; n * n], n, sigma)?);
+    c.insert((n, sigma.to_bits()), w.clone());
+    Some(w)
+}
+
+fn sq(a: &[f32], b: &[f32]) -> f32 {
+    a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum()
+}
+
+/// [`super::reference::match_reference`] on cells: per query, the argmin over
+/// the allowed actions of the per-rotation smoothed squared-distance maps;
+/// `distance` is the raw squared distance of the chosen action (L).
+pub fn match_reference_cells(live: &CellAse, queries: &[&[f32]], sigma_px: f32) -> Vec<Match> {
+    let n = live.resolution;
+    let plane = n * n;
+    // The smoothing normalizer depends on the mask alone: once per rotation
+    // plane (they share one when their masks agree, as they usually do).
+    let first = &live.mask[..plane.min(live.mask.len())];
+    let shared = smoothed_weights(first, n, sigma_px);
+    let weights: Vec<Option<Vec<f32>>> = (0..live.rotations)
+        .into_par_iter()
+        .map(|r| {
+            let m = &live.mask[r * plane..(r + 1) * plane];
+            if m == first {
+                None
+            } else {
+                smoothed_weights(m, n, sigma_px)
+            }
+        })
+        .collect();
+    queries
+        .iter()
+        .map(|q| {
+            assert_eq!(q.len(), live.dim, "query is not {}-d", live.dim);
+            let best = (0..live.rotations)
+                .into_par_iter()
+                .map(|r| {
+                    let mut d = live.plane_distances_sq(r, q, false);
+                    if let Some(w) = weights[r].as_ref().or(shared.as_ref()) {
+                        smooth_with_weights(&mut d, n, sigma_px, w);
+                    }
+                    Best::argmin(&d, r * plane)
+                })
+                .reduce(|| Best::NONE, Best::min);
+            if best.index == usize::MAX {
+                return Match {
+                    index: 0,
+                    distance: f32::INFINITY,
+                };
+            }
+            Match {
+                index: best.index,
+                distance: sq(&live.feature(best.index), q),
+            }
+        })
+        .collect()
+}
+
+/// [`super::reference::rematch_reference`] on cells: the rematch of `query`
+/// in the demo at `demo_action`'s rotation, unmasked, inside the window of
+/// +/- `half_window` pixels, on the smoothed squared-distance map.
+pub fn rematch_reference_cells(
+    demo: &CellAse,
+    query: &[f32],
+    demo_action: &Action,
+    half_window: usize,
+    sigma_px: f32,
+) -> Match {
+    let n = demo.resolution;
+    let r = demo_action.rotation.min(demo.rotations.saturating_sub(1));
+    let mut d = demo.plane_distances_sq(r, query, true);
+    if let Some(w) = unmasked_weights(n, sigma_px) {
+        smooth_with_weights(&mut d, n, sigma_px, &w);
+    }
+    let (y0, y1) = (
+        demo_action.y.saturating_sub(half_window),
+        (demo_action.y + half_window).min(n - 1),
+    );
+    let (x0, x1) = (
+        demo_action.x.saturating_sub(half_window),
+        (demo_action.x + half_window).min(n - 1),
+    );
+    let mut best = Best::NONE;
+    for y in y0..=y1 {
+        for x in x0..=x1 {
+            let p = y * n + x;
+            if d[p] < best.d2 {
+                best = Best { d2: d[p], index: p };
+            }
+        }
+    }
+    let p = if best.index == usize::MAX {
+        demo_action.y.min(n - 1) * n + demo_action.x.min(n - 1)
+    } else {
+        best.index
+    };
+    let index = r * n * n + p;
+    Match {
+        index,
+        distance: sq(&demo.feature(index), query),
+    }
+}
+
+/// [`super::distance_map`] on cells: the L2 distance of `query` to every
+/// allowed action of `rotation` (`H x W`, infinite where masked).
+pub fn distance_map_cells(map: &CellAse, query: &[f32], rotation: usize) -> Vec<f32> {
+    let mut d = map.plane_distances_sq(rotation, query, false);
+    for v in &mut d {
+        *v = v.sqrt();
+    }
+    d
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::reference::{
+        half_window_pixels, match_reference, rematch_reference, sigma_pixels, ssr_mask,
+    };
+    use super::*;
+    use seespot_policy::PolicyNet;
+    use seespot_sim::{Grid, Primitive, TaskId, Trial, WorldConfig};
+
+    /// On real scenes with the shipped policies, at 112 and 224 px, the cell
+    /// path finds the match and the rematch the full maps find, with L within
+    /// float rounding (documented tolerance: 1e-4 relative, 1e-5 absolute).
+    #[test]
+    fn cells_correspond_as_the_full_maps() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let live_policy = PolicyNet::load(&root.join("models/row.safetensors")).expect("policy");
+        for (res, seed) in [(112, 1u64), (224, 3)] {
+            let config = WorldConfig {
+                grid: Grid::new(res),
+                ..WorldConfig::default()
+            };
+            let live_hm = Trial::new(config, TaskId::Stack, seed).world().render();
+            let demo_hm = Trial::new(config, TaskId::Stack, seed + 2).world().render();
+            let pixel = live_hm.grid.pixel_size();
+            let (sigma, window) = (sigma_pixels(pixel), half_window_pixels(pixel));
+            for primitive in Primitive::ALL {
+                let mask = ssr_mask(&live_hm, primitive, TaskId::Stack);
+                let mut full = live_policy.embed(&live_hm, primitive).expect("embed");
+                let mut cells = live_policy.embed_cells(&live_hm, primitive).expect("cells");
+                full.set_pixel_mask(&mask);
+                cells.set_pixel_mask(&mask);
+                assert_eq!(full.mask, cells.mask);
+                let demo_full = live_policy.embed(&demo_hm, primitive).expect("demo");
+                let demo_cells = live_policy.embed_cells(&demo_hm, primitive).expect("demo");
+                for (i, (a, b)) in full.norms_sq.iter().zip(&cells.norms).enumerate() {
+                    if full.mask[i] {
+                        assert!(
+                            (a - b).abs() <= 1e-5 * a.max(1.0),
+                            "norm of {i}: {a} vs {b}"
+                        );
+                    }
+                }
+                // Queries: demo embeddings at a few object pixels.
+                let demo_actions: Vec<Action> = (0..res * res)
+                    .filter(|&p| demo_hm.depth[p] > 0.02)
+                    .step_by(97)
+                    .take(4)
+                    .map(|p| Action::new(primitive, (p * 7) % 16, p / res, p % res))
+                    .collect();
+                assert!(!demo_actions.is_empty());
+                for a in &demo_actions {
+                    let i = a.flat_index(res);
+                    let q = demo_full.feature(i).to_vec();
+                    assert_eq!(q, demo_cells.feature(i), "embedding of {a:?}");
+                    let m_full = match_reference(&full, &[&q], sigma)[0];
+                    let m_cells = match_reference_cells(&cells, &[&q], sigma)[0];
+                    assert_eq!(m_full.index, m_cells.index, "{res} px {primitive:?} {a:?}");
+                    // L is recomputed exactly from the rebuilt embedding.
+                    assert_eq!(m_full.distance, m_cells.distance);
+                    let f = full.feature(m_full.index).to_vec();
+                    let r_full = rematch_reference(&demo_full, &f, a, window, sigma);
+                    let r_cells = rematch_reference_cells(&demo_cells, &f, a, window, sigma);
+                    assert_eq!(r_full.index, r_cells.index, "rematch {res} px {a:?}");
+                    let tol = 1e-4 * r_full.distance.abs() + 1e-5;
+                    assert!((r_full.distance - r_cells.distance).abs() <= tol);
+                    let dm_full = super::super::distance_map(&full, &q, a.rotation);
+                    let dm_cells = distance_map_cells(&cells, &q, a.rotation);
+                    for (x, y) in dm_full.iter().zip(&dm_cells) {
+                        assert!(
+                            x == y || (x * x - y * y).abs() <= 1e-4 * (x * x).max(1.0),
+                            "distance map {x} vs {y}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
