@@ -1,6 +1,7 @@
 //! Correspond (Match + Verify) at the paper's scale: R = 16, 224 x 224, D = 64,
-//! M = 3 policies, N = 2 demos. Prints the `seespot bench ssr` JSON first (with
-//! its same-run naive and memory-bandwidth baselines), then runs criterion.
+//! M = 3 policies, N = 2 demos. Prints the `seespot bench ssr` JSON first (the
+//! reference step on cell-level embeddings, as SSR runs it), then runs
+//! criterion on that step and on the plain formulation's full-map scan.
 //!
 //! `cargo bench -p seespot-ssr --bench correspond`; `SEESPOT_BENCH_RES=112` for a
 //! smaller scale.
@@ -9,7 +10,8 @@ use std::hint::black_box;
 
 use criterion::{Criterion, Throughput};
 use seespot_ssr::correspond::{
-    CorrespondBenchInput, CorrespondOptions, bench_correspond, correspond_step, match_queries,
+    CellBenchInput, CorrespondBenchInput, CorrespondOptions, bench_correspond, correspond_step,
+    correspond_step_cells, match_queries,
 };
 
 fn resolution() -> usize {
@@ -27,9 +29,13 @@ fn main() {
         serde_json::to_string_pretty(&summary).unwrap_or_default()
     );
 
-    let input = CorrespondBenchInput::random(res, 0x5EE5_9071);
+    let cells = CellBenchInput::random(res, 0x5EE5_9071);
     let mut c = Criterion::default().sample_size(20).configure_from_args();
     let mut g = c.benchmark_group("correspond");
+    g.bench_function(format!("reference_step_cells_{res}px_3x2"), |b| {
+        b.iter(|| black_box(correspond_step_cells(&cells)))
+    });
+    let input = CorrespondBenchInput::random(res, 0x5EE5_9071);
     g.throughput(Throughput::Bytes(input.bytes_per_step() as u64));
     g.bench_function(format!("step_{res}px_3x2"), |b| {
         b.iter(|| black_box(correspond_step(&input, &CorrespondOptions::default())))

@@ -14,10 +14,13 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use super::{Best, Match, smooth_with_weights, smoothed_weights};
 
+/// Smoothing normalizers by (side, sigma bits).
+type WeightCache = Mutex<HashMap<(usize, u32), Arc<Vec<f32>>>>;
+
 /// The smoothing normalizer of an `n x n` map with no masked entry (the
 /// rematch's), computed once per (n, sigma).
 fn unmasked_weights(n: usize, sigma: f32) -> Option<Arc<Vec<f32>>> {
-    static CACHE: OnceLock<Mutex<HashMap<(usize, u32), Arc<Vec<f32>>>>> = OnceLock::new();
+    static CACHE: OnceLock<WeightCache> = OnceLock::new();
     let mut c = CACHE
         .get_or_init(|| Mutex::new(HashMap::new()))
         .lock()

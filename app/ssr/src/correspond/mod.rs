@@ -26,8 +26,8 @@ pub mod reference;
 mod smooth;
 
 pub use bench::{
-    CorrespondBenchInput, bandwidth_baseline, bench_correspond, correspond_step,
-    correspond_step_naive, random_ase_map,
+    CellBenchInput, CorrespondBenchInput, bandwidth_baseline, bench_correspond, correspond_step,
+    correspond_step_cells, correspond_step_naive, random_ase_map,
 };
 pub use smooth::{smooth, smooth_with_weights, smoothed_weights};
 
