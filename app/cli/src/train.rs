@@ -307,6 +307,29 @@ fn model_card(
             c.window
         ));
     }
+    let differences = "Other differences: a small strided convolutional trunk instead of two \
+         DenseNet-121s, Adam instead of SGD, and the SPOT trial reward used as the regression target \
+         without bootstrapping.";
+    if args.pure_rl {
+        md.push_str(&format!(
+            "## Pretraining by reinforcement learning alone\n\n\
+             **No oracle actions** (`--pure-rl`), as the paper's SPOT-Q: each action is, with \
+             probability epsilon decaying from {e0} to {e1}, a random action under the common-sense \
+             mask, otherwise the greedy argmax of Q; SPOT-Q off-policy learning from the \
+             progress-scaled rewards and SPOT trial rewards (discount 0.65), Huber loss at the \
+             executed action, surprise-prioritised replay. Same actions budget and seed as the \
+             shipped oracle-guided policy of this task, for the ablation. {differences}\n\n\
+             ## Retrain\n\n\
+             ```\nseespot train --pure-rl --task {task} --actions {a} --seed {seed}{res}\n```\n\n\
+             It resumes from `runs/train-pure-rl-{task}` if a checkpoint is there.\n",
+            e0 = c.epsilon_start,
+            e1 = c.epsilon_end,
+            a = args.actions,
+            seed = c.seed,
+            res = if c.resolution == 112 { String::new() } else { format!(" --resolution {}", c.resolution) },
+        ));
+        return md;
+    }
     md.push_str(&format!(
         "## Deviation from the paper: oracle-guided exploration\n\n\
          **Exploration actions partly come from the task's scripted oracle.** The reference trained \
@@ -316,9 +339,7 @@ fn model_card(
          random action under the common-sense mask; otherwise the greedy argmax of Q. The oracle only \
          decides which actions are tried: the learning is still SPOT-Q off-policy learning from the \
          progress-scaled rewards and SPOT trial rewards (discount 0.65) those actions earned, with a \
-         Huber loss at the executed action and surprise-prioritised replay. Other differences: a small \
-         strided convolutional trunk instead of two DenseNet-121s, Adam instead of SGD, and the SPOT \
-         trial reward used as the regression target without bootstrapping.\n\n\
+         Huber loss at the executed action and surprise-prioritised replay. {differences}\n\n\
          ## Retrain\n\n\
          ```\nseespot train --task {task} --actions {a} --seed {seed}{res}\n```\n\n\
          It resumes from `runs/train-{task}` if a checkpoint is there.\n",
