@@ -161,6 +161,24 @@ impl CellAse {
         taps: Arc<Taps>,
         pixel_mask: &[bool],
     ) -> Self {
+        Self::with_rotations(
+            primitive, resolution, cells, dim, features, taps, pixel_mask, None,
+        )
+    }
+
+    /// [`Self::new`] where only rotation `only` was embedded (when given):
+    /// the other rotations' cells are zeros and all their actions masked.
+    #[allow(clippy::too_many_arguments)]
+    pub fn with_rotations(
+        primitive: Primitive,
+        resolution: usize,
+        cells: usize,
+        dim: usize,
+        features: Vec<f32>,
+        taps: Arc<Taps>,
+        pixel_mask: &[bool],
+        only: Option<usize>,
+    ) -> Self {
         let plane = resolution * resolution;
         let rotations = taps.index.len() / plane;
         assert_eq!(features.len(), rotations * cells * cells * dim);
@@ -176,24 +194,32 @@ impl CellAse {
             norms: vec![0.0; rotations * plane],
             mask: Vec::with_capacity(rotations * plane),
         };
-        for _ in 0..rotations {
-            m.mask.extend_from_slice(pixel_mask);
+        for r in 0..rotations {
+            if only.is_none_or(|o| o == r) {
+                m.mask.extend_from_slice(pixel_mask);
+            } else {
+                m.mask.extend(std::iter::repeat_n(false, plane));
+            }
         }
         // |E(p)|^2 from the cells' dot products with their neighbours: with
         // taps a, b (right of a), c (below a), d (below b) and weights w,
         // |E|^2 = sum_k w_k^2 |c_k|^2 + 2 (w_a w_b a.b + w_c w_d c.d + w_a w_c a.c
         //         + w_b w_d b.d + w_a w_d a.d + w_b w_c b.c).
-        let grams: Vec<CellGram> = (0..rotations)
+        let grams: Vec<Option<CellGram>> = (0..rotations)
             .into_par_iter()
-            .map(|r| CellGram::new(m.plane_cells(r), cells, dim))
+            .map(|r| {
+                only.is_none_or(|o| o == r)
+                    .then(|| CellGram::new(m.plane_cells(r), cells, dim))
+            })
             .collect();
         let mut norms = std::mem::take(&mut m.norms);
         norms
             .par_chunks_mut(resolution)
             .enumerate()
             .for_each(|(row, out)| {
-                let r = row / resolution;
-                let g = &grams[r];
+                let Some(g) = &grams[row / resolution] else {
+                    return;
+                };
                 for (x, v) in out.iter_mut().enumerate() {
                     let i = row * resolution + x;
                     *v = g.norm_sq(m.taps.index[i], m.taps.weight[i]);

@@ -148,6 +148,38 @@ impl PolicyNet {
         ))
     }
 
+    /// [`Self::embed_cells`] of rotation `rotation` alone (one trunk pass
+    /// instead of 16): the other rotations are masked and hold zeros. What a
+    /// demonstration step needs, whose embeddings are only ever read at its
+    /// action's rotation.
+    pub fn embed_cells_rotation(
+        &self,
+        hm: &Heightmaps,
+        primitive: Primitive,
+        rotation: usize,
+    ) -> Result<CellAse, PolicyError> {
+        let input = NetInput::from_heightmaps(hm);
+        let x = rotate_input_batch(&input, &[rotation]);
+        let trunk = crate::infer::InferTrunk::new(self.net(primitive))?;
+        let one = trunk.forward(&x, 1, NET_RESOLUTION);
+        let mut features = vec![0.0f32; NUM_ROTATIONS * one.len()];
+        features[rotation * one.len()..(rotation + 1) * one.len()].copy_from_slice(&one);
+        let h = hm.resolution();
+        let map = BackMap::new(&input, h, TRUNK_STRIDE);
+        let taps = Taps::shared(&map, FEATURE_RESOLUTION, NUM_ROTATIONS, h);
+        let pixel_mask = common_sense_mask(hm, primitive);
+        Ok(CellAse::with_rotations(
+            primitive,
+            h,
+            FEATURE_RESOLUTION,
+            EMBEDDING_DIM,
+            features,
+            taps,
+            &pixel_mask,
+            Some(rotation),
+        ))
+    }
+
     /// Q-values of the low-resolution rotated cells (`R x 28 x 28`).
     fn low_res_q(
         &self,

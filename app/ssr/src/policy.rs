@@ -231,7 +231,8 @@ impl SsrPolicy {
         self.last.as_ref().map(|(_, _, _, d)| d)
     }
 
-    /// The demo's ASE map for (policy, demo, step), computed once per trial.
+    /// The demo's ASEs for (policy, demo, step), computed once per trial, at
+    /// the step's action rotation only (the one every use reads).
     pub fn demo_map(
         &mut self,
         policy: usize,
@@ -241,9 +242,12 @@ impl SsrPolicy {
         let key = (policy, demo, step);
         if !self.demo_cache.contains_key(&key) {
             let s = &self.demos[demo].steps[step];
-            let map = self.policies[policy]
-                .1
-                .embed_cells(&s.heightmaps, s.meta.action.primitive)?;
+            // Demo embeddings are only read at the demo action's rotation.
+            let map = self.policies[policy].1.embed_cells_rotation(
+                &s.heightmaps,
+                s.meta.action.primitive,
+                s.meta.action.rotation,
+            )?;
             // Keep memory bounded: a trial needs at most a few progress levels at once.
             if self.demo_cache.len() >= 4 * self.policies.len() * self.demos.len() {
                 self.demo_cache.clear();
