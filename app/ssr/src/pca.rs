@@ -8,45 +8,89 @@
 /// 1st to its 99th percentile over all planes to 0..=255. Non-finite features
 /// are shown black.
 pub fn pca_rgb(planes: &[&[f32]], dim: usize) -> Vec<Vec<u8>> {
-    let rows = || {
-        planes
-            .iter()
-            .flat_map(|p| p.chunks_exact(dim))
-            .filter(|f| f.iter().all(|v| v.is_finite()))
-    };
-    let n = rows().count().max(1) as f64;
+    use rayon::prelude::*;
+    /// Rows per parallel work item (fixed, so sums do not depend on threads).
+    const CHUNK: usize = 1024;
+    let finite_rows: Vec<&[f32]> = planes
+        .iter()
+        .flat_map(|p| p.chunks_exact(dim))
+        .filter(|f| f.iter().all(|v| v.is_finite()))
+        .collect();
+    let n = finite_rows.len().max(1) as f64;
+    let sums: Vec<Vec<f64>> = finite_rows
+        .par_chunks(CHUNK)
+        .map(|c| {
+            let mut s = vec![0.0f64; dim];
+            for f in c {
+                for (a, v) in s.iter_mut().zip(*f) {
+                    *a += *v as f64;
+                }
+            }
+            s
+        })
+        .collect();
     let mut mean = vec![0.0f64; dim];
-    for f in rows() {
-        for (m, v) in mean.iter_mut().zip(f) {
-            *m += *v as f64 / n;
+    for s in &sums {
+        for (m, v) in mean.iter_mut().zip(s) {
+            *m += v;
         }
     }
-    let mut cov = vec![0.0f64; dim * dim];
-    for f in rows() {
-        let c: Vec<f64> = f.iter().zip(&mean).map(|(v, m)| *v as f64 - m).collect();
-        for i in 0..dim {
-            for j in i..dim {
-                cov[i * dim + j] += c[i] * c[j] / n;
+    for m in &mut mean {
+        *m /= n;
+    }
+    // Upper triangle of the scatter matrix, per chunk, then summed in order.
+    let parts: Vec<Vec<f64>> = finite_rows
+        .par_chunks(CHUNK)
+        .map(|rows| {
+            let mut acc = vec![0.0f64; dim * dim];
+            let mut c = vec![0.0f64; dim];
+            for f in rows {
+                for ((x, v), m) in c.iter_mut().zip(*f).zip(&mean) {
+                    *x = *v as f64 - m;
+                }
+                for i in 0..dim {
+                    let ci = c[i];
+                    for (a, cj) in acc[i * dim + i..(i + 1) * dim].iter_mut().zip(&c[i..]) {
+                        *a += ci * cj;
+                    }
+                }
             }
+            acc
+        })
+        .collect();
+    let mut cov = vec![0.0f64; dim * dim];
+    for p in &parts {
+        for (a, v) in cov.iter_mut().zip(p) {
+            *a += v;
         }
     }
     for i in 0..dim {
+        for j in i..dim {
+            cov[i * dim + j] /= n;
+        }
         for j in 0..i {
             cov[i * dim + j] = cov[j * dim + i];
         }
     }
     let components = top_eigenvectors(&mut cov, dim, 3);
-    let project = |f: &[f32], k: usize| -> f64 {
-        f.iter()
-            .zip(&mean)
-            .zip(&components[k])
-            .map(|((v, m), c)| (*v as f64 - m) * c)
-            .sum()
+    let project = |f: &[f32]| -> [f64; 3] {
+        let mut out = [0.0f64; 3];
+        for (k, o) in out.iter_mut().enumerate() {
+            *o = f
+                .iter()
+                .zip(&mean)
+                .zip(&components[k])
+                .map(|((v, m), c)| (*v as f64 - m) * c)
+                .sum();
+        }
+        out
     };
+    // Every finite pixel's three components, in plane order.
+    let projected: Vec<[f64; 3]> = finite_rows.par_iter().map(|f| project(f)).collect();
     // Per component, the 1st and 99th percentiles over every finite pixel.
     let ranges: Vec<(f64, f64)> = (0..3)
         .map(|k| {
-            let mut v: Vec<f64> = rows().map(|f| project(f, k)).collect();
+            let mut v: Vec<f64> = projected.iter().map(|p| p[k]).collect();
             if v.is_empty() {
                 return (0.0, 1.0);
             }
@@ -56,17 +100,18 @@ pub fn pca_rgb(planes: &[&[f32]], dim: usize) -> Vec<Vec<u8>> {
             (lo, if hi > lo { hi } else { lo + 1.0 })
         })
         .collect();
+    let mut next = projected.iter();
     planes
         .iter()
         .map(|p| {
             let mut out = Vec::with_capacity(p.len() / dim * 3);
             for f in p.chunks_exact(dim) {
                 let finite = f.iter().all(|v| v.is_finite());
+                let proj = if finite { next.next() } else { None };
                 for (k, (lo, hi)) in ranges.iter().enumerate() {
-                    out.push(if finite {
-                        ((project(f, k) - lo) / (hi - lo) * 255.0).clamp(0.0, 255.0) as u8
-                    } else {
-                        0
+                    out.push(match proj {
+                        Some(c) => ((c[k] - lo) / (hi - lo) * 255.0).clamp(0.0, 255.0) as u8,
+                        None => 0,
                     });
                 }
             }
