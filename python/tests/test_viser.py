@@ -68,6 +68,9 @@ def test_viser_view_shows_the_trial_and_a_drag_changes_the_decision(page_url, tm
             key=lambda k: (view.controls[k].position[0] - x) ** 2
             + (view.controls[k].position[1] - y) ** 2,
         )
+        # As a drag does: from its start on, redraws leave the block where the
+        # hand puts it (a redraw still running after the step must not put it back).
+        view._on_gizmo(i, "start")
         view.controls[i].position = (0.17 if x < 0 else -0.17, 0.17, 0.025)
         t0 = time.perf_counter()
         after_state = view.drop(i)
