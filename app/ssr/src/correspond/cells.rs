@@ -102,28 +102,7 @@ pub fn rematch_reference_cells(
     if let Some(w) = unmasked_weights(n, sigma_px) {
         smooth_with_weights(&mut d, n, sigma_px, &w);
     }
-    let (y0, y1) = (
-        demo_action.y.saturating_sub(half_window),
-        (demo_action.y + half_window).min(n - 1),
-    );
-    let (x0, x1) = (
-        demo_action.x.saturating_sub(half_window),
-        (demo_action.x + half_window).min(n - 1),
-    );
-    let mut best = Best::NONE;
-    for y in y0..=y1 {
-        for x in x0..=x1 {
-            let p = y * n + x;
-            if d[p] < best.d2 {
-                best = Best { d2: d[p], index: p };
-            }
-        }
-    }
-    let p = if best.index == usize::MAX {
-        demo_action.y.min(n - 1) * n + demo_action.x.min(n - 1)
-    } else {
-        best.index
-    };
+    let p = super::reference::window_argmin(&d, n, demo_action, half_window);
     let index = r * n * n + p;
     Match {
         index,

@@ -148,6 +148,22 @@ pub fn rematch_reference(
     let mut d = plane_sq(demo, r, query, true);
     let raw = d.clone();
     smooth(&mut d, n, sigma_px);
+    let p = window_argmin(&d, n, demo_action, half_window);
+    Match {
+        index: r * n * n + p,
+        distance: raw[p],
+    }
+}
+
+/// The rematch's pixel in the `n x n` map `d`: the smallest entry within +/-
+/// `half_window` pixels of `demo_action`'s pixel (first on ties), or the
+/// demonstrated pixel itself when none there is finite.
+pub(super) fn window_argmin(
+    d: &[f32],
+    n: usize,
+    demo_action: &Action,
+    half_window: usize,
+) -> usize {
     let (y0, y1) = (
         demo_action.y.saturating_sub(half_window),
         (demo_action.y + half_window).min(n - 1),
@@ -165,14 +181,10 @@ pub fn rematch_reference(
             }
         }
     }
-    let p = if best.index == usize::MAX {
+    if best.index == usize::MAX {
         demo_action.y.min(n - 1) * n + demo_action.x.min(n - 1)
     } else {
         best.index
-    };
-    Match {
-        index: r * n * n + p,
-        distance: raw[p],
     }
 }
 
