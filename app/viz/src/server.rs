@@ -216,15 +216,11 @@ async fn api_embedding(
         }
     };
     let st = s.clone();
-    match tokio::task::spawn_blocking(move || st.session().embedding(pair)).await {
-        Ok(Ok(v)) => axum::Json(v).into_response(),
-        Ok(Err(e)) => (StatusCode::CONFLICT, format!("{e:#}")).into_response(),
-        Err(e) => (
-            StatusCode::INTERNAL_SERVER_ERROR,
-            format!("internal error: {e}"),
-        )
-            .into_response(),
-    }
+    blocking_or_conflict(
+        move || st.session().embedding(pair),
+        |v| axum::Json(v).into_response(),
+    )
+    .await
 }
 
 /// The review of the server's evaluation ([`ReviewSource::document`]); 404
@@ -238,7 +234,7 @@ async fn api_review(State(s): State<Arc<AppState>>) -> Response {
             .into_response();
     };
     let st = s.clone();
-    let doc = tokio::task::spawn_blocking(move || {
+    let doc = move || {
         let mut cached = st
             .review_doc
             .lock()
@@ -247,17 +243,8 @@ async fn api_review(State(s): State<Arc<AppState>>) -> Response {
             *cached = Some(src.document()?);
         }
         anyhow::Ok(cached.clone().unwrap_or_default())
-    })
-    .await;
-    match doc {
-        Ok(Ok(v)) => axum::Json(v).into_response(),
-        Ok(Err(e)) => (StatusCode::CONFLICT, format!("{e:#}")).into_response(),
-        Err(e) => (
-            StatusCode::INTERNAL_SERVER_ERROR,
-            format!("internal error: {e}"),
-        )
-            .into_response(),
-    }
+    };
+    blocking_or_conflict(doc, |v| axum::Json(v).into_response()).await
 }
 
 /// A trial of the reviewed evaluation, named by `method`, `task` and `seed`,
@@ -289,40 +276,53 @@ async fn api_replay_rrd(
         Err(e) => return (StatusCode::BAD_REQUEST, e).into_response(),
     };
     let name = format!("attachment; filename=\"{method}-{task}-{seed}.rrd\"");
-    match tokio::task::spawn_blocking(move || src.record(&method, task, seed)).await {
-        Ok(Ok(bytes)) => (
-            [
-                (header::CONTENT_TYPE, "application/octet-stream".to_owned()),
-                (header::CONTENT_DISPOSITION, name),
-            ],
-            bytes,
-        )
-            .into_response(),
-        Ok(Err(e)) => (StatusCode::CONFLICT, format!("{e:#}")).into_response(),
-        Err(e) => (
-            StatusCode::INTERNAL_SERVER_ERROR,
-            format!("internal error: {e}"),
-        )
-            .into_response(),
-    }
+    blocking_or_conflict(
+        move || src.record(&method, task, seed),
+        |bytes| {
+            (
+                [
+                    (header::CONTENT_TYPE, "application/octet-stream".to_owned()),
+                    (header::CONTENT_DISPOSITION, name),
+                ],
+                bytes,
+            )
+                .into_response()
+        },
+    )
+    .await
 }
 
 /// The current layout as a scene file (`seespot view --scene` starts from it),
 /// offered as a download.
 async fn api_scene(State(s): State<Arc<AppState>>) -> Response {
     let st = s.clone();
-    match tokio::task::spawn_blocking(move || st.session().layout_toml()).await {
-        Ok(Ok(text)) => (
-            [
-                (header::CONTENT_TYPE, "application/toml; charset=utf-8"),
-                (
-                    header::CONTENT_DISPOSITION,
-                    "attachment; filename=\"seespot-layout.toml\"",
-                ),
-            ],
-            text,
-        )
-            .into_response(),
+    blocking_or_conflict(
+        move || st.session().layout_toml(),
+        |text| {
+            (
+                [
+                    (header::CONTENT_TYPE, "application/toml; charset=utf-8"),
+                    (
+                        header::CONTENT_DISPOSITION,
+                        "attachment; filename=\"seespot-layout.toml\"",
+                    ),
+                ],
+                text,
+            )
+                .into_response()
+        },
+    )
+    .await
+}
+
+/// Runs `f` on a blocking thread: its value through `ok`, its error as 409
+/// (the request cannot be served in this state), a panic as 500.
+async fn blocking_or_conflict<T: Send + 'static>(
+    f: impl FnOnce() -> anyhow::Result<T> + Send + 'static,
+    ok: impl FnOnce(T) -> Response,
+) -> Response {
+    match tokio::task::spawn_blocking(f).await {
+        Ok(Ok(v)) => ok(v),
         Ok(Err(e)) => (StatusCode::CONFLICT, format!("{e:#}")).into_response(),
         Err(e) => (
             StatusCode::INTERNAL_SERVER_ERROR,
