@@ -17,6 +17,29 @@ use crate::net::{FEATURE_RESOLUTION, QNet, TRUNK_STRIDE, param_shapes};
 use crate::rotation::{BackMap, rotate_input_batch, sample_back};
 use crate::tensor_file::{self, F32Tensor};
 
+/// The [`CellAse`] of `rf` (the rotated cells of `hm`, every rotation or
+/// only `only`) under `hm`'s common-sense mask for `primitive`.
+fn cell_ase(
+    hm: &Heightmaps,
+    primitive: Primitive,
+    rf: RotatedFeatures,
+    only: Option<usize>,
+) -> CellAse {
+    let h = hm.resolution();
+    let map = BackMap::new(&rf.input, h, TRUNK_STRIDE);
+    let taps = Taps::shared(&map, FEATURE_RESOLUTION, NUM_ROTATIONS, h);
+    CellAse::with_rotations(
+        primitive,
+        h,
+        FEATURE_RESOLUTION,
+        EMBEDDING_DIM,
+        rf.features,
+        taps,
+        &common_sense_mask(hm, primitive),
+        only,
+    )
+}
+
 /// `format` metadata value of a policy file.
 pub const FORMAT: &str = "seespot-policy";
 /// `architecture` metadata value: the network of [`crate::net`].
@@ -133,19 +156,7 @@ impl PolicyNet {
         primitive: Primitive,
     ) -> Result<CellAse, PolicyError> {
         let rf = self.rotated_features(hm, primitive)?;
-        let h = hm.resolution();
-        let map = BackMap::new(&rf.input, h, TRUNK_STRIDE);
-        let taps = Taps::shared(&map, FEATURE_RESOLUTION, NUM_ROTATIONS, h);
-        let pixel_mask = common_sense_mask(hm, primitive);
-        Ok(CellAse::new(
-            primitive,
-            h,
-            FEATURE_RESOLUTION,
-            EMBEDDING_DIM,
-            rf.features,
-            taps,
-            &pixel_mask,
-        ))
+        Ok(cell_ase(hm, primitive, rf, None))
     }
 
     /// [`Self::embed_cells`] of rotation `rotation` alone (one trunk pass
@@ -164,20 +175,8 @@ impl PolicyNet {
         let one = trunk.forward(&x, 1, NET_RESOLUTION);
         let mut features = vec![0.0f32; NUM_ROTATIONS * one.len()];
         features[rotation * one.len()..(rotation + 1) * one.len()].copy_from_slice(&one);
-        let h = hm.resolution();
-        let map = BackMap::new(&input, h, TRUNK_STRIDE);
-        let taps = Taps::shared(&map, FEATURE_RESOLUTION, NUM_ROTATIONS, h);
-        let pixel_mask = common_sense_mask(hm, primitive);
-        Ok(CellAse::with_rotations(
-            primitive,
-            h,
-            FEATURE_RESOLUTION,
-            EMBEDDING_DIM,
-            features,
-            taps,
-            &pixel_mask,
-            Some(rotation),
-        ))
+        let rf = RotatedFeatures { features, input };
+        Ok(cell_ase(hm, primitive, rf, Some(rotation)))
     }
 
     /// Q-values of the low-resolution rotated cells (`R x 28 x 28`).
