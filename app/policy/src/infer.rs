@@ -109,8 +109,23 @@ impl Layer {
         (out, m)
     }
 
-    /// Output row `row` (batch-major) for `CO` output channels.
+    /// Output row `row` (batch-major) for `CO` output channels, in the widest
+    /// vector instructions this CPU has ([`crate::simd`]): every output
+    /// channel is its own lane, summed in the same order, so the result is
+    /// the same bit for bit on every path.
     fn row<const CO: usize>(&self, x: &[f32], n: usize, m: usize, row: usize, dst: &mut [f32]) {
+        crate::simd::dispatch!(self.row_lanes::<CO>(x, n, m, row, dst))
+    }
+
+    #[inline(always)]
+    fn row_lanes<const CO: usize>(
+        &self,
+        x: &[f32],
+        n: usize,
+        m: usize,
+        row: usize,
+        dst: &mut [f32],
+    ) {
         let s = self.spec;
         let ci = s.in_channels;
         let (b, oy) = (row / m, row % m);
@@ -188,6 +203,41 @@ mod tests {
     use crate::input::NET_RESOLUTION;
     use crate::net::FEATURE_RESOLUTION;
     use candle_core::{Device, Tensor};
+
+    /// Each layer's rows computed in the widest vector instructions this CPU
+    /// has ([`crate::simd`]) equal the baseline build's bit for bit.
+    #[test]
+    fn wide_rows_equal_the_baseline() {
+        fn both<const CO: usize>(l: &Layer, x: &[f32], n: usize, m: usize) {
+            let (mut wide, mut base) = (vec![0.0; m * CO], vec![0.0; m * CO]);
+            for row in 0..m {
+                l.row::<CO>(x, n, m, row, &mut wide[..]);
+                l.row_lanes::<CO>(x, n, m, row, &mut base[..]);
+                assert_eq!(
+                    wide.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                    base.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                    "{} row {row}",
+                    l.spec.name
+                );
+            }
+        }
+        let trunk = InferTrunk::new(&QNet::new(11).expect("net")).expect("infer");
+        let n = 23;
+        for l in &trunk.layers {
+            let ci = l.spec.in_channels;
+            let x: Vec<f32> = (0..n * n * ci)
+                .map(|i| ((i * 7919) % 1000) as f32 / 1000.0 - 0.2)
+                .collect();
+            let s = l.spec;
+            let m = (n + 2 * s.dilation - s.dilation * (KERNEL - 1) - 1) / s.stride + 1;
+            match s.out_channels {
+                16 => both::<16>(l, &x, n, m),
+                32 => both::<32>(l, &x, n, m),
+                64 => both::<64>(l, &x, n, m),
+                c => panic!("no const path for {c} channels"),
+            }
+        }
+    }
 
     /// The inference pass gives candle's trunk to float rounding, on a net of
     /// random weights and an input with the range of real heightmaps.

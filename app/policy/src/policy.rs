@@ -72,6 +72,24 @@ pub struct PolicyNet {
     pub nets: [QNet; 2],
 }
 
+/// One scene's network input and its 16 rotations (`R x C x N x N`): what
+/// every policy's trunk reads, so a decision that embeds the scene with
+/// several policies computes it once ([`PolicyNet::embed_cells_with`]).
+#[derive(Clone, Debug)]
+pub struct SceneInput {
+    input: NetInput,
+    rotated: Vec<f32>,
+}
+
+impl SceneInput {
+    pub fn new(hm: &Heightmaps) -> Self {
+        let input = NetInput::from_heightmaps(hm);
+        let rotations: Vec<usize> = (0..NUM_ROTATIONS).collect();
+        let rotated = rotate_input_batch(&input, &rotations);
+        Self { input, rotated }
+    }
+}
+
 /// Low-resolution rotated features of all rotations, channels last:
 /// `R x 28 x 28 x D`, and the input geometry they came from.
 #[derive(Clone, Debug)]
@@ -106,12 +124,21 @@ impl PolicyNet {
         hm: &Heightmaps,
         primitive: Primitive,
     ) -> Result<RotatedFeatures, PolicyError> {
-        let input = NetInput::from_heightmaps(hm);
-        let rotations: Vec<usize> = (0..NUM_ROTATIONS).collect();
-        let batch = rotate_input_batch(&input, &rotations);
+        self.rotated_features_with(&SceneInput::new(hm), primitive)
+    }
+
+    /// [`Self::rotated_features`] of a scene whose rotated input is ready.
+    pub fn rotated_features_with(
+        &self,
+        scene: &SceneInput,
+        primitive: Primitive,
+    ) -> Result<RotatedFeatures, PolicyError> {
         let trunk = crate::infer::InferTrunk::new(self.net(primitive))?;
-        let features = trunk.forward(&batch, NUM_ROTATIONS, NET_RESOLUTION);
-        Ok(RotatedFeatures { features, input })
+        let features = trunk.forward(&scene.rotated, NUM_ROTATIONS, NET_RESOLUTION);
+        Ok(RotatedFeatures {
+            features,
+            input: scene.input.clone(),
+        })
     }
 
     /// [`Self::rotated_features`] through candle's `conv2d` (the training
@@ -155,7 +182,18 @@ impl PolicyNet {
         hm: &Heightmaps,
         primitive: Primitive,
     ) -> Result<CellAse, PolicyError> {
-        let rf = self.rotated_features(hm, primitive)?;
+        self.embed_cells_with(hm, &SceneInput::new(hm), primitive)
+    }
+
+    /// [`Self::embed_cells`] with the scene's rotated input `scene` (of
+    /// `hm`) computed once for several policies.
+    pub fn embed_cells_with(
+        &self,
+        hm: &Heightmaps,
+        scene: &SceneInput,
+        primitive: Primitive,
+    ) -> Result<CellAse, PolicyError> {
+        let rf = self.rotated_features_with(scene, primitive)?;
         Ok(cell_ase(hm, primitive, rf, None))
     }
 

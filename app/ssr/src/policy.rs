@@ -298,10 +298,11 @@ impl SsrPolicy {
         // Embed.
         let t = Instant::now();
         if !same_scene || self.live.len() != self.policies.len() {
+            let scene = seespot_policy::SceneInput::new(hm);
             self.live = self
                 .policies
                 .iter()
-                .map(|(_, p)| p.embed_cells(hm, primitive))
+                .map(|(_, p)| p.embed_cells_with(hm, &scene, primitive))
                 .collect::<Result<Vec<_>, _>>()?;
         }
         let opts = self.config.correspond;
