@@ -24,20 +24,30 @@ use crate::embedding::AseMap;
 use crate::rotation::{BackMap, bilinear_taps};
 
 /// Where every action of one resolution reads its cells: per `(r, y, x)`,
-/// four cell indices within rotation `r`'s plane and their weights.
+/// the upper-left of its four bilinear cells within rotation `r`'s plane
+/// (the others are its right, lower and lower-right neighbours, clamped at
+/// the border: [`corners`]) and their weights.
 #[derive(Debug)]
 pub struct Taps {
-    pub index: Vec<[u32; 4]>,
+    pub cell: Vec<u32>,
     pub weight: Vec<[f32; 4]>,
+}
+
+/// The four cells a tap at upper-left cell `a` reads in a `cells x cells`
+/// plane, as [`bilinear_taps`] orders them.
+#[inline(always)]
+pub fn corners(a: usize, cells: usize) -> [usize; 4] {
+    let (y, x) = (a / cells, a % cells);
+    let (x1, y1) = ((x + 1).min(cells - 1), (y + 1).min(cells - 1));
+    [a, y * cells + x1, y1 * cells + x, y1 * cells + x1]
 }
 
 impl Taps {
     fn new(map: &BackMap, cells: usize, rotations: usize, h: usize) -> Self {
         let n = rotations * h * h;
-        let mut index = vec![[0u32; 4]; n];
+        let mut cell = vec![0u32; n];
         let mut weight = vec![[0.0f32; 4]; n];
-        index
-            .par_chunks_mut(h)
+        cell.par_chunks_mut(h)
             .zip(weight.par_chunks_mut(h))
             .enumerate()
             .for_each(|(row, (ix, w))| {
@@ -46,11 +56,12 @@ impl Taps {
                 for x in 0..h {
                     let (fx, fy) = map.locate(sc, y, x);
                     let (i, t) = bilinear_taps(cells, fx, fy);
-                    ix[x] = i.map(|v| v as u32);
+                    debug_assert_eq!(i, corners(i[0], cells));
+                    ix[x] = i[0] as u32;
                     w[x] = t;
                 }
             });
-        Self { index, weight }
+        Self { cell, weight }
     }
 
     /// The taps of the geometry `map` at `h` px (computed once per geometry).
@@ -67,63 +78,64 @@ impl Taps {
     }
 }
 
-/// Dot products of each cell of one rotation with itself and the neighbours
-/// a bilinear tap can pair it with (indices clamped at the border, as the
-/// taps are): `n x n` each.
-#[derive(Debug)]
+/// Per cell `a` of one rotation, the dot products the squared norm of an
+/// action tapping `a` needs (with `b`, `c`, `d` its right, lower and
+/// lower-right neighbours, clamped at the border as the taps are):
+/// `[a.a, b.b, c.c, d.d, a.b, c.d, a.c, b.d, a.d, b.c]`, one record per cell.
+#[derive(Clone, Debug)]
 struct CellGram {
-    /// `c(y, x) . c(y, x)`.
-    norm: Vec<f32>,
-    /// `c(y, x) . c(y, x + 1)`.
-    right: Vec<f32>,
-    /// `c(y, x) . c(y + 1, x)`.
-    down: Vec<f32>,
-    /// `c(y, x) . c(y + 1, x + 1)`.
-    diag: Vec<f32>,
-    /// `c(y, x + 1) . c(y + 1, x)`.
-    anti: Vec<f32>,
+    records: Vec<[f32; 10]>,
 }
 
 impl CellGram {
     fn new(cells: &[f32], n: usize, dim: usize) -> Self {
-        let at = |y: usize, x: usize| &cells[(y.min(n - 1) * n + x.min(n - 1)) * dim..][..dim];
-        let dot = |a: &[f32], b: &[f32]| -> f32 { a.iter().zip(b).map(|(p, q)| p * q).sum() };
-        let mut g = Self {
-            norm: Vec::with_capacity(n * n),
-            right: Vec::with_capacity(n * n),
-            down: Vec::with_capacity(n * n),
-            diag: Vec::with_capacity(n * n),
-            anti: Vec::with_capacity(n * n),
-        };
-        for y in 0..n {
-            for x in 0..n {
-                let a = at(y, x);
-                g.norm.push(dot(a, a));
-                g.right.push(dot(a, at(y, x + 1)));
-                g.down.push(dot(a, at(y + 1, x)));
-                g.diag.push(dot(a, at(y + 1, x + 1)));
-                g.anti.push(dot(at(y, x + 1), at(y + 1, x)));
-            }
-        }
-        g
+        let at = |i: usize| &cells[i * dim..(i + 1) * dim];
+        let records = (0..n * n)
+            .map(|a| {
+                let [a, b, c, d] = corners(a, n);
+                let (a, b, c, d) = (at(a), at(b), at(c), at(d));
+                // The ten dot products side by side, each summed in order
+                // over the channels (as one `dot` at a time would).
+                let mut g = [0.0f32; 10];
+                for k in 0..dim {
+                    let (a, b, c, d) = (a[k], b[k], c[k], d[k]);
+                    let t = [
+                        a * a,
+                        b * b,
+                        c * c,
+                        d * d,
+                        a * b,
+                        c * d,
+                        a * c,
+                        b * d,
+                        a * d,
+                        b * c,
+                    ];
+                    for (g, t) in g.iter_mut().zip(t) {
+                        *g += t;
+                    }
+                }
+                g
+            })
+            .collect();
+        Self { records }
     }
 
-    /// `|sum_k w_k c_k|^2` for taps `[a, b, c, d]` laid out as
-    /// [`bilinear_taps`] gives them.
-    fn norm_sq(&self, idx: [u32; 4], w: [f32; 4]) -> f32 {
-        // b is a's right neighbour, c a's lower one, d b's lower one (or
-        // themselves, clamped at the border, as the tables are).
-        let [a, b, c, d] = idx.map(|i| i as usize);
-        let cross = w[0] * w[1] * self.right[a]
-            + w[2] * w[3] * self.right[c]
-            + w[0] * w[2] * self.down[a]
-            + w[1] * w[3] * self.down[b]
-            + w[0] * w[3] * self.diag[a]
-            + w[1] * w[2] * self.anti[a];
-        w[0] * w[0] * self.norm[a]
-            + w[1] * w[1] * self.norm[b]
-            + w[2] * w[2] * self.norm[c]
-            + w[3] * w[3] * self.norm[d]
+    /// `|sum_k w_k c_k|^2` for the taps at upper-left cell `a` with weights
+    /// `w`.
+    #[inline(always)]
+    fn norm_sq(&self, a: u32, w: [f32; 4]) -> f32 {
+        let g = &self.records[a as usize];
+        let cross = w[0] * w[1] * g[4]
+            + w[2] * w[3] * g[5]
+            + w[0] * w[2] * g[6]
+            + w[1] * w[3] * g[7]
+            + w[0] * w[3] * g[8]
+            + w[1] * w[2] * g[9];
+        w[0] * w[0] * g[0]
+            + w[1] * w[1] * g[1]
+            + w[2] * w[2] * g[2]
+            + w[3] * w[3] * g[3]
             + 2.0 * cross
     }
 }
@@ -143,8 +155,10 @@ pub struct CellAse {
     /// `R x cells x cells x D`, channels last.
     pub features: Vec<f32>,
     pub taps: Arc<Taps>,
-    /// `R x H x W`: each action's squared norm `|E(p)|^2`.
-    pub norms: Vec<f32>,
+    /// Per rotation, the cells' dot products with their neighbours, from
+    /// which an action's squared norm `|E(p)|^2` follows ([`Self::norm_sq`]);
+    /// `None` for rotations that were not embedded.
+    grams: Vec<Option<CellGram>>,
     /// `R x H x W`, true where the action is allowed.
     pub mask: Vec<bool>,
 }
@@ -180,7 +194,7 @@ impl CellAse {
         only: Option<usize>,
     ) -> Self {
         let plane = resolution * resolution;
-        let rotations = taps.index.len() / plane;
+        let rotations = taps.cell.len() / plane;
         assert_eq!(features.len(), rotations * cells * cells * dim);
         assert_eq!(pixel_mask.len(), plane);
         let mut m = Self {
@@ -191,7 +205,7 @@ impl CellAse {
             cells,
             features,
             taps,
-            norms: vec![0.0; rotations * plane],
+            grams: Vec::new(),
             mask: Vec::with_capacity(rotations * plane),
         };
         for r in 0..rotations {
@@ -204,28 +218,15 @@ impl CellAse {
         // |E(p)|^2 from the cells' dot products with their neighbours: with
         // taps a, b (right of a), c (below a), d (below b) and weights w,
         // |E|^2 = sum_k w_k^2 |c_k|^2 + 2 (w_a w_b a.b + w_c w_d c.d + w_a w_c a.c
-        //         + w_b w_d b.d + w_a w_d a.d + w_b w_c b.c).
-        let grams: Vec<Option<CellGram>> = (0..rotations)
+        //         + w_b w_d b.d + w_a w_d a.d + w_b w_c b.c),
+        // computed where a distance needs it (often only the allowed actions).
+        m.grams = (0..rotations)
             .into_par_iter()
             .map(|r| {
                 only.is_none_or(|o| o == r)
                     .then(|| CellGram::new(m.plane_cells(r), cells, dim))
             })
             .collect();
-        let mut norms = std::mem::take(&mut m.norms);
-        norms
-            .par_chunks_mut(resolution)
-            .enumerate()
-            .for_each(|(row, out)| {
-                let Some(g) = &grams[row / resolution] else {
-                    return;
-                };
-                for (x, v) in out.iter_mut().enumerate() {
-                    let i = row * resolution + x;
-                    *v = g.norm_sq(m.taps.index[i], m.taps.weight[i]);
-                }
-            });
-        m.norms = norms;
         m
     }
 
@@ -250,8 +251,9 @@ impl CellAse {
         let plane = self.resolution * self.resolution;
         let src = self.plane_cells(index / plane);
         let d = self.dim;
-        let (idx, w) = (self.taps.index[index], self.taps.weight[index]);
-        let at = |k: usize| &src[idx[k] as usize * d..idx[k] as usize * d + d];
+        let idx = corners(self.taps.cell[index] as usize, self.cells);
+        let w = self.taps.weight[index];
+        let at = |k: usize| &src[idx[k] * d..idx[k] * d + d];
         let (a, b, c, e) = (at(0), at(1), at(2), at(3));
         for k in 0..d {
             out[k] = w[0] * a[k] + w[1] * b[k] + w[2] * c[k] + w[3] * e[k];
@@ -284,31 +286,79 @@ impl CellAse {
             .collect()
     }
 
+    /// The squared norm `|E(p)|^2` of action `index`'s embedding (0 for a
+    /// rotation that was not embedded).
+    pub fn norm_sq(&self, index: usize) -> f32 {
+        let plane = self.resolution * self.resolution;
+        self.grams[index / plane].as_ref().map_or(0.0, |g| {
+            g.norm_sq(self.taps.cell[index], self.taps.weight[index])
+        })
+    }
+
     /// Squared distances `|E(p) - q|^2` of rotation `r`'s actions to `q`
     /// (`H x W`, clamped at 0), `f32::INFINITY` at masked actions unless
     /// `unmasked`.
     pub fn plane_distances_sq(&self, r: usize, q: &[f32], unmasked: bool) -> Vec<f32> {
-        let plane = self.resolution * self.resolution;
-        let dots = self.cell_dots(r, q);
-        let qn: f32 = q.iter().map(|v| v * v).sum();
+        self.plane_distances_sq_many(r, &[q], unmasked)
+            .pop()
+            .unwrap_or_default()
+    }
+
+    /// [`Self::plane_distances_sq`] for several queries in one pass (each
+    /// action's norm computed once).
+    pub fn plane_distances_sq_many(
+        &self,
+        r: usize,
+        queries: &[&[f32]],
+        unmasked: bool,
+    ) -> Vec<Vec<f32>> {
+        let (n, plane) = (self.resolution, self.resolution * self.resolution);
+        // Per query, each cell's dot product with the query and those of the
+        // three cells a tap at it also reads.
+        let dots: Vec<Vec<[f32; 4]>> = queries
+            .iter()
+            .map(|q| {
+                let d = self.cell_dots(r, q);
+                (0..d.len())
+                    .map(|a| corners(a, self.cells).map(|c| d[c]))
+                    .collect()
+            })
+            .collect();
+        let qn: Vec<f32> = queries
+            .iter()
+            .map(|q| q.iter().map(|v| v * v).sum())
+            .collect();
         let base = r * plane;
-        let mut out = vec![f32::INFINITY; plane];
-        out.par_chunks_mut(self.resolution)
+        let nq = queries.len();
+        // Rows laid out `[y][query][x]`, so each row's norms serve every query.
+        let mut rows = vec![f32::INFINITY; nq * plane];
+        let gram = self.grams[r].as_ref();
+        rows.par_chunks_mut(nq * n)
             .enumerate()
-            .for_each(|(y, row)| {
-                for (x, v) in row.iter_mut().enumerate() {
-                    let i = base + y * self.resolution + x;
-                    if unmasked || self.mask[i] {
-                        let (idx, w) = (self.taps.index[i], self.taps.weight[i]);
-                        let eq = w[0] * dots[idx[0] as usize]
-                            + w[1] * dots[idx[1] as usize]
-                            + w[2] * dots[idx[2] as usize]
-                            + w[3] * dots[idx[3] as usize];
-                        *v = (self.norms[i] - 2.0 * eq + qn).max(0.0);
+            .for_each(|(y, out)| {
+                for x in 0..n {
+                    let i = base + y * n + x;
+                    if !(unmasked || self.mask[i]) {
+                        continue;
+                    }
+                    let (a, w) = (self.taps.cell[i], self.taps.weight[i]);
+                    let norm = gram.map_or(0.0, |g| g.norm_sq(a, w));
+                    for (k, (dots, qn)) in dots.iter().zip(&qn).enumerate() {
+                        let t = dots[a as usize];
+                        let eq = w[0] * t[0] + w[1] * t[1] + w[2] * t[2] + w[3] * t[3];
+                        out[k * n + x] = (norm - 2.0 * eq + qn).max(0.0);
                     }
                 }
             });
-        out
+        (0..nq)
+            .map(|k| {
+                let mut plane_k = Vec::with_capacity(plane);
+                for row in rows.chunks_exact(nq * n) {
+                    plane_k.extend_from_slice(&row[k * n..(k + 1) * n]);
+                }
+                plane_k
+            })
+            .collect()
     }
 
     /// Replaces the mask by `pixel_mask` (`H x W`, every rotation).

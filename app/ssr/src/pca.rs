@@ -41,22 +41,7 @@ pub fn pca_rgb(planes: &[&[f32]], dim: usize) -> Vec<Vec<u8>> {
     // Upper triangle of the scatter matrix, per chunk, then summed in order.
     let parts: Vec<Vec<f64>> = finite_rows
         .par_chunks(CHUNK)
-        .map(|rows| {
-            let mut acc = vec![0.0f64; dim * dim];
-            let mut c = vec![0.0f64; dim];
-            for f in rows {
-                for ((x, v), m) in c.iter_mut().zip(*f).zip(&mean) {
-                    *x = *v as f64 - m;
-                }
-                for i in 0..dim {
-                    let ci = c[i];
-                    for (a, cj) in acc[i * dim + i..(i + 1) * dim].iter_mut().zip(&c[i..]) {
-                        *a += ci * cj;
-                    }
-                }
-            }
-            acc
-        })
+        .map(|rows| seespot_policy::simd::dispatch!(covariance_part(rows, &mean, dim)))
         .collect();
     let mut cov = vec![0.0f64; dim * dim];
     for p in &parts {
@@ -122,6 +107,40 @@ pub fn pca_rgb(planes: &[&[f32]], dim: usize) -> Vec<Vec<u8>> {
 
 /// The `k` leading eigenvectors of the symmetric `dim x dim` matrix `m`, by
 /// power iteration with deflation (`m` is deflated in place).
+/// The upper triangle of `sum (f - mean)(f - mean)^T` over `rows`
+/// (`dim x dim`, row-major; the lower triangle is left zero).
+#[inline(always)]
+fn covariance_part(rows: &[&[f32]], mean: &[f64], dim: usize) -> Vec<f64> {
+    let mut acc = vec![0.0f64; dim * dim];
+    let mut c = vec![0.0f64; dim];
+    for f in rows {
+        for ((x, v), m) in c.iter_mut().zip(*f).zip(mean) {
+            *x = *v as f64 - m;
+        }
+        for i in 0..dim {
+            let ci = c[i];
+            for (a, cj) in acc[i * dim + i..(i + 1) * dim].iter_mut().zip(&c[i..]) {
+                *a += ci * cj;
+            }
+        }
+    }
+    acc
+}
+
+/// `m v` for a symmetric `dim x dim` matrix `m`: each entry summed over `j`
+/// in order, as `sum_j m[i][j] v[j]`, but read by rows (`m[j][i]`), so the
+/// entries are computed side by side in vector lanes.
+#[inline(always)]
+fn symmetric_times(m: &[f64], v: &[f64], dim: usize) -> Vec<f64> {
+    let mut w = vec![0.0f64; dim];
+    for (row, &vj) in m.chunks_exact(dim).zip(v) {
+        for (a, mji) in w.iter_mut().zip(row) {
+            *a += mji * vj;
+        }
+    }
+    w
+}
+
 fn top_eigenvectors(m: &mut [f64], dim: usize, k: usize) -> Vec<Vec<f64>> {
     let mut out = Vec::with_capacity(k);
     for c in 0..k {
@@ -129,9 +148,7 @@ fn top_eigenvectors(m: &mut [f64], dim: usize, k: usize) -> Vec<Vec<f64>> {
         let mut v: Vec<f64> = (0..dim).map(|i| 1.0 + ((i + c) % 7) as f64 * 0.1).collect();
         let mut lambda = 0.0;
         for _ in 0..200 {
-            let w: Vec<f64> = (0..dim)
-                .map(|i| (0..dim).map(|j| m[i * dim + j] * v[j]).sum())
-                .collect();
+            let w = seespot_policy::simd::dispatch!(symmetric_times(m, &v, dim));
             let norm = w.iter().map(|x| x * x).sum::<f64>().sqrt();
             if norm < 1e-30 {
                 break;
@@ -139,9 +156,13 @@ fn top_eigenvectors(m: &mut [f64], dim: usize, k: usize) -> Vec<Vec<f64>> {
             lambda = norm;
             v = w.into_iter().map(|x| x / norm).collect();
         }
+        // Deflate, keeping `m` exactly symmetric (`symmetric_times` reads it
+        // by rows).
         for i in 0..dim {
-            for j in 0..dim {
-                m[i * dim + j] -= lambda * v[i] * v[j];
+            for j in i..dim {
+                let t = m[i * dim + j] - lambda * v[i] * v[j];
+                m[i * dim + j] = t;
+                m[j * dim + i] = t;
             }
         }
         out.push(v);

@@ -12,7 +12,7 @@ use seespot_sim::Action;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
 
-use super::{Best, Match, smooth_with_weights, smoothed_weights};
+use super::{Best, Match, smooth_window_with_weights, smooth_with_weights, smoothed_weights};
 
 /// Smoothing normalizers by (side, sigma bits).
 type WeightCache = Mutex<HashMap<(usize, u32), Arc<Vec<f32>>>>;
@@ -58,20 +58,31 @@ pub fn match_reference_cells(live: &CellAse, queries: &[&[f32]], sigma_px: f32) 
             }
         })
         .collect();
-    queries
-        .iter()
-        .map(|q| {
-            assert_eq!(q.len(), live.dim, "query is not {}-d", live.dim);
-            let best = (0..live.rotations)
-                .into_par_iter()
-                .map(|r| {
-                    let mut d = live.plane_distances_sq(r, q, false);
+    for q in queries {
+        assert_eq!(q.len(), live.dim, "query is not {}-d", live.dim);
+    }
+    // Per rotation, every query's distances in one pass, then each smoothed
+    // and its argmin; the best over rotations per query.
+    let best = (0..live.rotations)
+        .into_par_iter()
+        .map(|r| {
+            live.plane_distances_sq_many(r, queries, false)
+                .into_iter()
+                .map(|mut d| {
                     if let Some(w) = weights[r].as_ref().or(shared.as_ref()) {
                         smooth_with_weights(&mut d, n, sigma_px, w);
                     }
                     Best::argmin(&d, r * plane)
                 })
-                .reduce(|| Best::NONE, Best::min);
+                .collect::<Vec<_>>()
+        })
+        .reduce(
+            || vec![Best::NONE; queries.len()],
+            |a, b| a.into_iter().zip(b).map(|(x, y)| x.min(y)).collect(),
+        );
+    best.into_iter()
+        .zip(queries)
+        .map(|(best, q)| {
             if best.index == usize::MAX {
                 return Match {
                     index: 0,
@@ -100,7 +111,8 @@ pub fn rematch_reference_cells(
     let r = demo_action.rotation.min(demo.rotations.saturating_sub(1));
     let mut d = demo.plane_distances_sq(r, query, true);
     if let Some(w) = unmasked_weights(n, sigma_px) {
-        smooth_with_weights(&mut d, n, sigma_px, &w);
+        let (ys, xs) = super::reference::window_bounds(n, demo_action, half_window);
+        smooth_window_with_weights(&mut d, n, sigma_px, &w, ys, xs);
     }
     let p = super::reference::window_argmin(&d, n, demo_action, half_window);
     let index = r * n * n + p;
@@ -154,7 +166,8 @@ mod tests {
                 assert_eq!(full.mask, cells.mask);
                 let demo_full = live_policy.embed(&demo_hm, primitive).expect("demo");
                 let demo_cells = live_policy.embed_cells(&demo_hm, primitive).expect("demo");
-                for (i, (a, b)) in full.norms_sq.iter().zip(&cells.norms).enumerate() {
+                for (i, a) in full.norms_sq.iter().enumerate() {
+                    let b = cells.norm_sq(i);
                     if full.mask[i] {
                         assert!(
                             (a - b).abs() <= 1e-5 * a.max(1.0),

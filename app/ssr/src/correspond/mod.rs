@@ -29,7 +29,7 @@ pub use bench::{
     CellBenchInput, CorrespondBenchInput, bandwidth_baseline, bench_correspond, correspond_step,
     correspond_step_cells, correspond_step_naive, random_ase_map,
 };
-pub use smooth::{smooth, smooth_with_weights, smoothed_weights};
+pub use smooth::{Rows, smooth, smooth_window_with_weights, smooth_with_weights, smoothed_weights};
 
 use std::ops::Range;
 
@@ -117,6 +117,22 @@ struct Best {
     index: usize,
 }
 
+/// The smallest value of `d` below infinity (NaNs skipped), in 16 lanes.
+#[inline(always)]
+fn min_lanes(d: &[f32]) -> f32 {
+    let mut lanes = [f32::INFINITY; 16];
+    let chunks = d.chunks_exact(16);
+    let tail = chunks.remainder();
+    for c in chunks {
+        for (m, &v) in lanes.iter_mut().zip(c) {
+            *m = if v < *m { v } else { *m };
+        }
+    }
+    tail.iter()
+        .chain(&lanes)
+        .fold(f32::INFINITY, |m, &v| if v < m { v } else { m })
+}
+
 impl Best {
     const NONE: Best = Best {
         d2: f32::INFINITY,
@@ -126,16 +142,18 @@ impl Best {
     /// The smallest finite entry of `d` (first on ties), its index offset by
     /// `offset`; [`Best::NONE`] when none is finite.
     fn argmin(d: &[f32], offset: usize) -> Best {
-        let mut b = Best::NONE;
-        for (p, &v) in d.iter().enumerate() {
-            if v < b.d2 {
-                b = Best {
-                    d2: v,
-                    index: offset + p,
-                };
-            }
+        // The smallest value (a min reduction: exact in any order, so the
+        // compiler may vectorize it), then its first position: the first
+        // strict minimum, as a scan keeping `v < best` finds it.
+        let min = seespot_policy::simd::dispatch!(min_lanes(d));
+        if min.is_nan() || min == f32::INFINITY {
+            return Best::NONE;
         }
-        b
+        let p = d.iter().position(|&v| v == min).unwrap_or(0);
+        Best {
+            d2: min,
+            index: offset + p,
+        }
     }
 
     /// The better of two candidates; deterministic (total order on (d2, index)).

@@ -164,14 +164,7 @@ pub(super) fn window_argmin(
     demo_action: &Action,
     half_window: usize,
 ) -> usize {
-    let (y0, y1) = (
-        demo_action.y.saturating_sub(half_window),
-        (demo_action.y + half_window).min(n - 1),
-    );
-    let (x0, x1) = (
-        demo_action.x.saturating_sub(half_window),
-        (demo_action.x + half_window).min(n - 1),
-    );
+    let ((y0, y1), (x0, x1)) = window_bounds(n, demo_action, half_window);
     let mut best = Best::NONE;
     for y in y0..=y1 {
         for x in x0..=x1 {
@@ -186,6 +179,17 @@ pub(super) fn window_argmin(
     } else {
         best.index
     }
+}
+
+/// The rows and columns (inclusive) of the rematch's window in an `n x n`
+/// map: +/- `half_window` pixels around `demo_action`'s pixel, clipped.
+pub(super) fn window_bounds(
+    n: usize,
+    demo_action: &Action,
+    half_window: usize,
+) -> ((usize, usize), (usize, usize)) {
+    let span = |c: usize| (c.saturating_sub(half_window), (c + half_window).min(n - 1));
+    (span(demo_action.y), span(demo_action.x))
 }
 
 /// Verify, second half (Eq. 7), as the reference: the squared pixel distance

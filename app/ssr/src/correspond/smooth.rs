@@ -1,5 +1,56 @@
 //! Gaussian smoothing of the per-rotation distance maps (the reference code
 //! smoothed both the match and the rematch maps with sigma 3 px).
+//!
+//! Only the entries a decision reads are computed: a match reads the allowed
+//! actions (often a few percent of the plane: the grasp mask is the object
+//! pixels), a rematch its window. Every row keeps the span of columns it
+//! reads from ([`Rows`]) and the passes skip what lies outside: the skipped
+//! terms are zero inputs, whose products add exactly nothing, so each
+//! computed entry is the same, bit for bit, as the whole-plane convolution.
+
+/// Per row of an `n x n` plane, the first and last column of the entries in
+/// a set (`None`: no entry in that row).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Rows(Vec<Option<(usize, usize)>>);
+
+impl Rows {
+    /// The spans of the entries of `n x n` `map` that are `keep`.
+    fn of<T: Copy>(map: &[T], n: usize, keep: impl Fn(T) -> bool) -> Self {
+        Self(
+            map.chunks_exact(n)
+                .map(|row| {
+                    let first = row.iter().position(|&v| keep(v))?;
+                    let last = row.iter().rposition(|&v| keep(v))?;
+                    Some((first, last))
+                })
+                .collect(),
+        )
+    }
+
+    /// The finite entries of `map`.
+    pub fn finite(map: &[f32], n: usize) -> Self {
+        Self::of(map, n, f32::is_finite)
+    }
+
+    /// The `true` entries of `mask`.
+    pub fn mask(mask: &[bool], n: usize) -> Self {
+        Self::of(mask, n, |v| v)
+    }
+
+    /// The rectangle of rows `y0..=y1` and columns `x0..=x1` (clipped).
+    pub fn window(n: usize, (y0, y1): (usize, usize), (x0, x1): (usize, usize)) -> Self {
+        Self(
+            (0..n)
+                .map(|y| (y0..=y1).contains(&y).then_some((x0, x1.min(n - 1))))
+                .collect(),
+        )
+    }
+
+    /// Every entry.
+    pub fn all(n: usize) -> Self {
+        Self(vec![Some((0, n - 1)); n])
+    }
+}
 
 /// Gaussian smoothing of an `n x n` row-major map in place, `sigma` in pixels.
 ///
@@ -32,32 +83,81 @@ fn kernel(sigma: f32) -> Option<(usize, Vec<f32>)> {
     Some((radius, k))
 }
 
-/// Separable convolution of an `n x n` map with `kernel` (zero outside).
-fn convolve(src: &[f32], n: usize, radius: usize, kernel: &[f32]) -> Vec<f32> {
-    // Horizontal pass.
+/// Separable convolution of an `n x n` map with `kernel` (zero outside),
+/// where `src` is zero outside `input`; only the entries of `output` are
+/// computed (the rest of the result is zero). Each computed entry sums its
+/// kernel taps in the same order as the whole-plane convolution, so it has
+/// the same value.
+fn convolve(
+    src: &[f32],
+    n: usize,
+    radius: usize,
+    kernel: &[f32],
+    input: &Rows,
+    output: &Rows,
+) -> Vec<f32> {
+    seespot_policy::simd::dispatch!(convolve_lanes(src, n, radius, kernel, input, output))
+}
+
+#[inline(always)]
+fn convolve_lanes(
+    src: &[f32],
+    n: usize,
+    radius: usize,
+    kernel: &[f32],
+    input: &Rows,
+    output: &Rows,
+) -> Vec<f32> {
+    // Columns the vertical pass reads from each row of the horizontal one:
+    // the hull of the output spans within `radius` rows.
+    let need: Vec<Option<(usize, usize)>> = (0..n)
+        .map(|s| {
+            let rows = s.saturating_sub(radius)..(s + radius + 1).min(n);
+            output.0[rows]
+                .iter()
+                .flatten()
+                .fold(None, |acc: Option<(usize, usize)>, &(a, b)| {
+                    Some(acc.map_or((a, b), |(x, y)| (x.min(a), y.max(b))))
+                })
+        })
+        .collect();
+    // Horizontal pass, on the rows with input, at the columns needed.
     let mut h = vec![0.0f32; n * n];
     for y in 0..n {
+        let (Some((a, b)), Some((c, d))) = (input.0[y], need[y]) else {
+            continue;
+        };
         let (row, out) = (&src[y * n..(y + 1) * n], &mut h[y * n..(y + 1) * n]);
         for (k, &g) in kernel.iter().enumerate() {
-            // Output x reads input x + k - radius.
-            let lo = radius.saturating_sub(k);
-            let hi = (n + radius).saturating_sub(k).min(n);
-            for x in lo..hi {
-                out[x] += g * row[x + k - radius];
+            // Output x reads input x + k - radius, which must lie in a..=b.
+            let lo = (a + radius).saturating_sub(k).max(c);
+            let hi = (b + radius + 1).saturating_sub(k).min(d + 1);
+            if lo >= hi {
+                continue;
+            }
+            let inp = &row[lo + k - radius..hi + k - radius];
+            for (o, i) in out[lo..hi].iter_mut().zip(inp) {
+                *o += g * i;
             }
         }
     }
-    // Vertical pass, rows contiguous in the inner loop.
+    // Vertical pass at the output entries, rows contiguous in the inner loop.
     let mut v = vec![0.0f32; n * n];
     for y in 0..n {
-        let out = &mut v[y * n..(y + 1) * n];
+        let Some((c, d)) = output.0[y] else {
+            continue;
+        };
+        let out = &mut v[y * n + c..y * n + d + 1];
         for (k, &g) in kernel.iter().enumerate() {
             let s = y + k;
             if s < radius || s - radius >= n {
                 continue;
             }
             let s = s - radius;
-            for (o, i) in out.iter_mut().zip(&h[s * n..(s + 1) * n]) {
+            if input.0[s].is_none() {
+                continue;
+            }
+            for (o, i) in out.iter_mut().zip(&h[s * n + c..s * n + d + 1]) {
                 *o += g * i;
             }
         }
@@ -66,19 +166,56 @@ fn convolve(src: &[f32], n: usize, radius: usize, kernel: &[f32]) -> Vec<f32> {
 }
 
 /// The normalizer of [`smooth`] for maps whose finite entries are `finite`
-/// (`n x n`): the kernel summed over them. It depends on the mask alone, so
+/// (`n x n`): the kernel summed over them, at those entries (zero
+/// elsewhere: nothing reads it there). It depends on the mask alone, so
 /// maps with one mask share it ([`smooth_with_weights`]). `None` when `sigma`
 /// smooths nothing.
 pub fn smoothed_weights(finite: &[bool], n: usize, sigma: f32) -> Option<Vec<f32>> {
     let (radius, k) = kernel(sigma)?;
     let w: Vec<f32> = finite.iter().map(|&f| if f { 1.0 } else { 0.0 }).collect();
-    Some(convolve(&w, n, radius, &k))
+    let rows = Rows::mask(finite, n);
+    Some(convolve(&w, n, radius, &k, &rows, &rows))
 }
 
 /// [`smooth`] with the normalizer `weights` of the map's mask
 /// ([`smoothed_weights`]): the same result, without recomputing it.
 pub fn smooth_with_weights(map: &mut [f32], n: usize, sigma: f32, weights: &[f32]) {
     assert_eq!(map.len(), n * n, "smooth: map is not {n} x {n}");
+    let rows = Rows::finite(map, n);
+    smooth_rows(map, n, sigma, weights, &rows, &rows);
+}
+
+/// [`smooth_with_weights`] of a map whose entries are all finite, computed
+/// only inside the rectangle of rows `ys` and columns `xs` (inclusive): the
+/// entries there are those of the whole-plane smoothing; the rest of `map`
+/// is left unsmoothed.
+pub fn smooth_window_with_weights(
+    map: &mut [f32],
+    n: usize,
+    sigma: f32,
+    weights: &[f32],
+    ys: (usize, usize),
+    xs: (usize, usize),
+) {
+    assert_eq!(map.len(), n * n, "smooth: map is not {n} x {n}");
+    smooth_rows(
+        map,
+        n,
+        sigma,
+        weights,
+        &Rows::all(n),
+        &Rows::window(n, ys, xs),
+    );
+}
+
+fn smooth_rows(
+    map: &mut [f32],
+    n: usize,
+    sigma: f32,
+    weights: &[f32],
+    input: &Rows,
+    output: &Rows,
+) {
     assert_eq!(weights.len(), n * n, "smooth: weights are not {n} x {n}");
     let Some((radius, k)) = kernel(sigma) else {
         return;
@@ -88,10 +225,91 @@ pub fn smooth_with_weights(map: &mut [f32], n: usize, sigma: f32, weights: &[f32
         .iter()
         .map(|&v| if v.is_finite() { v } else { 0.0 })
         .collect();
-    let sv = convolve(&val, n, radius, &k);
-    for ((m, v), w) in map.iter_mut().zip(sv).zip(weights) {
-        if m.is_finite() {
-            *m = v / w;
+    let sv = convolve(&val, n, radius, &k, input, output);
+    for (y, span) in output.0.iter().enumerate() {
+        let Some((c, d)) = *span else { continue };
+        for p in y * n + c..=y * n + d {
+            if map[p].is_finite() {
+                map[p] = sv[p] / weights[p];
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The whole-plane convolution, written plainly.
+    fn plain(src: &[f32], n: usize, radius: usize, kernel: &[f32]) -> Vec<f32> {
+        let mut h = vec![0.0f32; n * n];
+        for y in 0..n {
+            for (k, &g) in kernel.iter().enumerate() {
+                for x in 0..n {
+                    if let Some(i) = (x + k).checked_sub(radius).filter(|&i| i < n) {
+                        h[y * n + x] += g * src[y * n + i];
+                    }
+                }
+            }
+        }
+        let mut v = vec![0.0f32; n * n];
+        for y in 0..n {
+            for (k, &g) in kernel.iter().enumerate() {
+                if let Some(s) = (y + k).checked_sub(radius).filter(|&s| s < n) {
+                    for x in 0..n {
+                        v[y * n + x] += g * h[s * n + x];
+                    }
+                }
+            }
+        }
+        v
+    }
+
+    /// On sparse masks (scattered blobs, an empty plane, a full one) and on
+    /// windows, every entry the sparse passes compute equals the plain
+    /// whole-plane convolution's bit for bit.
+    #[test]
+    fn sparse_passes_equal_the_whole_plane() {
+        let n = 61;
+        let (radius, k) = kernel(3.0).expect("kernel");
+        let mut state = 7u32;
+        let mut next = || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (state >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let blobs = |cy: usize, cx: usize, r: usize, p: usize| {
+            (p / n).abs_diff(cy) <= r && (p % n).abs_diff(cx) <= r
+        };
+        let masks: Vec<Vec<bool>> = vec![
+            (0..n * n)
+                .map(|p| blobs(5, 50, 4, p) || blobs(40, 9, 6, p) || blobs(58, 58, 2, p))
+                .collect(),
+            vec![false; n * n],
+            vec![true; n * n],
+            (0..n * n).map(|p| p % 7 == 0).collect(),
+        ];
+        for mask in &masks {
+            let src: Vec<f32> = mask
+                .iter()
+                .map(|&m| if m { 10.0 * next() } else { 0.0 })
+                .collect();
+            let want = plain(&src, n, radius, &k);
+            let rows = Rows::mask(mask, n);
+            let got = convolve(&src, n, radius, &k, &rows, &rows);
+            // The widest vector path and the baseline build agree too.
+            let base = convolve_lanes(&src, n, radius, &k, &rows, &rows);
+            for p in (0..n * n).filter(|&p| mask[p]) {
+                assert_eq!(got[p].to_bits(), want[p].to_bits(), "entry {p}");
+                assert_eq!(got[p].to_bits(), base[p].to_bits(), "baseline entry {p}");
+            }
+            let (ys, xs) = ((20, 50), (0, 30));
+            let got = convolve(&src, n, radius, &k, &rows, &Rows::window(n, ys, xs));
+            for y in ys.0..=ys.1 {
+                for x in xs.0..=xs.1 {
+                    let p = y * n + x;
+                    assert_eq!(got[p].to_bits(), want[p].to_bits(), "window entry {p}");
+                }
+            }
         }
     }
 }
