@@ -6,15 +6,16 @@ same shape, written the straightforward way: M = 3 live ASE maps of
 R x H x W x D (R = 16, D = 64) and, per policy, N = 2 demo maps with one
 demonstrated action each. For every (policy, demo) pair: Match (squared L2 of
 the demo action's embedding to every live action, each rotation's map
-smoothed with a Gaussian of 6 mm (scipy.ndimage.gaussian_filter), argmin),
-then Verify (the same for the matched live embedding against the demo map at
-the demo action's rotation, argmin within +/- 3 cm of the demonstrated pixel)
+smoothed with a Gaussian of 6 mm (scipy.ndimage.gaussian_filter with its
+defaults), argmin), then Verify (the matched live embedding against the demo
+map at the demo action's rotation, in the window of +/- 3 cm around the
+demonstrated pixel, smoothed with wrap-around edges, argmin)
 and C, the squared pixel distance in 2 mm pixels. `--sigma 0` times the
 unsmoothed variant.
 
-Squared norms are computed once per map outside the timed region (seespot's
-AseMap carries them too), so both sides time the same work: one pass of
-matrix products and argmins. Prints one JSON object.
+Squared norms are computed once per map outside the timed region (seespot
+computes its actions' norms inside its timed step), so the peer times only
+its matrix products, smoothing and argmins. Prints one JSON object.
 """
 import argparse
 import json
@@ -35,7 +36,8 @@ def nearest(flat, norms, q, shape=None, sigma=None):
     d2 = norms - 2.0 * (flat @ q) + float(q @ q)
     if sigma:
         d2 = d2.reshape(shape)
-        d2 = np.stack([gaussian_filter(p, sigma, mode="nearest") for p in d2])
+        # scipy's defaults, as the reference: reflected edges, truncate 4 sigma.
+        d2 = np.stack([gaussian_filter(p, sigma) for p in d2])
         d2 = d2.reshape(-1)
     i = int(np.argmin(d2))
     return i, float(d2[i])
@@ -54,13 +56,14 @@ def step(live, demos, actions, sigma=None, half_window=None):
             ay, ax = divmod(a % plane, w)
             lo, hi = rot * plane, (rot + 1) * plane
             e = flat[i]
-            d = dnorms[lo:hi] - 2.0 * (dflat[lo:hi] @ e) + float(e @ e)
-            d = d.reshape(h, w)
-            if sigma:
-                d = gaussian_filter(d, sigma, mode="nearest")
             y0, y1 = max(ay - half_window, 0), min(ay + half_window, h - 1)
             x0, x1 = max(ax - half_window, 0), min(ax + half_window, w - 1)
-            win = d[y0:y1 + 1, x0:x1 + 1]
+            # The window alone, smoothed with wrap-around edges (the reference).
+            plane = dflat[lo:hi].reshape(h, w, -1)[y0:y1 + 1, x0:x1 + 1]
+            pn = dnorms[lo:hi].reshape(h, w)[y0:y1 + 1, x0:x1 + 1]
+            win = pn - 2.0 * (plane @ e) + float(e @ e)
+            if sigma:
+                win = gaussian_filter(win, sigma, mode="wrap")
             by, bx = np.unravel_index(int(np.argmin(win)), win.shape)
             by, bx = by + y0, bx + x0
             scale = (0.448 / h) / 0.002

@@ -140,6 +140,29 @@ impl CellGram {
     }
 }
 
+/// What a distance to a masked action is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Masked {
+    /// `f32::INFINITY`: never the nearest.
+    Infinite,
+    /// The distance to a zero embedding, `|q|^2`: the reference code zeroed
+    /// the features of masked actions and smoothed over them.
+    ZeroFeature,
+    /// The distance to the action's real embedding (the mask is ignored).
+    Real,
+}
+
+impl Masked {
+    /// The distance of a masked action to a query of squared norm `qn`
+    /// (not for [`Masked::Real`], which computes the real one).
+    fn value(self, qn: f32) -> f32 {
+        match self {
+            Self::Infinite | Self::Real => f32::INFINITY,
+            Self::ZeroFeature => qn,
+        }
+    }
+}
+
 /// The ASEs of one primitive in one state, at the trunk's cells (module docs).
 #[derive(Clone, Debug)]
 pub struct CellAse {
@@ -296,12 +319,44 @@ impl CellAse {
     }
 
     /// Squared distances `|E(p) - q|^2` of rotation `r`'s actions to `q`
-    /// (`H x W`, clamped at 0), `f32::INFINITY` at masked actions unless
-    /// `unmasked`.
-    pub fn plane_distances_sq(&self, r: usize, q: &[f32], unmasked: bool) -> Vec<f32> {
-        self.plane_distances_sq_many(r, &[q], unmasked)
+    /// (`H x W`, clamped at 0); masked actions as `masked` says.
+    pub fn plane_distances_sq(&self, r: usize, q: &[f32], masked: Masked) -> Vec<f32> {
+        self.plane_distances_sq_many(r, &[q], masked)
             .pop()
             .unwrap_or_default()
+    }
+
+    /// Squared distances of `q` to rotation `r`'s actions in rows `ys` and
+    /// columns `xs` (inclusive; row-major, `(ys.1 - ys.0 + 1) x (xs.1 - xs.0 +
+    /// 1)`); masked actions as `masked` says.
+    pub fn window_distances_sq(
+        &self,
+        r: usize,
+        q: &[f32],
+        ys: (usize, usize),
+        xs: (usize, usize),
+        masked: Masked,
+    ) -> Vec<f32> {
+        let n = self.resolution;
+        let dots = self.cell_dots(r, q);
+        let qn: f32 = q.iter().map(|v| v * v).sum();
+        let gram = self.grams[r].as_ref();
+        let mut out = Vec::with_capacity((ys.1 + 1 - ys.0) * (xs.1 + 1 - xs.0));
+        for y in ys.0..=ys.1 {
+            for x in xs.0..=xs.1 {
+                let i = (r * n + y) * n + x;
+                if !(self.mask[i] || masked == Masked::Real) {
+                    out.push(masked.value(qn));
+                    continue;
+                }
+                let (a, w) = (self.taps.cell[i] as usize, self.taps.weight[i]);
+                let t = corners(a, self.cells).map(|c| dots[c]);
+                let eq = w[0] * t[0] + w[1] * t[1] + w[2] * t[2] + w[3] * t[3];
+                let norm = gram.map_or(0.0, |g| g.norm_sq(a as u32, w));
+                out.push((norm - 2.0 * eq + qn).max(0.0));
+            }
+        }
+        out
     }
 
     /// [`Self::plane_distances_sq`] for several queries in one pass (each
@@ -310,7 +365,7 @@ impl CellAse {
         &self,
         r: usize,
         queries: &[&[f32]],
-        unmasked: bool,
+        masked: Masked,
     ) -> Vec<Vec<f32>> {
         let (n, plane) = (self.resolution, self.resolution * self.resolution);
         // Per query, each cell's dot product with the query and those of the
@@ -338,7 +393,10 @@ impl CellAse {
             .for_each(|(y, out)| {
                 for x in 0..n {
                     let i = base + y * n + x;
-                    if !(unmasked || self.mask[i]) {
+                    if !(self.mask[i] || masked == Masked::Real) {
+                        for (k, qn) in qn.iter().enumerate() {
+                            out[k * n + x] = masked.value(*qn);
+                        }
                         continue;
                     }
                     let (a, w) = (self.taps.cell[i], self.taps.weight[i]);
@@ -359,6 +417,16 @@ impl CellAse {
                 plane_k
             })
             .collect()
+    }
+
+    /// Replaces rotation `r`'s mask by `pixel_mask` (`H x W`).
+    ///
+    /// # Panics
+    /// If `pixel_mask` is not `H x W` or `r` is out of range.
+    pub fn set_rotation_mask(&mut self, r: usize, pixel_mask: &[bool]) {
+        let plane = self.resolution * self.resolution;
+        assert_eq!(pixel_mask.len(), plane, "pixel mask is not H x W");
+        self.mask[r * plane..(r + 1) * plane].copy_from_slice(pixel_mask);
     }
 
     /// Replaces the mask by `pixel_mask` (`H x W`, every rotation).

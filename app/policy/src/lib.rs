@@ -37,7 +37,7 @@ pub mod trainer;
 pub mod transporter;
 
 pub use actors::{RandomActor, own_task_eval};
-pub use cells::CellAse;
+pub use cells::{CellAse, Masked};
 pub use embedding::{AseMap, EMBEDDING_DIM, QMap};
 pub use error::PolicyError;
 pub use finetune::finetune;

@@ -250,16 +250,23 @@ pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalE
     for p in paths {
         files.insert(p.display().to_string(), sha256_file(&p)?);
     }
+    let mut settings = format!(
+        "correspond={}, smooth_sigma={:?}, finetune_steps={}, resolution={}, noise={:?}",
+        config.correspond.mode.as_str(),
+        config.correspond.smooth_sigma,
+        config.finetune_steps,
+        config.world.grid.resolution,
+        config.world.noise
+    );
+    if config.method.is_ssr() && config.correspond.mode == Correspondence::Reference {
+        // Records made before SSR smoothed as the reference did (masked
+        // actions as zero embeddings, scipy's edges) carry no such entry, so
+        // they are never mixed with these.
+        settings.push_str(", smoothing=reference");
+    }
     Ok(Provenance {
         seespot_version: seespot_sim::VERSION.to_owned(),
-        settings: format!(
-            "correspond={}, smooth_sigma={:?}, finetune_steps={}, resolution={}, noise={:?}",
-            config.correspond.mode.as_str(),
-            config.correspond.smooth_sigma,
-            config.finetune_steps,
-            config.world.grid.resolution,
-            config.world.noise
-        ),
+        settings,
         files,
     })
 }

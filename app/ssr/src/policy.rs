@@ -243,11 +243,22 @@ impl SsrPolicy {
         if !self.demo_cache.contains_key(&key) {
             let s = &self.demos[demo].steps[step];
             // Demo embeddings are only read at the demo action's rotation.
-            let map = self.policies[policy].1.embed_cells_rotation(
+            let mut map = self.policies[policy].1.embed_cells_rotation(
                 &s.heightmaps,
                 s.meta.action.primitive,
                 s.meta.action.rotation,
             )?;
+            if self.config.correspond.mode == Correspondence::Reference {
+                // The reference masked the demo's features with the test
+                // task's masks too (its trainers carry the test-time place
+                // dilation); the rematch reads them as zero embeddings.
+                let mask = correspond::reference::ssr_mask(
+                    &s.heightmaps,
+                    s.meta.action.primitive,
+                    self.task,
+                );
+                map.set_rotation_mask(s.meta.action.rotation, &mask);
+            }
             // Keep memory bounded: a trial needs at most a few progress levels at once.
             if self.demo_cache.len() >= 4 * self.policies.len() * self.demos.len() {
                 self.demo_cache.clear();

@@ -9,70 +9,42 @@ use rayon::prelude::*;
 use seespot_policy::CellAse;
 use seespot_sim::Action;
 
-use std::collections::HashMap;
-use std::sync::{Arc, Mutex, OnceLock};
+use seespot_policy::Masked;
 
-use super::{Best, Match, smooth_window_with_weights, smooth_with_weights, smoothed_weights};
-
-/// Smoothing normalizers by (side, sigma bits).
-type WeightCache = Mutex<HashMap<(usize, u32), Arc<Vec<f32>>>>;
-
-/// The smoothing normalizer of an `n x n` map with no masked entry (the
-/// rematch's), computed once per (n, sigma).
-fn unmasked_weights(n: usize, sigma: f32) -> Option<Arc<Vec<f32>>> {
-    static CACHE: OnceLock<WeightCache> = OnceLock::new();
-    let mut c = CACHE
-        .get_or_init(|| Mutex::new(HashMap::new()))
-        .lock()
-        .unwrap_or_else(std::sync::PoisonError::into_inner);
-    if let Some(w) = c.get(&(n, sigma.to_bits())) {
-        return Some(w.clone());
-    }
-    let w = Arc::new(smoothed_weights(&vec![true; n * n], n, sigma)?);
-    c.insert((n, sigma.to_bits()), w.clone());
-    Some(w)
-}
+use super::smooth::{Edge, Rows, smooth_reference};
+use super::{Best, Match};
 
 fn sq(a: &[f32], b: &[f32]) -> f32 {
     a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum()
 }
 
 /// [`super::reference::match_reference`] on cells: per query, the argmin over
-/// the allowed actions of the per-rotation smoothed squared-distance maps;
-/// `distance` is the raw squared distance of the chosen action (L).
+/// the allowed actions of the per-rotation squared-distance maps, smoothed
+/// as the reference did (masked actions as zero embeddings, reflected
+/// edges); `distance` is the raw squared distance of the chosen action (L).
 pub fn match_reference_cells(live: &CellAse, queries: &[&[f32]], sigma_px: f32) -> Vec<Match> {
     let n = live.resolution;
     let plane = n * n;
-    // The smoothing normalizer depends on the mask alone: once per rotation
-    // plane (they share one when their masks agree, as they usually do).
-    let first = &live.mask[..plane.min(live.mask.len())];
-    let shared = smoothed_weights(first, n, sigma_px);
-    let weights: Vec<Option<Vec<f32>>> = (0..live.rotations)
-        .into_par_iter()
-        .map(|r| {
-            let m = &live.mask[r * plane..(r + 1) * plane];
-            if m == first {
-                None
-            } else {
-                smoothed_weights(m, n, sigma_px)
-            }
-        })
-        .collect();
     for q in queries {
         assert_eq!(q.len(), live.dim, "query is not {}-d", live.dim);
     }
     // Per rotation, every query's distances in one pass, then each smoothed
-    // and its argmin; the best over rotations per query.
+    // at the allowed actions and its argmin; the best over rotations per query.
     let best = (0..live.rotations)
         .into_par_iter()
         .map(|r| {
-            live.plane_distances_sq_many(r, queries, false)
+            let allowed = &live.mask[r * plane..(r + 1) * plane];
+            let rows = Rows::mask(allowed, n);
+            live.plane_distances_sq_many(r, queries, Masked::ZeroFeature)
                 .into_iter()
-                .map(|mut d| {
-                    if let Some(w) = weights[r].as_ref().or(shared.as_ref()) {
-                        smooth_with_weights(&mut d, n, sigma_px, w);
+                .map(|d| {
+                    let mut s = smooth_reference(&d, n, n, sigma_px, Edge::Reflect, &rows);
+                    for (v, &ok) in s.iter_mut().zip(allowed) {
+                        if !ok {
+                            *v = f32::INFINITY;
+                        }
                     }
-                    Best::argmin(&d, r * plane)
+                    Best::argmin(&s, r * plane)
                 })
                 .collect::<Vec<_>>()
         })
@@ -98,8 +70,9 @@ pub fn match_reference_cells(live: &CellAse, queries: &[&[f32]], sigma_px: f32) 
 }
 
 /// [`super::reference::rematch_reference`] on cells: the rematch of `query`
-/// in the demo at `demo_action`'s rotation, unmasked, inside the window of
-/// +/- `half_window` pixels, on the smoothed squared-distance map.
+/// in the demo at `demo_action`'s rotation, inside the window of +/-
+/// `half_window` pixels, on the window's squared-distance map (the demo's
+/// masked actions as zero embeddings) smoothed with wrap-around edges.
 pub fn rematch_reference_cells(
     demo: &CellAse,
     query: &[f32],
@@ -109,12 +82,13 @@ pub fn rematch_reference_cells(
 ) -> Match {
     let n = demo.resolution;
     let r = demo_action.rotation.min(demo.rotations.saturating_sub(1));
-    let mut d = demo.plane_distances_sq(r, query, true);
-    if let Some(w) = unmasked_weights(n, sigma_px) {
-        let (ys, xs) = super::reference::window_bounds(n, demo_action, half_window);
-        smooth_window_with_weights(&mut d, n, sigma_px, &w, ys, xs);
-    }
-    let p = super::reference::window_argmin(&d, n, demo_action, half_window);
+    let (ys, xs) = super::reference::window_bounds(n, demo_action, half_window);
+    let p = if ys.0 > ys.1 || xs.0 > xs.1 {
+        demo_action.y.min(n - 1) * n + demo_action.x.min(n - 1)
+    } else {
+        let d = demo.window_distances_sq(r, query, ys, xs, Masked::ZeroFeature);
+        super::reference::window_rematch(&d, n, ys, xs, sigma_px)
+    };
     let index = r * n * n + p;
     Match {
         index,
@@ -125,7 +99,7 @@ pub fn rematch_reference_cells(
 /// [`super::distance_map`] on cells: the L2 distance of `query` to every
 /// allowed action of `rotation` (`H x W`, infinite where masked).
 pub fn distance_map_cells(map: &CellAse, query: &[f32], rotation: usize) -> Vec<f32> {
-    let mut d = map.plane_distances_sq(rotation, query, false);
+    let mut d = map.plane_distances_sq(rotation, query, Masked::Infinite);
     for v in &mut d {
         *v = v.sqrt();
     }

@@ -29,7 +29,7 @@ pub use bench::{
     CellBenchInput, CorrespondBenchInput, bandwidth_baseline, bench_correspond, correspond_step,
     correspond_step_cells, correspond_step_naive, random_ase_map,
 };
-pub use smooth::{Rows, smooth, smooth_window_with_weights, smooth_with_weights, smoothed_weights};
+pub use smooth::{Edge, Rows, smooth, smooth_reference, smooth_with_weights, smoothed_weights};
 
 use std::ops::Range;
 

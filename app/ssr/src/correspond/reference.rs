@@ -13,26 +13,37 @@
 //!   [`SMOOTH_SIGMA`] (6 mm: the reference's 3 px at 2 mm/px), then the argmin.
 //!   L is the raw squared distance of the chosen action.
 //! - **Verify** (Eq. 6-7, [`rematch_reference`]): the matched action's ASE is
-//!   searched in the demo scene at the demo action's rotation, *unmasked*,
-//!   within +/- [`REMATCH_HALF_WINDOW`] (3 cm) of the demonstrated pixel, on the
-//!   smoothed squared-distance map. C is the squared distance between the
+//!   searched in the demo scene at the demo action's rotation, no action
+//!   excluded, within +/- [`REMATCH_HALF_WINDOW`] (3 cm) of the demonstrated
+//!   pixel, on the smoothed squared-distance map of that window. C is the squared distance between the
 //!   rematch and the demonstrated pixel in units of the reference's 2 mm pixels
 //!   ([`ccd_reference`]), so C means the same at 112 px and at 224 px.
 //! - **Act**: the smallest C (CCD) or L (L2CD); ties go to the first pair in
 //!   (policy, demo) order (numpy's argmin), not to the other distance.
 //!
+//! - **Smoothing** ([`super::smooth_reference`]) as scipy's `gaussian_filter`
+//!   with its defaults: a kernel of radius `floor(4 sigma + 0.5)` summing to 1,
+//!   along rows then columns. The reference zeroed the features of masked
+//!   actions, so in the match a masked action takes part in its neighbours'
+//!   smoothing with its distance to a zero embedding, `|q|^2`, before it is
+//!   excluded; the match map's edges are reflected; the rematch window is
+//!   cut out (clipped at the map's border) and smoothed alone with wrap-around
+//!   edges, the demo's masked actions again as zero embeddings.
+//!
 //! Lengths are in metres, so the method means the same at every resolution.
-//! One departure, stated: the reference smoothed the cropped rematch window with
-//! wrap-around edges; here the whole rotation plane is smoothed (normalized
-//! convolution) and the argmin is taken inside the window, so pixels near the
-//! window's edge see their real neighbours instead of the opposite edge.
+//! Departures, stated: a demonstrated action's own embedding is the query even
+//! where the demo's test-time mask excludes it (the reference would read a
+//! zero vector there; four of seespot's row demo places lie outside, see
+//! `results/README.md`); a window that reaches past the map's border is
+//! clipped (numpy's slicing would wrap or empty it).
 
 use rayon::prelude::*;
 use seespot_policy::AseMap;
 use seespot_policy::mask::dilate;
 use seespot_sim::{Action, Heightmaps, Primitive, TaskId};
 
-use super::{Best, Match, check_queries, dot, row_distances_sq, smooth};
+use super::smooth::{Edge, Rows, smooth_reference};
+use super::{Best, Match, check_queries, dot, row_distances_sq};
 
 /// A pixel higher than this holds an object at SSR test time, metres.
 pub const OBJECT_HEIGHT: f32 = 0.02;
@@ -75,31 +86,29 @@ pub fn sigma_pixels(pixel: f32) -> f32 {
     SMOOTH_SIGMA / pixel
 }
 
-/// Squared distances of `query` to every action of rotation plane `r` of `map`;
-/// masked actions are `f32::INFINITY` unless `unmasked`.
-fn plane_sq(map: &AseMap, r: usize, query: &[f32], unmasked: bool) -> Vec<f32> {
+/// Squared distances of `query` to every action of rotation plane `r` of
+/// `map`, a masked action counting as a zero embedding (`|query|^2`): the
+/// reference zeroed the features outside the mask and smoothed over them.
+fn plane_sq_zeroed(map: &AseMap, r: usize, query: &[f32]) -> Vec<f32> {
     let plane = map.resolution * map.resolution;
     let base = r * plane;
-    let mut out = vec![f32::INFINITY; plane];
-    if unmasked {
-        for (p, v) in out.iter_mut().enumerate() {
-            let f = map.feature(base + p);
-            *v = f.iter().zip(query).map(|(a, b)| (a - b) * (a - b)).sum();
-        }
-    } else {
-        let qn = [dot(query, query)];
-        for (p, v) in out.iter_mut().enumerate() {
+    let qn = [dot(query, query)];
+    let mut out = vec![qn[0]; plane];
+    for (p, v) in out.iter_mut().enumerate() {
+        if map.mask[base + p] {
             row_distances_sq(map, base + p, &[query], &qn, |_, d2| *v = d2.max(0.0));
         }
     }
     out
 }
 
-/// Match (Eq. 4-5) as the reference: for each query, the argmin over all
-/// allowed actions of the per-rotation smoothed squared-distance maps (sigma
-/// `sigma_px` pixels; ties to the smallest flat index). `distance` is the raw
-/// *squared* distance of the chosen action (L); `f32::INFINITY` when every
-/// action is masked.
+/// Match (Eq. 4-5) as the reference: for each query, the squared distances
+/// to every action of each rotation (masked actions as zero embeddings),
+/// smoothed by a Gaussian of sigma `sigma_px` pixels with reflected edges
+/// (scipy's `gaussian_filter`), then the argmin over the allowed actions
+/// (the reference set the masked ones to 1.1 x the largest; ties to the
+/// smallest flat index). `distance` is the raw *squared* distance of the
+/// chosen action (L); `f32::INFINITY` when every action is masked.
 pub fn match_reference(live: &AseMap, queries: &[&[f32]], sigma_px: f32) -> Vec<Match> {
     check_queries(live, queries);
     let n = live.resolution;
@@ -110,9 +119,16 @@ pub fn match_reference(live: &AseMap, queries: &[&[f32]], sigma_px: f32) -> Vec<
             let best = (0..live.rotations)
                 .into_par_iter()
                 .map(|r| {
-                    let mut d = plane_sq(live, r, q, false);
-                    smooth(&mut d, n, sigma_px);
-                    Best::argmin(&d, r * plane)
+                    let allowed = &live.mask[r * plane..(r + 1) * plane];
+                    let d = plane_sq_zeroed(live, r, q);
+                    let mut s =
+                        smooth_reference(&d, n, n, sigma_px, Edge::Reflect, &Rows::mask(allowed, n));
+                    for (v, &ok) in s.iter_mut().zip(allowed) {
+                        if !ok {
+                            *v = f32::INFINITY;
+                        }
+                    }
+                    Best::argmin(&s, r * plane)
                 })
                 .reduce(|| Best::NONE, Best::min);
             if best.index == usize::MAX {
@@ -132,9 +148,11 @@ pub fn match_reference(live: &AseMap, queries: &[&[f32]], sigma_px: f32) -> Vec<
 
 /// Verify, first half (Eq. 6), as the reference: the rematch of `query` (the
 /// matched live action's ASE) in the demo map at `demo_action`'s rotation,
-/// unmasked, inside the window of +/- `half_window` pixels around the
-/// demonstrated pixel, on the squared-distance map smoothed with sigma
-/// `sigma_px`. `distance` is the raw squared distance of the rematch.
+/// inside the window of +/- `half_window` pixels around the demonstrated
+/// pixel: the window's squared distances (the demo's masked actions as zero
+/// embeddings, none excluded) smoothed with sigma `sigma_px` and wrap-around
+/// edges, then the argmin. `distance` is the raw squared distance of the
+/// rematch.
 pub fn rematch_reference(
     demo: &AseMap,
     query: &[f32],
@@ -145,40 +163,47 @@ pub fn rematch_reference(
     check_queries(demo, &[query]);
     let n = demo.resolution;
     let r = demo_action.rotation.min(demo.rotations.saturating_sub(1));
-    let mut d = plane_sq(demo, r, query, true);
-    let raw = d.clone();
-    smooth(&mut d, n, sigma_px);
-    let p = window_argmin(&d, n, demo_action, half_window);
+    let (ys, xs) = window_bounds(n, demo_action, half_window);
+    let p = if ys.0 > ys.1 || xs.0 > xs.1 {
+        demo_action.y.min(n - 1) * n + demo_action.x.min(n - 1)
+    } else {
+        let qn = dot(query, query);
+        let mut d = Vec::with_capacity((ys.1 + 1 - ys.0) * (xs.1 + 1 - xs.0));
+        for y in ys.0..=ys.1 {
+            for x in xs.0..=xs.1 {
+                let i = r * n * n + y * n + x;
+                d.push(if demo.mask[i] {
+                    let f = demo.feature(i);
+                    f.iter().zip(query).map(|(a, b)| (a - b) * (a - b)).sum()
+                } else {
+                    qn
+                });
+            }
+        }
+        window_rematch(&d, n, ys, xs, sigma_px)
+    };
+    let f = demo.feature(r * n * n + p);
     Match {
         index: r * n * n + p,
-        distance: raw[p],
+        distance: f.iter().zip(query).map(|(a, b)| (a - b) * (a - b)).sum(),
     }
 }
 
-/// The rematch's pixel in the `n x n` map `d`: the smallest entry within +/-
-/// `half_window` pixels of `demo_action`'s pixel (first on ties), or the
-/// demonstrated pixel itself when none there is finite.
-pub(super) fn window_argmin(
+/// The rematch's pixel in the `n x n` plane: the argmin (first on ties) of
+/// the window's distances `d` (rows `ys`, columns `xs`, inclusive) after the
+/// reference's smoothing of the window alone, with wrap-around edges.
+pub(super) fn window_rematch(
     d: &[f32],
     n: usize,
-    demo_action: &Action,
-    half_window: usize,
+    ys: (usize, usize),
+    xs: (usize, usize),
+    sigma_px: f32,
 ) -> usize {
-    let ((y0, y1), (x0, x1)) = window_bounds(n, demo_action, half_window);
-    let mut best = Best::NONE;
-    for y in y0..=y1 {
-        for x in x0..=x1 {
-            let p = y * n + x;
-            if d[p] < best.d2 {
-                best = Best { d2: d[p], index: p };
-            }
-        }
-    }
-    if best.index == usize::MAX {
-        demo_action.y.min(n - 1) * n + demo_action.x.min(n - 1)
-    } else {
-        best.index
-    }
+    let (h, w) = (ys.1 + 1 - ys.0, xs.1 + 1 - xs.0);
+    let s = smooth_reference(d, h, w, sigma_px, Edge::Wrap, &Rows::all_of(h, w));
+    let b = Best::argmin(&s, 0);
+    let k = if b.index == usize::MAX { 0 } else { b.index };
+    (ys.0 + k / w) * n + xs.0 + k % w
 }
 
 /// The rows and columns (inclusive) of the rematch's window in an `n x n`
@@ -269,6 +294,37 @@ mod tests {
         // 5 px apart in y and x at 4 mm/px: (25 + 25) * 2^2.
         assert_eq!(ccd_reference(&demo, &a, 0.004), 200.0);
         assert_eq!(ccd_reference(&demo, &demo, 0.004), 0.0);
+    }
+
+    /// As the reference: a masked action takes part in its neighbours'
+    /// smoothing with its distance to a zero embedding, so of two allowed
+    /// actions equally near the query, the one among masked actions whose
+    /// zero embeddings lie far from the query loses to the one among allowed
+    /// near twins; unsmoothed they tie and the first wins.
+    #[test]
+    fn masked_actions_smooth_as_zero_embeddings() {
+        let n = 9;
+        let q = [3.0f32, 0.0];
+        let mut f = vec![[3.0f32, 0.0]; n * n];
+        let mut mask = vec![true; n * n];
+        // (1, 1) is allowed and exact; its neighbours are masked.
+        for y in 0..3 {
+            for x in 0..3 {
+                mask[y * n + x] = y == 1 && x == 1;
+            }
+        }
+        // Everything else is allowed and 1 away, but (7, 7) is exact.
+        for (i, v) in f.iter_mut().enumerate() {
+            if mask[i] {
+                *v = [3.0, 1.0];
+            }
+        }
+        f[n + 1] = [3.0, 0.0];
+        f[7 * n + 7] = [3.0, 0.0];
+        let m = map(n, &f, mask);
+        assert_eq!(match_reference(&m, &[&q], 0.0)[0].index, n + 1);
+        // Smoothed, (1, 1) averages in the masked |q|^2 = 9; (7, 7) averages 1s.
+        assert_eq!(match_reference(&m, &[&q], 1.0)[0].index, 7 * n + 7);
     }
 
     #[test]

@@ -48,7 +48,12 @@ impl Rows {
 
     /// Every entry.
     pub fn all(n: usize) -> Self {
-        Self(vec![Some((0, n - 1)); n])
+        Self::all_of(n, n)
+    }
+
+    /// Every entry of an `h x w` map.
+    pub fn all_of(h: usize, w: usize) -> Self {
+        Self(vec![Some((0, w - 1)); h])
     }
 }
 
@@ -185,29 +190,6 @@ pub fn smooth_with_weights(map: &mut [f32], n: usize, sigma: f32, weights: &[f32
     smooth_rows(map, n, sigma, weights, &rows, &rows);
 }
 
-/// [`smooth_with_weights`] of a map whose entries are all finite, computed
-/// only inside the rectangle of rows `ys` and columns `xs` (inclusive): the
-/// entries there are those of the whole-plane smoothing; the rest of `map`
-/// is left unsmoothed.
-pub fn smooth_window_with_weights(
-    map: &mut [f32],
-    n: usize,
-    sigma: f32,
-    weights: &[f32],
-    ys: (usize, usize),
-    xs: (usize, usize),
-) {
-    assert_eq!(map.len(), n * n, "smooth: map is not {n} x {n}");
-    smooth_rows(
-        map,
-        n,
-        sigma,
-        weights,
-        &Rows::all(n),
-        &Rows::window(n, ys, xs),
-    );
-}
-
 fn smooth_rows(
     map: &mut [f32],
     n: usize,
@@ -234,6 +216,111 @@ fn smooth_rows(
             }
         }
     }
+}
+
+/// How the reference's Gaussian reads past a map's edge (scipy.ndimage's
+/// modes of the same names).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Edge {
+    /// `d c b a | a b c d | d c b a` (scipy's default, the match's).
+    Reflect,
+    /// `a b c d | a b c d | a b c d` (the rematch's window).
+    Wrap,
+}
+
+impl Edge {
+    /// The index inside `0..n` that index `i` reads.
+    fn index(self, i: isize, n: usize) -> usize {
+        let n = n as isize;
+        match self {
+            Self::Wrap => i.rem_euclid(n) as usize,
+            Self::Reflect => {
+                // Period 2n: i and -i-1 read the same entry.
+                let m = i.rem_euclid(2 * n);
+                (if m < n { m } else { 2 * n - 1 - m }) as usize
+            }
+        }
+    }
+}
+
+/// The reference's Gaussian kernel (scipy.ndimage.gaussian_filter's
+/// defaults): radius `floor(4 sigma + 0.5)`, weights summing to 1. `None`
+/// when `sigma` smooths nothing.
+fn reference_kernel(sigma: f32) -> Option<(usize, Vec<f32>)> {
+    if !(sigma > 0.0 && sigma.is_finite()) {
+        return None;
+    }
+    let radius = (4.0 * sigma + 0.5) as usize;
+    let k: Vec<f32> = (0..=2 * radius)
+        .map(|i| {
+            let d = i as f32 - radius as f32;
+            (-0.5 * d * d / (sigma * sigma)).exp()
+        })
+        .collect();
+    let total: f32 = k.iter().sum();
+    Some((radius, k.into_iter().map(|v| v / total).collect()))
+}
+
+/// The reference's smoothing of an `h x w` distance map: a Gaussian of
+/// `sigma` pixels along the rows, then along the columns, every entry taking
+/// part (masked actions carry their distance to a zero embedding, as the
+/// reference's zeroed features give), edges read as `edge`. Only the entries
+/// of `output` are computed (each from all the entries it reaches); the rest
+/// of the result is zero. `sigma <= 0` returns `map` unchanged.
+pub fn smooth_reference(
+    map: &[f32],
+    h: usize,
+    w: usize,
+    sigma: f32,
+    edge: Edge,
+    output: &Rows,
+) -> Vec<f32> {
+    assert_eq!(map.len(), h * w, "smooth: map is not {h} x {w}");
+    assert_eq!(output.0.len(), h, "smooth: output rows are not {h}");
+    let Some((radius, k)) = reference_kernel(sigma) else {
+        return map.to_vec();
+    };
+    seespot_policy::simd::dispatch!(smooth_reference_lanes(map, h, w, radius, &k, edge, output))
+}
+
+#[inline(always)]
+fn smooth_reference_lanes(
+    map: &[f32],
+    h: usize,
+    w: usize,
+    radius: usize,
+    kernel: &[f32],
+    edge: Edge,
+    output: &Rows,
+) -> Vec<f32> {
+    let mut out = vec![0.0f32; h * w];
+    // Along the rows (y), on the rows with output, every column; then along
+    // the columns (x) at the output entries, from the row padded at its edges.
+    let mut padded = vec![0.0f32; w + 2 * radius];
+    for (y, span) in output.0.iter().enumerate() {
+        let Some((c, d)) = *span else { continue };
+        let col = &mut padded[radius..radius + w];
+        col.fill(0.0);
+        for (k, &g) in kernel.iter().enumerate() {
+            let s = edge.index(y as isize + k as isize - radius as isize, h);
+            for (o, i) in col.iter_mut().zip(&map[s * w..(s + 1) * w]) {
+                *o += g * i;
+            }
+        }
+        for j in 0..radius {
+            let off = j as isize - radius as isize;
+            padded[j] = padded[radius + edge.index(off, w)];
+            let right = (w + j) as isize;
+            padded[radius + w + j] = padded[radius + edge.index(right, w)];
+        }
+        let row = &mut out[y * w + c..y * w + d + 1];
+        for (k, &g) in kernel.iter().enumerate() {
+            for (o, i) in row.iter_mut().zip(&padded[c + k..d + 1 + k]) {
+                *o += g * i;
+            }
+        }
+    }
+    out
 }
 
 #[cfg(test)]
@@ -263,6 +350,56 @@ mod tests {
             }
         }
         v
+    }
+
+    /// The reference's smoothing against a plain two-pass Gaussian with the
+    /// edges read by index arithmetic, on the whole map and on a sparse set of
+    /// outputs; a constant map stays constant (the kernel sums to 1) at
+    /// either edge mode.
+    #[test]
+    fn reference_smoothing_reflects_and_wraps_like_scipy() {
+        let (h, w) = (9, 13);
+        let map: Vec<f32> = (0..h * w).map(|i| ((i * 37) % 11) as f32).collect();
+        let sigma = 1.5;
+        let (radius, k) = reference_kernel(sigma).expect("kernel");
+        assert_eq!(radius, 6);
+        assert!((k.iter().sum::<f32>() - 1.0).abs() < 1e-6);
+        // scipy's reflect: index -1 reads 0, -2 reads 1, n reads n-1.
+        assert_eq!(Edge::Reflect.index(-1, 5), 0);
+        assert_eq!(Edge::Reflect.index(-2, 5), 1);
+        assert_eq!(Edge::Reflect.index(5, 5), 4);
+        assert_eq!(Edge::Reflect.index(11, 5), 1);
+        assert_eq!(Edge::Wrap.index(-1, 5), 4);
+        assert_eq!(Edge::Wrap.index(7, 5), 2);
+        for edge in [Edge::Reflect, Edge::Wrap] {
+            let mut v = vec![0.0f32; h * w];
+            for y in 0..h {
+                for x in 0..w {
+                    for (j, g) in k.iter().enumerate() {
+                        let s = edge.index(y as isize + j as isize - radius as isize, h);
+                        v[y * w + x] += g * map[s * w + x];
+                    }
+                }
+            }
+            let mut want = vec![0.0f32; h * w];
+            for y in 0..h {
+                for x in 0..w {
+                    for (j, g) in k.iter().enumerate() {
+                        let s = edge.index(x as isize + j as isize - radius as isize, w);
+                        want[y * w + x] += g * v[y * w + s];
+                    }
+                }
+            }
+            let all = smooth_reference(&map, h, w, sigma, edge, &Rows::all_of(h, w));
+            assert_eq!(all, want, "{edge:?}");
+            let mask: Vec<bool> = (0..h * w).map(|i| i % 5 == 0).collect();
+            let some = smooth_reference(&map, h, w, sigma, edge, &Rows::mask(&mask, w));
+            for i in (0..h * w).filter(|&i| mask[i]) {
+                assert_eq!(some[i], want[i], "{edge:?} entry {i}");
+            }
+            let flat = smooth_reference(&vec![3.0; h * w], h, w, sigma, edge, &Rows::all_of(h, w));
+            assert!(flat.iter().all(|v| (v - 3.0).abs() < 1e-5), "{edge:?}");
+        }
     }
 
     /// On sparse masks (scattered blobs, an empty plane, a full one) and on
