@@ -51,6 +51,12 @@ pub struct EvalArgs {
     /// before the argmin, sigma in pixels; off by default.
     #[arg(long, value_parser = seespot_sim::bounds::parse_sigma)]
     smooth_sigma: Option<f32>,
+    /// With `--correspond reference` only: what the rematch reads at the
+    /// demo's actions outside its test-time mask: `zeroed` (the default, as
+    /// the reference's zeroed features) or `real` (their real embeddings; a
+    /// departure, recorded as `<method>-demo-real`).
+    #[arg(long, default_value = "zeroed")]
+    demo_features: seespot_ssr::correspond::DemoFeatures,
     /// Finetune on the two demonstrations first: steps per policy (333 = the
     /// paper's 1k in all). With `--method spot-q` this gives "Good Robot
     /// finetuned"; with `--method transporter`, iterations of another task's
@@ -116,6 +122,7 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         correspond: CorrespondOptions {
             mode: args.correspond,
             smooth_sigma: args.smooth_sigma,
+            demo_features: args.demo_features,
         },
         finetune_steps: args.finetune_steps,
     };

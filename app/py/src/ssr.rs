@@ -41,7 +41,7 @@ pub fn ssr_config(method: &str, correspond: &str) -> PyResult<SsrConfig> {
         method,
         correspond: CorrespondOptions {
             mode,
-            smooth_sigma: None,
+            ..Default::default()
         },
         loop_break,
     })

@@ -15,7 +15,7 @@ use seespot_sim::{
     Actor, Demo, Grid, Oracle, Provenance, Seeds, TaskId, Trial, TrialRecord, WorldConfig,
 };
 
-use crate::correspond::{CorrespondOptions, Correspondence};
+use crate::correspond::{CorrespondOptions, Correspondence, DemoFeatures};
 use crate::explain::Method;
 use crate::policy::{SsrConfig, SsrError, SsrPolicy, demo_dirs, model_path};
 
@@ -82,8 +82,32 @@ impl EvalMethod {
         correspondence: Correspondence,
         noisy: bool,
     ) -> String {
+        self.record_name_with(
+            finetune_steps,
+            CorrespondOptions {
+                mode: correspondence,
+                ..Default::default()
+            },
+            noisy,
+        )
+    }
+
+    /// [`Self::record_name`] with every Correspond option: the
+    /// `--demo-features real` departure carries `-demo-real`.
+    pub fn record_name_with(
+        self,
+        finetune_steps: usize,
+        correspond: CorrespondOptions,
+        noisy: bool,
+    ) -> String {
+        let correspondence = correspond.mode;
         let plain = if self.is_ssr() && correspondence == Correspondence::Plain {
             "-plain"
+        } else if self.is_ssr()
+            && correspondence == Correspondence::Reference
+            && correspond.demo_features == DemoFeatures::Real
+        {
+            "-demo-real"
         } else {
             ""
         };
@@ -99,9 +123,9 @@ impl EvalMethod {
 
     /// This configuration's record name.
     pub fn record_name_of(config: &EvalConfig) -> String {
-        config.method.record_name(
+        config.method.record_name_with(
             config.finetune_steps,
-            config.correspond.mode,
+            config.correspond,
             !config.world.noise.is_none(),
         )
     }
@@ -263,6 +287,12 @@ pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalE
         // actions as zero embeddings, scipy's edges) carry no such entry, so
         // they are never mixed with these.
         settings.push_str(", smoothing=reference");
+        if config.correspond.demo_features != DemoFeatures::Zeroed {
+            settings.push_str(&format!(
+                ", demo_features={}",
+                config.correspond.demo_features.as_str()
+            ));
+        }
     }
     Ok(Provenance {
         seespot_version: seespot_sim::VERSION.to_owned(),
@@ -324,6 +354,10 @@ pub fn replay_config(
         correspond: CorrespondOptions {
             mode,
             smooth_sigma: None,
+            demo_features: match setting("demo_features") {
+                Some("real") => DemoFeatures::Real,
+                _ => DemoFeatures::Zeroed,
+            },
         },
         finetune_steps: 0,
     };

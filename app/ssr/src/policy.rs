@@ -248,7 +248,9 @@ impl SsrPolicy {
                 s.meta.action.primitive,
                 s.meta.action.rotation,
             )?;
-            if self.config.correspond.mode == Correspondence::Reference {
+            if self.config.correspond.mode == Correspondence::Reference
+                && self.config.correspond.demo_features == correspond::DemoFeatures::Zeroed
+            {
                 // The reference masked the demo's features with the test
                 // task's masks too (its trainers carry the test-time place
                 // dilation); the rematch reads them as zero embeddings.
@@ -344,6 +346,10 @@ impl SsrPolicy {
         let sigma_px = correspond::reference::sigma_pixels(pixel);
         let half_window = correspond::reference::half_window_pixels(pixel);
         let mut pairs = Vec::with_capacity(self.policies.len() * self.demos.len());
+        let demo_masked = match opts.demo_features {
+            correspond::DemoFeatures::Zeroed => seespot_policy::Masked::ZeroFeature,
+            correspond::DemoFeatures::Real => seespot_policy::Masked::Real,
+        };
         for m in 0..self.policies.len() {
             let live = &self.live[m];
             let demo_actions: Vec<Action> = steps
@@ -375,6 +381,7 @@ impl SsrPolicy {
                         &demo_action,
                         half_window,
                         sigma_px,
+                        demo_masked,
                     ),
                     Some(_) => correspond::rematch_with(
                         &demo_map.to_ase_map(),

@@ -327,7 +327,14 @@ pub fn correspond_step_cells(input: &CellBenchInput) -> Vec<(f32, f32)> {
         let refs: Vec<&[f32]> = queries.iter().map(Vec::as_slice).collect();
         let matches = match_reference_cells(test, &refs, sigma);
         for ((demo, a), m) in demos.iter().zip(actions).zip(matches) {
-            let re = rematch_reference_cells(demo, &test.feature(m.index), a, window, sigma);
+            let re = rematch_reference_cells(
+                demo,
+                &test.feature(m.index),
+                a,
+                window,
+                sigma,
+                seespot_policy::Masked::ZeroFeature,
+            );
             let c = ccd_reference(a, &re.action(test.primitive, res), pixel);
             out.push((m.distance, c));
         }

@@ -72,13 +72,15 @@ pub fn match_reference_cells(live: &CellAse, queries: &[&[f32]], sigma_px: f32) 
 /// [`super::reference::rematch_reference`] on cells: the rematch of `query`
 /// in the demo at `demo_action`'s rotation, inside the window of +/-
 /// `half_window` pixels, on the window's squared-distance map (the demo's
-/// masked actions as zero embeddings) smoothed with wrap-around edges.
+/// masked actions as `masked` says: [`Masked::ZeroFeature`] is the
+/// reference's) smoothed with wrap-around edges.
 pub fn rematch_reference_cells(
     demo: &CellAse,
     query: &[f32],
     demo_action: &Action,
     half_window: usize,
     sigma_px: f32,
+    masked: Masked,
 ) -> Match {
     let n = demo.resolution;
     let r = demo_action.rotation.min(demo.rotations.saturating_sub(1));
@@ -86,7 +88,7 @@ pub fn rematch_reference_cells(
     let p = if ys.0 > ys.1 || xs.0 > xs.1 {
         demo_action.y.min(n - 1) * n + demo_action.x.min(n - 1)
     } else {
-        let d = demo.window_distances_sq(r, query, ys, xs, Masked::ZeroFeature);
+        let d = demo.window_distances_sq(r, query, ys, xs, masked);
         super::reference::window_rematch(&d, n, ys, xs, sigma_px)
     };
     let index = r * n * n + p;
@@ -168,7 +170,14 @@ mod tests {
                     assert_eq!(m_full.distance, m_cells.distance);
                     let f = full.feature(m_full.index).to_vec();
                     let r_full = rematch_reference(&demo_full, &f, a, window, sigma);
-                    let r_cells = rematch_reference_cells(&demo_cells, &f, a, window, sigma);
+                    let r_cells = rematch_reference_cells(
+                        &demo_cells,
+                        &f,
+                        a,
+                        window,
+                        sigma,
+                        Masked::ZeroFeature,
+                    );
                     assert_eq!(r_full.index, r_cells.index, "rematch {res} px {a:?}");
                     let tol = 1e-4 * r_full.distance.abs() + 1e-5;
                     assert!((r_full.distance - r_cells.distance).abs() <= tol);

@@ -108,6 +108,43 @@ pub struct CorrespondOptions {
     /// sigma 3 that adds roughly the time of one extra scan (see
     /// [`bench_correspond`], `correspond_smoothed_ms`).
     pub smooth_sigma: Option<f32>,
+    /// [`Correspondence::Reference`] only: what the rematch reads at the
+    /// demo's actions outside its test-time mask.
+    pub demo_features: DemoFeatures,
+}
+
+/// What the reference rematch reads at demo actions outside the demo's
+/// test-time mask.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum DemoFeatures {
+    /// Zero embeddings, as the reference's masked features were (the
+    /// faithful default).
+    #[default]
+    Zeroed,
+    /// The actions' real embeddings (a departure, recorded as
+    /// `<method>-demo-real`): a demonstrated action outside its own mask
+    /// can still be returned to.
+    Real,
+}
+
+impl DemoFeatures {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Zeroed => "zeroed",
+            Self::Real => "real",
+        }
+    }
+}
+
+impl std::str::FromStr for DemoFeatures {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        [Self::Zeroed, Self::Real]
+            .into_iter()
+            .find(|c| c.as_str() == s)
+            .ok_or_else(|| format!("unknown demo features '{s}' (expected zeroed or real)"))
+    }
 }
 
 /// Running best (squared distance, index); smaller distance wins, then smaller index.

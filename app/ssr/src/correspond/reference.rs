@@ -121,8 +121,14 @@ pub fn match_reference(live: &AseMap, queries: &[&[f32]], sigma_px: f32) -> Vec<
                 .map(|r| {
                     let allowed = &live.mask[r * plane..(r + 1) * plane];
                     let d = plane_sq_zeroed(live, r, q);
-                    let mut s =
-                        smooth_reference(&d, n, n, sigma_px, Edge::Reflect, &Rows::mask(allowed, n));
+                    let mut s = smooth_reference(
+                        &d,
+                        n,
+                        n,
+                        sigma_px,
+                        Edge::Reflect,
+                        &Rows::mask(allowed, n),
+                    );
                     for (v, &ok) in s.iter_mut().zip(allowed) {
                         if !ok {
                             *v = f32::INFINITY;
