@@ -5,14 +5,13 @@
 //! full-map functions to float rounding (the distances are summed in another
 //! order); a test compares both on real scenes.
 
-use rayon::prelude::*;
 use seespot_policy::CellAse;
 use seespot_sim::Action;
 
 use seespot_policy::Masked;
 
 use super::smooth::{Edge, Rows, smooth_reference};
-use super::{Best, Match};
+use super::{Best, Match, best_over_rotations};
 
 fn sq(a: &[f32], b: &[f32]) -> f32 {
     a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum()
@@ -30,28 +29,22 @@ pub fn match_reference_cells(live: &CellAse, queries: &[&[f32]], sigma_px: f32) 
     }
     // Per rotation, every query's distances in one pass, then each smoothed
     // at the allowed actions and its argmin; the best over rotations per query.
-    let best = (0..live.rotations)
-        .into_par_iter()
-        .map(|r| {
-            let allowed = &live.mask[r * plane..(r + 1) * plane];
-            let rows = Rows::mask(allowed, n);
-            live.plane_distances_sq_many(r, queries, Masked::ZeroFeature)
-                .into_iter()
-                .map(|d| {
-                    let mut s = smooth_reference(&d, n, n, sigma_px, Edge::Reflect, &rows);
-                    for (v, &ok) in s.iter_mut().zip(allowed) {
-                        if !ok {
-                            *v = f32::INFINITY;
-                        }
+    let best = best_over_rotations(0..live.rotations, queries.len(), |r| {
+        let allowed = &live.mask[r * plane..(r + 1) * plane];
+        let rows = Rows::mask(allowed, n);
+        live.plane_distances_sq_many(r, queries, Masked::ZeroFeature)
+            .into_iter()
+            .map(|d| {
+                let mut s = smooth_reference(&d, n, n, sigma_px, Edge::Reflect, &rows);
+                for (v, &ok) in s.iter_mut().zip(allowed) {
+                    if !ok {
+                        *v = f32::INFINITY;
                     }
-                    Best::argmin(&s, r * plane)
-                })
-                .collect::<Vec<_>>()
-        })
-        .reduce(
-            || vec![Best::NONE; queries.len()],
-            |a, b| a.into_iter().zip(b).map(|(x, y)| x.min(y)).collect(),
-        );
+                }
+                Best::argmin(&s, r * plane)
+            })
+            .collect()
+    });
     best.into_iter()
         .zip(queries)
         .map(|(best, q)| {

@@ -154,6 +154,19 @@ struct Best {
     index: usize,
 }
 
+/// Per query, the best of the candidates `per_rotation(r)` gives (one per
+/// query) over the rotations `rots`, computed in parallel.
+fn best_over_rotations(
+    rots: Range<usize>,
+    queries: usize,
+    per_rotation: impl Fn(usize) -> Vec<Best> + Sync + Send,
+) -> Vec<Best> {
+    rots.into_par_iter().map(per_rotation).reduce(
+        || vec![Best::NONE; queries],
+        |a, b| a.into_iter().zip(b).map(|(x, y)| x.min(y)).collect(),
+    )
+}
+
 /// The smallest value of `d` below infinity (NaNs skipped), in 16 lanes.
 #[inline(always)]
 fn min_lanes(d: &[f32]) -> f32 {
@@ -558,21 +571,15 @@ fn scan_smoothed(map: &AseMap, rots: Range<usize>, queries: &[&[f32]], sigma: f3
     let n = map.resolution;
     let plane = n * n;
     let first = rots.start * plane;
-    let best = rots
-        .into_par_iter()
-        .map(|r| {
-            plane_distances(map, r, queries, &qnorms)
-                .into_iter()
-                .map(|mut d| {
-                    smooth(&mut d, n, sigma);
-                    Best::argmin(&d, r * plane)
-                })
-                .collect::<Vec<_>>()
-        })
-        .reduce(
-            || vec![Best::NONE; queries.len()],
-            |a, b| a.into_iter().zip(b).map(|(x, y)| x.min(y)).collect(),
-        );
+    let best = best_over_rotations(rots, queries.len(), |r| {
+        plane_distances(map, r, queries, &qnorms)
+            .into_iter()
+            .map(|mut d| {
+                smooth(&mut d, n, sigma);
+                Best::argmin(&d, r * plane)
+            })
+            .collect()
+    });
     best.into_iter()
         .zip(queries)
         .map(|(b, q)| b.into_match(map, q, first))
