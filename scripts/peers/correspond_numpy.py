@@ -59,9 +59,9 @@ def step(live, demos, actions, sigma=None, half_window=None):
             y0, y1 = max(ay - half_window, 0), min(ay + half_window, h - 1)
             x0, x1 = max(ax - half_window, 0), min(ax + half_window, w - 1)
             # The window alone, smoothed with wrap-around edges (the reference).
-            plane = dflat[lo:hi].reshape(h, w, -1)[y0:y1 + 1, x0:x1 + 1]
+            feats = dflat[lo:hi].reshape(h, w, -1)[y0:y1 + 1, x0:x1 + 1]
             pn = dnorms[lo:hi].reshape(h, w)[y0:y1 + 1, x0:x1 + 1]
-            win = pn - 2.0 * (plane @ e) + float(e @ e)
+            win = pn - 2.0 * (feats @ e) + float(e @ e)
             if sigma:
                 win = gaussian_filter(win, sigma, mode="wrap")
             by, bx = np.unravel_index(int(np.argmin(win)), win.shape)
