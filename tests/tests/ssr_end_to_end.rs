@@ -234,6 +234,28 @@ fn noisy_and_extension_runs_have_their_own_record_names() {
         EvalMethod::parse("ssr-ccd-loopbreak"),
         Some(EvalMethod::SsrCcdLoopBreak)
     );
+    // The named departures of the reference Correspond.
+    use seespot_ssr::correspond::{DemoFeatures, Smoothing};
+    let normalized = CorrespondOptions {
+        smoothing: Smoothing::Normalized,
+        ..Default::default()
+    };
+    assert_eq!(
+        EvalMethod::SsrL2cd.record_name_with(0, normalized, false),
+        "ssr-l2cd-normalized"
+    );
+    let demo_real = CorrespondOptions {
+        demo_features: DemoFeatures::Real,
+        ..Default::default()
+    };
+    assert_eq!(
+        EvalMethod::SsrCcd.record_name_with(0, demo_real, true),
+        "ssr-ccd-demo-real-noisy"
+    );
+    assert_eq!(
+        EvalMethod::Oracle.record_name_with(0, normalized, false),
+        "oracle"
+    );
 }
 
 #[test]

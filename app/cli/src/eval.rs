@@ -57,6 +57,13 @@ pub struct EvalArgs {
     /// departure, recorded as `<method>-demo-real`).
     #[arg(long, default_value = "zeroed")]
     demo_features: seespot_ssr::correspond::DemoFeatures,
+    /// With `--correspond reference` only: `reference` (the default: masked
+    /// actions smoothed as zero embeddings, scipy's edges, the rematch window
+    /// wrapped) or `normalized` (seespot's earlier smoothing, a departure
+    /// recorded as `<method>-normalized`: masked actions left out, the
+    /// rematch's whole plane smoothed on real embeddings).
+    #[arg(long, default_value = "reference")]
+    smoothing: seespot_ssr::correspond::Smoothing,
     /// Finetune on the two demonstrations first: steps per policy (333 = the
     /// paper's 1k in all). With `--method spot-q` this gives "Good Robot
     /// finetuned"; with `--method transporter`, iterations of another task's
@@ -123,9 +130,16 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
             mode: args.correspond,
             smooth_sigma: args.smooth_sigma,
             demo_features: args.demo_features,
+            smoothing: args.smoothing,
         },
         finetune_steps: args.finetune_steps,
     };
+    if args.correspond == Correspondence::Plain
+        && (args.smoothing != seespot_ssr::correspond::Smoothing::Reference
+            || args.demo_features != seespot_ssr::correspond::DemoFeatures::Zeroed)
+    {
+        anyhow::bail!("--smoothing and --demo-features apply to --correspond reference only");
+    }
     if args.smooth_sigma.is_some() && args.correspond != Correspondence::Plain {
         anyhow::bail!(
             "--smooth-sigma applies to --correspond plain only (the reference smooths at 6 mm)"

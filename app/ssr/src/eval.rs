@@ -15,7 +15,7 @@ use seespot_sim::{
     Actor, Demo, Grid, Oracle, Provenance, Seeds, TaskId, Trial, TrialRecord, WorldConfig,
 };
 
-use crate::correspond::{CorrespondOptions, Correspondence, DemoFeatures};
+use crate::correspond::{CorrespondOptions, Correspondence, DemoFeatures, Smoothing};
 use crate::explain::Method;
 use crate::policy::{SsrConfig, SsrError, SsrPolicy, demo_dirs, model_path};
 
@@ -108,6 +108,11 @@ impl EvalMethod {
             && correspond.demo_features == DemoFeatures::Real
         {
             "-demo-real"
+        } else if self.is_ssr()
+            && correspondence == Correspondence::Reference
+            && correspond.smoothing == Smoothing::Normalized
+        {
+            "-normalized"
         } else {
             ""
         };
@@ -286,7 +291,10 @@ pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalE
         // Records made before SSR smoothed as the reference did (masked
         // actions as zero embeddings, scipy's edges) carry no such entry, so
         // they are never mixed with these.
-        settings.push_str(", smoothing=reference");
+        settings.push_str(&format!(
+            ", smoothing={}",
+            config.correspond.smoothing.as_str()
+        ));
         if config.correspond.demo_features != DemoFeatures::Zeroed {
             settings.push_str(&format!(
                 ", demo_features={}",
@@ -357,6 +365,10 @@ pub fn replay_config(
             demo_features: match setting("demo_features") {
                 Some("real") => DemoFeatures::Real,
                 _ => DemoFeatures::Zeroed,
+            },
+            smoothing: match setting("smoothing") {
+                Some("normalized") => Smoothing::Normalized,
+                _ => Smoothing::Reference,
             },
         },
         finetune_steps: 0,

@@ -250,6 +250,7 @@ impl SsrPolicy {
             )?;
             if self.config.correspond.mode == Correspondence::Reference
                 && self.config.correspond.demo_features == correspond::DemoFeatures::Zeroed
+                && self.config.correspond.smoothing == correspond::Smoothing::Reference
             {
                 // The reference masked the demo's features with the test
                 // task's masks too (its trainers carry the test-time place
@@ -366,7 +367,9 @@ impl SsrPolicy {
             // The plain formulation scans full maps, rebuilt from the cells.
             let live_full = (!reference).then(|| live.to_ase_map());
             let matches = match &live_full {
-                None => correspond::cells::match_reference_cells(live, &query_refs, sigma_px),
+                None => {
+                    correspond::cells::match_cells_with(live, &query_refs, sigma_px, opts.smoothing)
+                }
                 Some(full) => correspond::match_queries_with(full, &query_refs, &opts),
             };
             for (d, found) in matches.into_iter().enumerate() {
@@ -375,6 +378,15 @@ impl SsrPolicy {
                 let matched = found.action(primitive, n);
                 let f = live.feature(found.index);
                 let re = match &live_full {
+                    None if opts.smoothing == correspond::Smoothing::Normalized => {
+                        correspond::cells::rematch_normalized_cells(
+                            demo_map,
+                            &f,
+                            &demo_action,
+                            half_window,
+                            sigma_px,
+                        )
+                    }
                     None => correspond::cells::rematch_reference_cells(
                         demo_map,
                         &f,

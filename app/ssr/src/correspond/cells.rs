@@ -11,7 +11,7 @@ use seespot_sim::Action;
 use seespot_policy::Masked;
 
 use super::smooth::{Edge, Rows, smooth_reference};
-use super::{Best, Match, best_over_rotations};
+use super::{Best, Match, Smoothing, best_over_rotations, smooth_with_weights, smoothed_weights};
 
 fn sq(a: &[f32], b: &[f32]) -> f32 {
     a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum()
@@ -22,6 +22,17 @@ fn sq(a: &[f32], b: &[f32]) -> f32 {
 /// as the reference did (masked actions as zero embeddings, reflected
 /// edges); `distance` is the raw squared distance of the chosen action (L).
 pub fn match_reference_cells(live: &CellAse, queries: &[&[f32]], sigma_px: f32) -> Vec<Match> {
+    match_cells_with(live, queries, sigma_px, Smoothing::Reference)
+}
+
+/// [`match_reference_cells`] with the smoothing `smoothing`
+/// ([`Smoothing::Normalized`]: masked actions left out of the averages).
+pub fn match_cells_with(
+    live: &CellAse,
+    queries: &[&[f32]],
+    sigma_px: f32,
+    smoothing: Smoothing,
+) -> Vec<Match> {
     let n = live.resolution;
     let plane = n * n;
     for q in queries {
@@ -35,6 +46,17 @@ pub fn match_reference_cells(live: &CellAse, queries: &[&[f32]], sigma_px: f32) 
         live.plane_distances_sq_many(r, queries, Masked::ZeroFeature)
             .into_iter()
             .map(|d| {
+                if smoothing == Smoothing::Normalized {
+                    let mut d: Vec<f32> = d
+                        .iter()
+                        .zip(allowed)
+                        .map(|(v, &ok)| if ok { *v } else { f32::INFINITY })
+                        .collect();
+                    if let Some(w) = smoothed_weights(allowed, n, sigma_px) {
+                        smooth_with_weights(&mut d, n, sigma_px, &w);
+                    }
+                    return Best::argmin(&d, r * plane);
+                }
                 let mut s = smooth_reference(&d, n, n, sigma_px, Edge::Reflect, &rows);
                 for (v, &ok) in s.iter_mut().zip(allowed) {
                     if !ok {
@@ -83,6 +105,47 @@ pub fn rematch_reference_cells(
     } else {
         let d = demo.window_distances_sq(r, query, ys, xs, masked);
         super::reference::window_rematch(&d, n, ys, xs, sigma_px)
+    };
+    let index = r * n * n + p;
+    Match {
+        index,
+        distance: sq(&demo.feature(index), query),
+    }
+}
+
+/// The rematch of [`Smoothing::Normalized`]: `query` against the demo's
+/// real embeddings at `demo_action`'s rotation, the whole plane smoothed
+/// (normalized convolution), the argmin inside the window of +/-
+/// `half_window` pixels (first on ties).
+pub fn rematch_normalized_cells(
+    demo: &CellAse,
+    query: &[f32],
+    demo_action: &Action,
+    half_window: usize,
+    sigma_px: f32,
+) -> Match {
+    let n = demo.resolution;
+    let r = demo_action.rotation.min(demo.rotations.saturating_sub(1));
+    let (ys, xs) = super::reference::window_bounds(n, demo_action, half_window);
+    let mut d = demo.plane_distances_sq(r, query, Masked::Real);
+    if let Some(w) = smoothed_weights(&vec![true; n * n], n, sigma_px) {
+        smooth_with_weights(&mut d, n, sigma_px, &w);
+    }
+    let mut best = Best::NONE;
+    for y in ys.0..=ys.1.min(n - 1) {
+        for x in xs.0..=xs.1.min(n - 1) {
+            if d[y * n + x] < best.d2 {
+                best = Best {
+                    d2: d[y * n + x],
+                    index: y * n + x,
+                };
+            }
+        }
+    }
+    let p = if best.index == usize::MAX {
+        demo_action.y.min(n - 1) * n + demo_action.x.min(n - 1)
+    } else {
+        best.index
     };
     let index = r * n * n + p;
     Match {

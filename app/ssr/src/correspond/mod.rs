@@ -111,6 +111,44 @@ pub struct CorrespondOptions {
     /// [`Correspondence::Reference`] only: what the rematch reads at the
     /// demo's actions outside its test-time mask.
     pub demo_features: DemoFeatures,
+    /// [`Correspondence::Reference`] only: how the distance maps are smoothed.
+    pub smoothing: Smoothing,
+}
+
+/// How the reference Correspond smooths its distance maps.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Smoothing {
+    /// As the reference did ([`mod@reference`]): masked actions take part as
+    /// zero embeddings, scipy's kernel and edges, the rematch window cut out
+    /// and wrapped (the faithful default).
+    #[default]
+    Reference,
+    /// seespot's earlier smoothing, a departure kept for comparison (records
+    /// `<method>-normalized`): masked actions left out of their neighbours'
+    /// averages (normalized convolution, radius 3 sigma), and the rematch on
+    /// the demo's real embeddings, its whole plane smoothed before the
+    /// window's argmin.
+    Normalized,
+}
+
+impl Smoothing {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Reference => "reference",
+            Self::Normalized => "normalized",
+        }
+    }
+}
+
+impl std::str::FromStr for Smoothing {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        [Self::Reference, Self::Normalized]
+            .into_iter()
+            .find(|c| c.as_str() == s)
+            .ok_or_else(|| format!("unknown smoothing '{s}' (expected reference or normalized)"))
+    }
 }
 
 /// What the reference rematch reads at demo actions outside the demo's

@@ -35,7 +35,9 @@
 //! where the demo's test-time mask excludes it (the reference would read a
 //! zero vector there; four of seespot's row demo places lie outside, see
 //! `results/README.md`); a window that reaches past the map's border is
-//! clipped (numpy's slicing would wrap or empty it).
+//! clipped (numpy's slicing would wrap or empty it). Two named options
+//! depart further ([`super::DemoFeatures::Real`], [`super::Smoothing::Normalized`]);
+//! neither won on the validation seeds (`results/README.md`).
 
 use rayon::prelude::*;
 use seespot_policy::AseMap;
