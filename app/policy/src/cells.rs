@@ -140,6 +140,15 @@ impl CellGram {
     }
 }
 
+/// `|E - q|^2 = |E|^2 - 2 E.q + |q|^2` (clamped at 0) of an action with
+/// squared norm `norm`, tap weights `w` and `dots` its four cells' dot
+/// products with `q` ([`CellAse::tap_dots`]), `qn = |q|^2`.
+#[inline(always)]
+fn tap_distance_sq(norm: f32, w: [f32; 4], dots: [f32; 4], qn: f32) -> f32 {
+    let eq = w[0] * dots[0] + w[1] * dots[1] + w[2] * dots[2] + w[3] * dots[3];
+    (norm - 2.0 * eq + qn).max(0.0)
+}
+
 /// What a distance to a masked action is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Masked {
@@ -338,7 +347,7 @@ impl CellAse {
         masked: Masked,
     ) -> Vec<f32> {
         let n = self.resolution;
-        let dots = self.cell_dots(r, q);
+        let dots = self.tap_dots(r, q);
         let qn: f32 = q.iter().map(|v| v * v).sum();
         let gram = self.grams[r].as_ref();
         let mut out = Vec::with_capacity((ys.1 + 1 - ys.0) * (xs.1 + 1 - xs.0));
@@ -349,14 +358,21 @@ impl CellAse {
                     out.push(masked.value(qn));
                     continue;
                 }
-                let (a, w) = (self.taps.cell[i] as usize, self.taps.weight[i]);
-                let t = corners(a, self.cells).map(|c| dots[c]);
-                let eq = w[0] * t[0] + w[1] * t[1] + w[2] * t[2] + w[3] * t[3];
-                let norm = gram.map_or(0.0, |g| g.norm_sq(a as u32, w));
-                out.push((norm - 2.0 * eq + qn).max(0.0));
+                let (a, w) = (self.taps.cell[i], self.taps.weight[i]);
+                let norm = gram.map_or(0.0, |g| g.norm_sq(a, w));
+                out.push(tap_distance_sq(norm, w, dots[a as usize], qn));
             }
         }
         out
+    }
+
+    /// Per cell `a` of rotation `r`, `q`'s dot products with the four cells
+    /// a tap at `a` reads ([`corners`]).
+    fn tap_dots(&self, r: usize, q: &[f32]) -> Vec<[f32; 4]> {
+        let d = self.cell_dots(r, q);
+        (0..d.len())
+            .map(|a| corners(a, self.cells).map(|c| d[c]))
+            .collect()
     }
 
     /// [`Self::plane_distances_sq`] for several queries in one pass (each
@@ -370,15 +386,7 @@ impl CellAse {
         let (n, plane) = (self.resolution, self.resolution * self.resolution);
         // Per query, each cell's dot product with the query and those of the
         // three cells a tap at it also reads.
-        let dots: Vec<Vec<[f32; 4]>> = queries
-            .iter()
-            .map(|q| {
-                let d = self.cell_dots(r, q);
-                (0..d.len())
-                    .map(|a| corners(a, self.cells).map(|c| d[c]))
-                    .collect()
-            })
-            .collect();
+        let dots: Vec<Vec<[f32; 4]>> = queries.iter().map(|q| self.tap_dots(r, q)).collect();
         let qn: Vec<f32> = queries
             .iter()
             .map(|q| q.iter().map(|v| v * v).sum())
@@ -402,9 +410,7 @@ impl CellAse {
                     let (a, w) = (self.taps.cell[i], self.taps.weight[i]);
                     let norm = gram.map_or(0.0, |g| g.norm_sq(a, w));
                     for (k, (dots, qn)) in dots.iter().zip(&qn).enumerate() {
-                        let t = dots[a as usize];
-                        let eq = w[0] * t[0] + w[1] * t[1] + w[2] * t[2] + w[3] * t[3];
-                        out[k * n + x] = (norm - 2.0 * eq + qn).max(0.0);
+                        out[k * n + x] = tap_distance_sq(norm, w, dots[a as usize], *qn);
                     }
                 }
             });

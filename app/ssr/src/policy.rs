@@ -378,22 +378,14 @@ impl SsrPolicy {
                 let matched = found.action(primitive, n);
                 let f = live.feature(found.index);
                 let re = match &live_full {
-                    None if opts.smoothing == correspond::Smoothing::Normalized => {
-                        correspond::cells::rematch_normalized_cells(
-                            demo_map,
-                            &f,
-                            &demo_action,
-                            half_window,
-                            sigma_px,
-                        )
-                    }
-                    None => correspond::cells::rematch_reference_cells(
+                    None => correspond::cells::rematch_cells_with(
                         demo_map,
                         &f,
                         &demo_action,
                         half_window,
                         sigma_px,
                         demo_masked,
+                        opts.smoothing,
                     ),
                     Some(_) => correspond::rematch_with(
                         &demo_map.to_ase_map(),

@@ -42,28 +42,31 @@ pub fn match_cells_with(
     // at the allowed actions and its argmin; the best over rotations per query.
     let best = best_over_rotations(0..live.rotations, queries.len(), |r| {
         let allowed = &live.mask[r * plane..(r + 1) * plane];
+        // The normalized smoothing's normalizer depends on the mask alone.
+        let (masked, weights) = match smoothing {
+            Smoothing::Reference => (Masked::ZeroFeature, None),
+            Smoothing::Normalized => (Masked::Infinite, smoothed_weights(allowed, n, sigma_px)),
+        };
         let rows = Rows::mask(allowed, n);
-        live.plane_distances_sq_many(r, queries, Masked::ZeroFeature)
+        live.plane_distances_sq_many(r, queries, masked)
             .into_iter()
-            .map(|d| {
-                if smoothing == Smoothing::Normalized {
-                    let mut d: Vec<f32> = d
-                        .iter()
-                        .zip(allowed)
-                        .map(|(v, &ok)| if ok { *v } else { f32::INFINITY })
-                        .collect();
-                    if let Some(w) = smoothed_weights(allowed, n, sigma_px) {
-                        smooth_with_weights(&mut d, n, sigma_px, &w);
+            .map(|mut d| {
+                match smoothing {
+                    Smoothing::Normalized => {
+                        if let Some(w) = &weights {
+                            smooth_with_weights(&mut d, n, sigma_px, w);
+                        }
                     }
-                    return Best::argmin(&d, r * plane);
-                }
-                let mut s = smooth_reference(&d, n, n, sigma_px, Edge::Reflect, &rows);
-                for (v, &ok) in s.iter_mut().zip(allowed) {
-                    if !ok {
-                        *v = f32::INFINITY;
+                    Smoothing::Reference => {
+                        d = smooth_reference(&d, n, n, sigma_px, Edge::Reflect, &rows);
+                        for (v, &ok) in d.iter_mut().zip(allowed) {
+                            if !ok {
+                                *v = f32::INFINITY;
+                            }
+                        }
                     }
                 }
-                Best::argmin(&s, r * plane)
+                Best::argmin(&d, r * plane)
             })
             .collect()
     });
@@ -97,55 +100,54 @@ pub fn rematch_reference_cells(
     sigma_px: f32,
     masked: Masked,
 ) -> Match {
-    let n = demo.resolution;
-    let r = demo_action.rotation.min(demo.rotations.saturating_sub(1));
-    let (ys, xs) = super::reference::window_bounds(n, demo_action, half_window);
-    let p = if ys.0 > ys.1 || xs.0 > xs.1 {
-        demo_action.y.min(n - 1) * n + demo_action.x.min(n - 1)
-    } else {
-        let d = demo.window_distances_sq(r, query, ys, xs, masked);
-        super::reference::window_rematch(&d, n, ys, xs, sigma_px)
-    };
-    let index = r * n * n + p;
-    Match {
-        index,
-        distance: sq(&demo.feature(index), query),
-    }
+    rematch_cells_with(
+        demo,
+        query,
+        demo_action,
+        half_window,
+        sigma_px,
+        masked,
+        Smoothing::Reference,
+    )
 }
 
-/// The rematch of [`Smoothing::Normalized`]: `query` against the demo's
-/// real embeddings at `demo_action`'s rotation, the whole plane smoothed
-/// (normalized convolution), the argmin inside the window of +/-
-/// `half_window` pixels (first on ties).
-pub fn rematch_normalized_cells(
+/// [`rematch_reference_cells`] with the smoothing `smoothing`:
+/// [`Smoothing::Normalized`] reads the demo's real embeddings, smooths the
+/// whole plane (normalized convolution) and takes the argmin inside the
+/// window (`masked` is then unused). An empty window gives the demonstrated
+/// pixel.
+pub fn rematch_cells_with(
     demo: &CellAse,
     query: &[f32],
     demo_action: &Action,
     half_window: usize,
     sigma_px: f32,
+    masked: Masked,
+    smoothing: Smoothing,
 ) -> Match {
     let n = demo.resolution;
     let r = demo_action.rotation.min(demo.rotations.saturating_sub(1));
     let (ys, xs) = super::reference::window_bounds(n, demo_action, half_window);
-    let mut d = demo.plane_distances_sq(r, query, Masked::Real);
-    if let Some(w) = smoothed_weights(&vec![true; n * n], n, sigma_px) {
-        smooth_with_weights(&mut d, n, sigma_px, &w);
-    }
-    let mut best = Best::NONE;
-    for y in ys.0..=ys.1.min(n - 1) {
-        for x in xs.0..=xs.1.min(n - 1) {
-            if d[y * n + x] < best.d2 {
-                best = Best {
-                    d2: d[y * n + x],
-                    index: y * n + x,
-                };
+    let demo_pixel = demo_action.y.min(n - 1) * n + demo_action.x.min(n - 1);
+    let p = if ys.0 > ys.1 || xs.0 > xs.1 {
+        demo_pixel
+    } else {
+        match smoothing {
+            Smoothing::Reference => {
+                let d = demo.window_distances_sq(r, query, ys, xs, masked);
+                super::reference::window_rematch(&d, n, ys, xs, sigma_px)
+            }
+            Smoothing::Normalized => {
+                let mut d = demo.plane_distances_sq(r, query, Masked::Real);
+                if let Some(w) = smoothed_weights(&vec![true; n * n], n, sigma_px) {
+                    smooth_with_weights(&mut d, n, sigma_px, &w);
+                }
+                let window: Vec<f32> = (ys.0..=ys.1)
+                    .flat_map(|y| d[y * n + xs.0..=y * n + xs.1].iter().copied())
+                    .collect();
+                super::reference::window_argmin(&window, n, ys, xs).unwrap_or(demo_pixel)
             }
         }
-    }
-    let p = if best.index == usize::MAX {
-        demo_action.y.min(n - 1) * n + demo_action.x.min(n - 1)
-    } else {
-        best.index
     };
     let index = r * n * n + p;
     Match {

@@ -209,9 +209,21 @@ pub(super) fn window_rematch(
 ) -> usize {
     let (h, w) = (ys.1 + 1 - ys.0, xs.1 + 1 - xs.0);
     let s = smooth_reference(d, h, w, sigma_px, Edge::Wrap, &Rows::all_of(h, w));
-    let b = Best::argmin(&s, 0);
-    let k = if b.index == usize::MAX { 0 } else { b.index };
-    (ys.0 + k / w) * n + xs.0 + k % w
+    window_argmin(&s, n, ys, xs).unwrap_or(ys.0 * n + xs.0)
+}
+
+/// The pixel of the `n x n` plane at the smallest of the window's values
+/// `d` (rows `ys`, columns `xs`, inclusive, row-major; first on ties), or
+/// `None` when none is below infinity.
+pub(super) fn window_argmin(
+    d: &[f32],
+    n: usize,
+    ys: (usize, usize),
+    xs: (usize, usize),
+) -> Option<usize> {
+    let w = xs.1 + 1 - xs.0;
+    let b = Best::argmin(d, 0);
+    (b.index != usize::MAX).then(|| (ys.0 + b.index / w) * n + xs.0 + b.index % w)
 }
 
 /// The rows and columns (inclusive) of the rematch's window in an `n x n`

@@ -38,17 +38,13 @@ impl Rows {
     }
 
     /// The rectangle of rows `y0..=y1` and columns `x0..=x1` (clipped).
-    pub fn window(n: usize, (y0, y1): (usize, usize), (x0, x1): (usize, usize)) -> Self {
+    #[cfg(test)]
+    fn window(n: usize, (y0, y1): (usize, usize), (x0, x1): (usize, usize)) -> Self {
         Self(
             (0..n)
                 .map(|y| (y0..=y1).contains(&y).then_some((x0, x1.min(n - 1))))
                 .collect(),
         )
-    }
-
-    /// Every entry.
-    pub fn all(n: usize) -> Self {
-        Self::all_of(n, n)
     }
 
     /// Every entry of an `h x w` map.
