@@ -184,8 +184,12 @@ pub struct CellAse {
     pub dim: usize,
     /// Side of each rotation's cell grid.
     pub cells: usize,
-    /// `R x cells x cells x D`, channels last.
-    pub features: Vec<f32>,
+    /// `R x cells x cells x D`, channels last; for a map embedded at one
+    /// rotation only ([`Self::with_rotations`]), that rotation's plane and
+    /// then one plane of zeros, which every other rotation reads.
+    features: Vec<f32>,
+    /// The one rotation embedded, if not all.
+    only: Option<usize>,
     pub taps: Arc<Taps>,
     /// Per rotation, the cells' dot products with their neighbours, from
     /// which an action's squared norm `|E(p)|^2` follows ([`Self::norm_sq`]);
@@ -213,7 +217,11 @@ impl CellAse {
     }
 
     /// [`Self::new`] where only rotation `only` was embedded (when given):
-    /// the other rotations' cells are zeros and all their actions masked.
+    /// `features` is then that rotation's plane alone (`cells x cells x D`),
+    /// the other rotations' cells read as zeros and all their actions are
+    /// masked. One plane and a shared plane of zeros are kept, not 16 (a
+    /// demonstration step's map is only read at its action's rotation, and
+    /// SSR keeps every step's map of every policy).
     #[allow(clippy::too_many_arguments)]
     pub fn with_rotations(
         primitive: Primitive,
@@ -227,7 +235,20 @@ impl CellAse {
     ) -> Self {
         let plane = resolution * resolution;
         let rotations = taps.cell.len() / plane;
-        assert_eq!(features.len(), rotations * cells * cells * dim);
+        let cell_plane = cells * cells * dim;
+        let features = match only {
+            None => {
+                assert_eq!(features.len(), rotations * cell_plane);
+                features
+            }
+            Some(o) => {
+                assert!(o < rotations, "rotation {o} of {rotations}");
+                assert_eq!(features.len(), cell_plane);
+                let mut both = features;
+                both.resize(2 * cell_plane, 0.0);
+                both
+            }
+        };
         assert_eq!(pixel_mask.len(), plane);
         let mut m = Self {
             primitive,
@@ -236,6 +257,7 @@ impl CellAse {
             dim,
             cells,
             features,
+            only,
             taps,
             grams: Vec::new(),
             mask: Vec::with_capacity(rotations * plane),
@@ -274,7 +296,12 @@ impl CellAse {
     /// The cell vectors of rotation `r`: `cells x cells x D`.
     pub fn plane_cells(&self, r: usize) -> &[f32] {
         let p = self.cells * self.cells * self.dim;
-        &self.features[r * p..(r + 1) * p]
+        assert!(r < self.rotations, "rotation {r} of {}", self.rotations);
+        let k = match self.only {
+            None => r,
+            Some(o) => usize::from(r != o),
+        };
+        &self.features[k * p..(k + 1) * p]
     }
 
     /// Writes the embedding of action `index` (flat `(r * H + y) * W + x`)

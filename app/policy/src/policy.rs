@@ -17,8 +17,8 @@ use crate::net::{FEATURE_RESOLUTION, QNet, TRUNK_STRIDE, param_shapes};
 use crate::rotation::{BackMap, rotate_input_batch, sample_back};
 use crate::tensor_file::{self, F32Tensor};
 
-/// The [`CellAse`] of `rf` (the rotated cells of `hm`, every rotation or
-/// only `only`) under `hm`'s common-sense mask for `primitive`.
+/// The [`CellAse`] of `rf` (the rotated cells of `hm`: every rotation, or
+/// rotation `only`'s alone) under `hm`'s common-sense mask for `primitive`.
 fn cell_ase(
     hm: &Heightmaps,
     primitive: Primitive,
@@ -210,9 +210,7 @@ impl PolicyNet {
         let input = NetInput::from_heightmaps(hm);
         let x = rotate_input_batch(&input, &[rotation]);
         let trunk = crate::infer::InferTrunk::new(self.net(primitive))?;
-        let one = trunk.forward(&x, 1, NET_RESOLUTION);
-        let mut features = vec![0.0f32; NUM_ROTATIONS * one.len()];
-        features[rotation * one.len()..(rotation + 1) * one.len()].copy_from_slice(&one);
+        let features = trunk.forward(&x, 1, NET_RESOLUTION);
         let rf = RotatedFeatures { features, input };
         Ok(cell_ase(hm, primitive, rf, Some(rotation)))
     }

@@ -52,3 +52,35 @@ fn shipped_weights_load_and_differ_between_tasks() {
         }
     }
 }
+
+/// A map embedded at one rotation keeps that rotation's cells and nothing
+/// else: it reads as the all-rotation map there (embeddings, norms, mask) and
+/// as zeros, all masked, at every other rotation.
+#[test]
+fn one_rotation_maps_read_as_the_all_rotation_map_at_their_rotation() {
+    let (_, hm) = scene(112, 5);
+    let policy = PolicyNet::load(&model(TaskId::Stack)).unwrap();
+    for (primitive, r) in [(Primitive::Grasp, 3), (Primitive::Place, 12)] {
+        let all = policy.embed_cells(&hm, primitive).unwrap();
+        let one = policy.embed_cells_rotation(&hm, primitive, r).unwrap();
+        assert_eq!(one.len(), all.len());
+        let plane = one.resolution * one.resolution;
+        for q in 0..one.rotations {
+            if q == r {
+                assert_eq!(one.plane_cells(q), all.plane_cells(q));
+                assert_eq!(
+                    one.mask[q * plane..][..plane],
+                    all.mask[q * plane..][..plane]
+                );
+            } else {
+                assert!(one.plane_cells(q).iter().all(|v| *v == 0.0), "rotation {q}");
+                assert!(one.mask[q * plane..][..plane].iter().all(|m| !m));
+            }
+        }
+        for i in (r * plane..(r + 1) * plane).step_by(37) {
+            assert_eq!(one.feature(i), all.feature(i), "action {i}");
+            assert_eq!(one.norm_sq(i), all.norm_sq(i), "action {i}");
+        }
+        assert_eq!(one.norm_sq(((r + 1) % one.rotations) * plane), 0.0);
+    }
+}

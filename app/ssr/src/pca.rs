@@ -3,43 +3,46 @@
 //! are computed jointly over the live and the demo planes, so the same colour
 //! means the same embedding in both pictures.
 
+/// The principal components are fitted on every `FIT_STRIDE`-th finite pixel
+/// (in plane order); every pixel is then projected on them. Neighbouring
+/// pixels interpolate the same few cell embeddings, so a quarter of them
+/// spans the same directions at a quarter of the cost of the scatter matrix
+/// (the debugger draws this picture at every decision).
+pub const FIT_STRIDE: usize = 4;
+
 /// RGB8 images (`H x W x 3`, row-major) of `planes`, each `H x W x dim`
-/// features: the joint first three principal components, each scaled from its
-/// 1st to its 99th percentile over all planes to 0..=255. Non-finite features
+/// features: the joint first three principal components (fitted on every
+/// [`FIT_STRIDE`]-th finite pixel), each scaled from its 1st to its 99th
+/// percentile over all planes' finite pixels to 0..=255. Non-finite features
 /// are shown black.
 pub fn pca_rgb(planes: &[&[f32]], dim: usize) -> Vec<Vec<u8>> {
     use rayon::prelude::*;
     /// Rows per parallel work item (fixed, so sums do not depend on threads).
     const CHUNK: usize = 1024;
-    let finite_rows: Vec<&[f32]> = planes
+    let rows: Vec<&[f32]> = planes.iter().flat_map(|p| p.chunks_exact(dim)).collect();
+    let finite: Vec<bool> = rows
+        .par_iter()
+        .map(|f| f.iter().all(|v| v.is_finite()))
+        .collect();
+    let fit_rows: Vec<&[f32]> = rows
         .iter()
-        .flat_map(|p| p.chunks_exact(dim))
-        .filter(|f| f.iter().all(|v| v.is_finite()))
+        .zip(&finite)
+        .filter(|(_, ok)| **ok)
+        .map(|(f, _)| *f)
+        .step_by(FIT_STRIDE)
         .collect();
-    let n = finite_rows.len().max(1) as f64;
-    let sums: Vec<Vec<f64>> = finite_rows
-        .par_chunks(CHUNK)
-        .map(|c| {
-            let mut s = vec![0.0f64; dim];
-            for f in c {
-                for (a, v) in s.iter_mut().zip(*f) {
-                    *a += *v as f64;
-                }
-            }
-            s
-        })
-        .collect();
+    let n = fit_rows.len().max(1) as f64;
     let mut mean = vec![0.0f64; dim];
-    for s in &sums {
-        for (m, v) in mean.iter_mut().zip(s) {
-            *m += v;
+    for f in &fit_rows {
+        for (m, v) in mean.iter_mut().zip(*f) {
+            *m += *v as f64;
         }
     }
     for m in &mut mean {
         *m /= n;
     }
     // Upper triangle of the scatter matrix, per chunk, then summed in order.
-    let parts: Vec<Vec<f64>> = finite_rows
+    let parts: Vec<Vec<f64>> = fit_rows
         .par_chunks(CHUNK)
         .map(|rows| seespot_policy::simd::dispatch!(covariance_part(rows, &mean, dim)))
         .collect();
@@ -58,47 +61,89 @@ pub fn pca_rgb(planes: &[&[f32]], dim: usize) -> Vec<Vec<u8>> {
         }
     }
     let components = top_eigenvectors(&mut cov, dim, 3);
-    let project = |f: &[f32]| -> [f64; 3] {
-        let mut out = [0.0f64; 3];
-        for (k, o) in out.iter_mut().enumerate() {
-            *o = f
-                .iter()
-                .zip(&mean)
-                .zip(&components[k])
-                .map(|((v, m), c)| (*v as f64 - m) * c)
-                .sum();
-        }
-        out
-    };
-    // Every finite pixel's three components, in plane order.
-    let projected: Vec<[f64; 3]> = finite_rows.par_iter().map(|f| project(f)).collect();
+    // Projections in f32 (a picture needs no more): `f . c_k - mean . c_k`.
+    let axes: Vec<Vec<f32>> = components
+        .iter()
+        .map(|c| c.iter().map(|v| *v as f32).collect())
+        .collect();
+    let offsets: Vec<f32> = components
+        .iter()
+        .map(|c| c.iter().zip(&mean).map(|(a, b)| a * b).sum::<f64>() as f32)
+        .collect();
+    let projected: Vec<[f32; 3]> = rows
+        .par_chunks(CHUNK)
+        .zip(finite.par_chunks(CHUNK))
+        .flat_map_iter(|(rows, ok)| {
+            seespot_policy::simd::dispatch!(project_rows(rows, ok, &axes, &offsets))
+        })
+        .collect();
     // Per component, the 1st and 99th percentiles over every finite pixel.
-    let ranges: Vec<(f64, f64)> = (0..3)
+    let ranges: Vec<(f32, f32)> = (0..3)
         .map(|k| {
-            let mut v: Vec<f64> = projected.iter().map(|p| p[k]).collect();
+            let mut v: Vec<f32> = projected
+                .iter()
+                .zip(&finite)
+                .filter(|(_, ok)| **ok)
+                .map(|(p, _)| p[k])
+                .collect();
             if v.is_empty() {
                 return (0.0, 1.0);
             }
-            v.sort_by(f64::total_cmp);
-            let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
+            let mut at = |q: f64| {
+                let i = ((v.len() - 1) as f64 * q).round() as usize;
+                *v.select_nth_unstable_by(i, f32::total_cmp).1
+            };
             let (lo, hi) = (at(0.01), at(0.99));
             (lo, if hi > lo { hi } else { lo + 1.0 })
         })
         .collect();
-    let mut next = projected.iter();
+    let mut at = 0;
     planes
         .iter()
         .map(|p| {
-            let mut out = Vec::with_capacity(p.len() / dim * 3);
-            for f in p.chunks_exact(dim) {
-                let finite = f.iter().all(|v| v.is_finite());
-                let proj = if finite { next.next() } else { None };
+            let count = p.len() / dim;
+            let mut out = Vec::with_capacity(count * 3);
+            for (c, ok) in projected[at..at + count]
+                .iter()
+                .zip(&finite[at..at + count])
+            {
                 for (k, (lo, hi)) in ranges.iter().enumerate() {
-                    out.push(match proj {
-                        Some(c) => ((c[k] - lo) / (hi - lo) * 255.0).clamp(0.0, 255.0) as u8,
-                        None => 0,
+                    out.push(if *ok {
+                        ((c[k] - lo) / (hi - lo) * 255.0).clamp(0.0, 255.0) as u8
+                    } else {
+                        0
                     });
                 }
+            }
+            at += count;
+            out
+        })
+        .collect()
+}
+
+/// Each row's three projections `f . axes[k] - offsets[k]` (zeros where the
+/// row is not finite), summed in 16 lanes.
+#[inline(always)]
+fn project_rows(rows: &[&[f32]], ok: &[bool], axes: &[Vec<f32>], offsets: &[f32]) -> Vec<[f32; 3]> {
+    const LANES: usize = 16;
+    rows.iter()
+        .zip(ok)
+        .map(|(f, ok)| {
+            let mut out = [0.0f32; 3];
+            if !ok {
+                return out;
+            }
+            for (k, o) in out.iter_mut().enumerate() {
+                let mut acc = [0.0f32; LANES];
+                let (fc, ac) = (f.chunks_exact(LANES), axes[k].chunks_exact(LANES));
+                let (fr, ar) = (fc.remainder(), ac.remainder());
+                for (a, b) in fc.zip(ac) {
+                    for l in 0..LANES {
+                        acc[l] += a[l] * b[l];
+                    }
+                }
+                let tail: f32 = fr.iter().zip(ar).map(|(a, b)| a * b).sum();
+                *o = acc.iter().sum::<f32>() + tail - offsets[k];
             }
             out
         })

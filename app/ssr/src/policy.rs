@@ -231,8 +231,23 @@ impl SsrPolicy {
         self.last.as_ref().map(|(_, _, _, d)| d)
     }
 
-    /// The demo's ASEs for (policy, demo, step), computed once per trial, at
-    /// the step's action rotation only (the one every use reads).
+    /// Embeds every step of every demonstration with every policy now,
+    /// instead of at the first decision that needs each (the debugger does
+    /// this when it loads, so no Embed phase pays for the demonstrations).
+    pub fn prepare_demos(&mut self) -> Result<(), SsrError> {
+        for m in 0..self.policies.len() {
+            for d in 0..self.demos.len() {
+                for s in 0..self.demos[d].steps.len() {
+                    self.demo_map(m, d, s)?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The demo's ASEs for (policy, demo, step), computed once (until the
+    /// policies change), at the step's action rotation only (the one every
+    /// use reads).
     pub fn demo_map(
         &mut self,
         policy: usize,
@@ -262,10 +277,7 @@ impl SsrPolicy {
                 );
                 map.set_rotation_mask(s.meta.action.rotation, &mask);
             }
-            // Keep memory bounded: a trial needs at most a few progress levels at once.
-            if self.demo_cache.len() >= 4 * self.policies.len() * self.demos.len() {
-                self.demo_cache.clear();
-            }
+            // At most M x (steps of every demo) maps, each one rotation's cells.
             self.demo_cache.insert(key, map);
         }
         Ok(&self.demo_cache[&key])
@@ -551,18 +563,16 @@ impl SsrPolicy {
         if demo >= self.demos.len() || step >= self.demos[demo].steps.len() {
             return Err(SsrError::Invalid(format!("no demo {demo} step {step}")));
         }
-        let live = self
-            .live
-            .get(policy)
-            .ok_or_else(|| SsrError::Invalid(format!("no live embedding of policy {policy} yet")))?
-            .clone();
+        let live = self.live.get(policy).ok_or_else(|| {
+            SsrError::Invalid(format!("no live embedding of policy {policy} yet"))
+        })?;
         let dim = live.dim;
         if live_rotation >= live.rotations {
             return Err(SsrError::Invalid(format!("no rotation {live_rotation}")));
         }
+        let a = live.plane(live_rotation);
         let demo_rotation = self.demos[demo].steps[step].meta.action.rotation;
-        let demo_map = self.demo_map(policy, demo, step)?;
-        let (a, b) = (live.plane(live_rotation), demo_map.plane(demo_rotation));
+        let b = self.demo_map(policy, demo, step)?.plane(demo_rotation);
         let mut rgb = crate::pca::pca_rgb(&[&a, &b], dim).into_iter();
         match (rgb.next(), rgb.next()) {
             (Some(l), Some(d)) => Ok((l, d)),

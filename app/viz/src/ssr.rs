@@ -30,7 +30,7 @@ pub fn load_with(
     world: WorldConfig,
     config: SsrConfig,
 ) -> anyhow::Result<(Box<dyn Decider>, String)> {
-    let policy = SsrPolicy::load(task, models_dir, demos_dir, config).with_context(|| {
+    let mut policy = SsrPolicy::load(task, models_dir, demos_dir, config).with_context(|| {
         format!(
             "cannot load SSR for {} from {} and {}",
             task.as_str(),
@@ -46,6 +46,10 @@ pub fn load_with(
             d.meta.resolution
         );
     }
+    // The demonstrations' embeddings now, not in the first Embed phases.
+    policy
+        .prepare_demos()
+        .context("cannot embed the demonstrations")?;
     let note = format!(
         "policies {} from {}, demos from {}",
         policy
