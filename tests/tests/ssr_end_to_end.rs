@@ -19,12 +19,12 @@ fn demos(task: TaskId) -> Vec<Demo> {
 }
 
 /// Every shipped demonstration action lies inside the test-time mask of its
-/// own state (the reference zeroed the embeddings outside it), except the
-/// row places: no spacing of 5 cm blocks puts a place within row's 5 cm
-/// dilation of another block's pixels (results/README.md, Known gaps). The
-/// test pins exactly that set, so a new demo or mask outside it fails.
+/// own state (the reference zeroed the embeddings outside it, so the rematch
+/// could not return to an action outside). Row's places need the oracle's
+/// mask-aware search (`Oracle::act_within`): its 5 cm dilation reaches 24 mm
+/// past a block's pixels, less than half a block.
 #[test]
-fn shipped_demo_actions_lie_inside_their_test_time_masks_except_row_places() {
+fn shipped_demo_actions_lie_inside_their_test_time_masks() {
     use seespot_ssr::correspond::reference::ssr_mask;
     let (mut steps, mut outside) = (0, Vec::new());
     for task in TaskId::ALL {
@@ -42,12 +42,7 @@ fn shipped_demo_actions_lie_inside_their_test_time_masks_except_row_places() {
     }
     // Stack and unstack take 6 actions, row and vertical square 4 from their starts.
     assert_eq!(steps, 2 * (6 + 6 + 4 + 4), "shipped demo steps");
-    let row_places = outside
-        .iter()
-        .filter(|(t, _, _, p)| *t == TaskId::Row && *p == Primitive::Place)
-        .count();
-    assert_eq!(row_places, 4, "row places outside: {outside:?}");
-    assert_eq!(outside.len(), 4, "outside their masks: {outside:?}");
+    assert!(outside.is_empty(), "outside their masks: {outside:?}");
 }
 
 fn untrained_policies(task: TaskId) -> Vec<(TaskId, PolicyNet)> {

@@ -42,7 +42,7 @@ pub fn run(cmd: DemoCommand) -> anyhow::Result<()> {
                 grid: Grid::new(resolution),
                 ..Default::default()
             };
-            let demo = Demo::record(task, seed, config)?;
+            let demo = seespot_ssr::correspond::reference::record_demo(task, seed, config)?;
             let last = demo.steps.last().map_or(0, |s| s.meta.progress_after);
             demo.write(&out)
                 .with_context(|| format!("writing {}", out.display()))?;

@@ -97,12 +97,32 @@ fn invalid(path: &Path, message: impl Into<String>) -> DemoError {
     }
 }
 
+/// The place mask a recorded demonstration keeps its places inside, where
+/// the oracle can ([`crate::Oracle::act_within`]).
+pub struct PlaceMask<'a> {
+    /// The mask (`H x W`) of a scene's heightmaps, as stored.
+    pub of: &'a dyn Fn(&Heightmaps) -> Vec<bool>,
+    /// How many pixels each way it dilates the object pixels by.
+    pub reach: usize,
+}
+
 impl Demo {
     /// Records the scripted oracle on the task's test start from `seed`: the
     /// noise-free heightmaps before each action (depth rounded to the stored
     /// unit), the action, its pose, progress and the block poses. Fails when the
     /// oracle reverses progress or does not finish.
     pub fn record(task: TaskId, seed: u64, config: crate::WorldConfig) -> Result<Self, DemoError> {
+        Self::record_within(task, seed, config, None)
+    }
+
+    /// [`Self::record`], the oracle keeping its places inside `mask` where it
+    /// can ([`crate::Oracle::act_within`]).
+    pub fn record_within(
+        task: TaskId,
+        seed: u64,
+        config: crate::WorldConfig,
+        mask: Option<&PlaceMask<'_>>,
+    ) -> Result<Self, DemoError> {
         let mut trial = crate::Trial::new(config, task, seed);
         let mut oracle = crate::Oracle::new(task);
         let mut meta = DemoMeta::new(task, seed, config.grid);
@@ -116,7 +136,10 @@ impl Demo {
             let mut heightmaps = trial.world().render();
             quantize_depth(&mut heightmaps);
             let blocks_before = trial.world().table_blocks();
-            let action = oracle.act(trial.world());
+            let action = match mask {
+                Some(m) => oracle.act_within(trial.world(), &(m.of)(&heightmaps), m.reach),
+                None => oracle.act(trial.world()),
+            };
             let rec = trial.step(action);
             if rec.progress_after < rec.progress_before {
                 return Err(fail(format!("reversed progress at step {}", steps.len())));

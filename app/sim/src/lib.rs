@@ -46,7 +46,7 @@ pub mod world;
 
 pub use action::{Action, NUM_ROTATIONS, Primitive};
 pub use actor::{Actor, ActorError, Choice, ChosenPair, run_trial, run_trials};
-pub use demo::{Demo, DemoError, DemoMeta, DemoStep};
+pub use demo::{Demo, DemoError, DemoMeta, DemoStep, PlaceMask};
 pub use heightmap::Heightmaps;
 pub use metrics::{Summary, summarize};
 pub use noise::SensorNoise;

@@ -397,3 +397,173 @@ fn plan_vertical_square(poses: &[BlockPose; NUM_BLOCKS]) -> (usize, (f32, f32, f
     let b = poses[base];
     (pick, (b.position[0], b.position[1], b.yaw()))
 }
+
+/// Clearance kept between a block set down by [`Oracle::act_within`] and
+/// every other block, metres (faces never touch, so a row's neighbours stay
+/// more than [`progress::ROW_MIN_SPACING`] apart).
+pub const PLACE_GAP: f32 = 0.0015;
+
+/// How far a block set down by [`Oracle::act_within`] may land from its
+/// target, each way in x and y, and still lengthen the row, metres.
+pub const PLACE_SLACK: f32 = 0.002;
+
+/// Whether two upright squares of side [`BLOCK_SIZE`] at `(c, yaw)` keep at
+/// least `gap` between them (separating axes: the four face normals).
+fn squares_apart(a: (f32, f32), a_yaw: f32, b: (f32, f32), b_yaw: f32, gap: f32) -> bool {
+    let half = BLOCK_SIZE / 2.0;
+    let d = (b.0 - a.0, b.1 - a.1);
+    [a_yaw, b_yaw].into_iter().any(|base| {
+        (0..2).any(|k| {
+            let t = base + k as f32 * std::f32::consts::FRAC_PI_2;
+            let axis = (t.cos(), t.sin());
+            // Each square's half extent along `axis`.
+            let extent = |yaw: f32| {
+                let r = yaw - t;
+                half * (r.cos().abs() + r.sin().abs())
+            };
+            (d.0 * axis.0 + d.1 * axis.1).abs() >= extent(a_yaw) + extent(b_yaw) + gap
+        })
+    })
+}
+
+/// Pixels whose centre lies on the top of a block of `poses` (except
+/// `skip`), dilated by `reach` pixels each way: the place mask a scene with
+/// those blocks will have, predicted from the poses.
+fn predicted_place_mask(
+    grid: Grid,
+    poses: &[BlockPose],
+    skip: &[usize],
+    reach: usize,
+) -> Vec<bool> {
+    let n = grid.resolution;
+    let half = BLOCK_SIZE / 2.0;
+    let mut objects = vec![false; n * n];
+    for (i, p) in poses.iter().enumerate() {
+        if skip.contains(&i) {
+            continue;
+        }
+        let (yaw, (cx, cy)) = (p.yaw(), xy(p));
+        for (k, o) in objects.iter_mut().enumerate() {
+            let (x, y) = grid.pixel_to_world(k / n, k % n);
+            let (dx, dy) = (x - cx, y - cy);
+            let (u, v) = (
+                dx * yaw.cos() + dy * yaw.sin(),
+                -dx * yaw.sin() + dy * yaw.cos(),
+            );
+            if u.abs() < half && v.abs() < half {
+                *o = true;
+            }
+        }
+    }
+    let mut out = vec![false; n * n];
+    for (k, o) in out.iter_mut().enumerate() {
+        let (y, x) = (k / n, k % n);
+        *o = (y.saturating_sub(reach)..=(y + reach).min(n - 1)).any(|yy| {
+            (x.saturating_sub(reach)..=(x + reach).min(n - 1)).any(|xx| objects[yy * n + xx])
+        });
+    }
+    out
+}
+
+/// Every place of block `held` (set down `offset` to the side of the
+/// gripper) at an allowed pixel that keeps [`PLACE_GAP`] to the other blocks
+/// and lengthens the longest row by one block (by one progress level, as
+/// every oracle step does), wherever within [`PLACE_SLACK`] the block lands:
+/// the action and the poses it should leave.
+fn row_places(
+    grid: Grid,
+    poses: &[BlockPose; NUM_BLOCKS],
+    held: usize,
+    offset: f32,
+    allowed: &[bool],
+) -> Vec<(Action, [BlockPose; NUM_BLOCKS])> {
+    let n = grid.resolution;
+    let others: Vec<usize> = (0..NUM_BLOCKS).filter(|&i| i != held).collect();
+    let rest: Vec<BlockPose> = others.iter().map(|&i| poses[i]).collect();
+    let before = progress::longest_row(&rest);
+    let lim = WORKSPACE_SIZE / 2.0 - EDGE_MARGIN;
+    let mut out = Vec::new();
+    for (k, _) in allowed.iter().enumerate().filter(|(_, a)| **a) {
+        let (py, px) = (k / n, k % n);
+        let (x, y) = grid.pixel_to_world(py, px);
+        for r in 0..crate::action::NUM_ROTATIONS / 4 {
+            let yaw = crate::action::rotation_angle(r);
+            let c = (x - offset * yaw.sin(), y + offset * yaw.cos());
+            if c.0.abs() > lim || c.1.abs() > lim {
+                continue;
+            }
+            if !others
+                .iter()
+                .all(|&j| squares_apart(c, yaw, xy(&poses[j]), poses[j].yaw(), PLACE_GAP))
+            {
+                continue;
+            }
+            // A row however the block settles within PLACE_SLACK of the target.
+            let row_at = |dx: f32, dy: f32| {
+                let mut after = *poses;
+                after[held] = BlockPose::on_table(c.0 + dx, c.1 + dy, 0, yaw);
+                (progress::longest_row(&after) == before + 1).then_some(after)
+            };
+            let e = PLACE_SLACK;
+            let robust = [(e, e), (e, -e), (-e, e), (-e, -e)]
+                .iter()
+                .all(|&(dx, dy)| row_at(dx, dy).is_some());
+            if let Some(after) = row_at(0.0, 0.0).filter(|_| robust) {
+                out.push((Action::new(Primitive::Place, r, py, px), after));
+            }
+        }
+    }
+    out
+}
+
+/// Whether the row in `poses` can be completed by places inside the place
+/// masks predicted from the poses (`reach` pixels of dilation), moving each
+/// time a block outside the longest row (held at the gripper's axis).
+fn row_completable(grid: Grid, poses: &[BlockPose; NUM_BLOCKS], reach: usize) -> bool {
+    let row = progress::best_row(poses);
+    if row.len() >= NUM_BLOCKS {
+        return true;
+    }
+    (0..NUM_BLOCKS).filter(|i| !row.contains(i)).any(|m| {
+        let mask = predicted_place_mask(grid, poses, &[m], reach);
+        row_places(grid, poses, m, 0.0, &mask)
+            .iter()
+            .any(|(_, after)| row_completable(grid, after, reach))
+    })
+}
+
+impl Oracle {
+    /// [`Self::act`], with a row's places kept inside `place_allowed` (`H x W`,
+    /// the place mask of the scene in hand, e.g. SSR's test-time mask, whose
+    /// object pixels are dilated by `reach` pixels) where a place there
+    /// lengthens the row: preferring one after which the row can still be
+    /// completed inside the masks predicted from the poses, then the one
+    /// nearest the workspace centre. Grasps, other tasks, and rows with no
+    /// such place are [`Self::act`]'s.
+    pub fn act_within(&mut self, world: &World, place_allowed: &[bool], reach: usize) -> Action {
+        let action = self.act(world);
+        let Some(held) = world.held_block() else {
+            return action;
+        };
+        if self.task != TaskId::Row || action.primitive != Primitive::Place {
+            return action;
+        }
+        let grid = world.grid();
+        let places = row_places(
+            grid,
+            &world.block_poses(),
+            held,
+            world.held_offset(),
+            place_allowed,
+        );
+        let centre = |after: &[BlockPose; NUM_BLOCKS]| dist(xy(&after[held]), (0.0, 0.0));
+        let mut sorted: Vec<&(Action, [BlockPose; NUM_BLOCKS])> = places.iter().collect();
+        sorted.sort_by(|a, b| centre(&a.1).total_cmp(&centre(&b.1)));
+        sorted
+            .iter()
+            .find(|(_, after)| row_completable(grid, after, reach))
+            .or(sorted.first())
+            .map(|p| p.0)
+            .unwrap_or(action)
+    }
+}

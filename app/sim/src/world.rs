@@ -310,6 +310,12 @@ impl World {
         self.held
     }
 
+    /// How far the block in hand sits from the gripper's axis, across its
+    /// jaws, metres (a place sets the block down this far to the side).
+    pub fn held_offset(&self) -> f32 {
+        self.held_offset
+    }
+
     /// The primitive the next action must use: grasp with an empty hand, else place.
     pub fn next_primitive(&self) -> Primitive {
         if self.held.is_some() {

@@ -456,7 +456,7 @@ pub fn record_demo(
     let seeds = Seeds::new(seed, DEMO_SEED_TRIES)?;
     let mut last = None;
     for s in seeds.iter().filter(|s| !taken.contains(s)) {
-        match Demo::record(task, s, config) {
+        match seespot_ssr::correspond::reference::record_demo(task, s, config) {
             Ok(d) => return Ok(d),
             Err(e) => last = Some(e),
         }

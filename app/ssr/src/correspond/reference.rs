@@ -75,12 +75,33 @@ pub fn ssr_mask(hm: &Heightmaps, primitive: Primitive, task: TaskId) -> Vec<bool
         Primitive::Grasp => objects,
         Primitive::Place => match place_dilation(task) {
             None => vec![true; objects.len()],
-            Some(side) => {
-                let half = (side / 2.0 / hm.grid.pixel_size()).round() as usize;
+            Some(_) => {
+                let half = place_reach_pixels(task, hm.grid.pixel_size()).unwrap_or(0);
                 dilate(&objects, hm.resolution(), half)
             }
         },
     }
+}
+
+/// How many pixels (of side `pixel` metres) each way test task `task`'s
+/// place mask reaches past an object pixel; `None` where it has no place mask.
+pub fn place_reach_pixels(task: TaskId, pixel: f32) -> Option<usize> {
+    place_dilation(task).map(|side| (side / 2.0 / pixel).round() as usize)
+}
+
+/// Records the oracle's demonstration of `task` from `seed`, its places kept
+/// inside the test-time place mask of `task` ([`ssr_mask`]) wherever the
+/// oracle can keep them there (rows: [`seespot_sim::Oracle::act_within`]), so
+/// that the rematch can return to every demonstrated action.
+pub fn record_demo(
+    task: TaskId,
+    seed: u64,
+    config: seespot_sim::WorldConfig,
+) -> Result<seespot_sim::Demo, seespot_sim::DemoError> {
+    let of = |hm: &Heightmaps| ssr_mask(hm, Primitive::Place, task);
+    let mask = place_reach_pixels(task, config.grid.pixel_size())
+        .map(|reach| seespot_sim::PlaceMask { of: &of, reach });
+    seespot_sim::Demo::record_within(task, seed, config, mask.as_ref())
 }
 
 /// Sigma of [`SMOOTH_SIGMA`] in pixels of side `pixel` metres.
