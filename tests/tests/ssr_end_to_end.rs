@@ -45,6 +45,32 @@ fn shipped_demo_actions_lie_inside_their_test_time_masks() {
     assert!(outside.is_empty(), "outside their masks: {outside:?}");
 }
 
+/// The oracle keeps row's places inside the test-time mask from other
+/// starts too, one more block in the row with every place.
+#[test]
+fn row_demos_recorded_from_other_starts_keep_their_places_inside_the_mask() {
+    use seespot_ssr::correspond::reference::{record_demo, ssr_mask};
+    for seed in (4..=24).step_by(4) {
+        let demo = record_demo(TaskId::Row, seed, seespot_sim::WorldConfig::default())
+            .unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        for (i, step) in demo.steps.iter().enumerate() {
+            let a = step.meta.action;
+            let n = step.heightmaps.resolution();
+            assert!(
+                ssr_mask(&step.heightmaps, a.primitive, TaskId::Row)[a.y * n + a.x],
+                "seed {seed} step {i}: {a:?} outside its mask"
+            );
+            if a.primitive == Primitive::Place {
+                assert_eq!(
+                    step.meta.progress_after,
+                    step.meta.progress_before + 1,
+                    "seed {seed} step {i}"
+                );
+            }
+        }
+    }
+}
+
 fn untrained_policies(task: TaskId) -> Vec<(TaskId, PolicyNet)> {
     TaskId::ALL
         .into_iter()
