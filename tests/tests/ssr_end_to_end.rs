@@ -466,3 +466,41 @@ fn the_review_of_the_committed_results_counts_every_record() {
     }
     assert!(trials.iter().all(|t| t.success == t.failure.is_none()));
 }
+
+/// Every committed trial record (`results/trials/` and `results/pure-rl/`)
+/// names the model and demonstration files it was made with by checksums
+/// that match the shipped files, and records of one file agree on them.
+#[test]
+fn committed_records_carry_the_checksums_of_the_shipped_files() {
+    use seespot_ssr::eval::sha256_file;
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let mut known = std::collections::BTreeMap::<String, String>::new();
+    let (mut records, mut files_checked) = (0, 0);
+    for dir in ["results/trials", "results/pure-rl/trials"] {
+        for m in std::fs::read_dir(root.join(dir)).expect("trials") {
+            for f in std::fs::read_dir(m.expect("method").path()).expect("method dir") {
+                let path = f.expect("file").path();
+                if path.extension().is_none_or(|e| e != "jsonl") {
+                    continue;
+                }
+                for r in seespot_sim::record::read_records(&path).expect("records") {
+                    records += 1;
+                    let p = r.provenance.unwrap_or_else(|| {
+                        panic!("{}: a record without provenance", path.display())
+                    });
+                    for (file, sum) in p.files {
+                        let want = known.entry(file.clone()).or_insert_with(|| {
+                            files_checked += 1;
+                            sha256_file(&root.join(&file))
+                                .unwrap_or_else(|e| panic!("{}: {file}: {e}", path.display()))
+                        });
+                        assert_eq!(&sum, want, "{}: {file}", path.display());
+                    }
+                }
+            }
+        }
+    }
+    // Eleven methods of 200 trials, and SSR CCD with the pure-RL policies.
+    assert!(records >= 12 * 200, "{records} records");
+    assert!(files_checked > 0);
+}
