@@ -22,27 +22,7 @@ pub fn object_mask(hm: &Heightmaps) -> Vec<bool> {
     hm.depth.iter().map(|&d| d > OBJECT_HEIGHT).collect()
 }
 
-/// Square dilation of an `n x n` mask by `k` pixels (separable max): a pixel is
-/// set when any pixel within Chebyshev distance `k` is.
-pub fn dilate(mask: &[bool], n: usize, k: usize) -> Vec<bool> {
-    let mut rows = vec![false; n * n];
-    for y in 0..n {
-        for x in 0..n {
-            let lo = x.saturating_sub(k);
-            let hi = (x + k).min(n - 1);
-            rows[y * n + x] = mask[y * n + lo..=y * n + hi].iter().any(|&b| b);
-        }
-    }
-    let mut out = vec![false; n * n];
-    for y in 0..n {
-        let lo = y.saturating_sub(k);
-        let hi = (y + k).min(n - 1);
-        for x in 0..n {
-            out[y * n + x] = (lo..=hi).any(|yy| rows[yy * n + x]);
-        }
-    }
-    out
-}
+pub use seespot_sim::heightmap::dilate;
 
 /// The common-sense mask of `primitive` in `hm`: `H x W`, true where allowed.
 pub fn common_sense_mask(hm: &Heightmaps, primitive: Primitive) -> Vec<bool> {

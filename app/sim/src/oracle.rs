@@ -455,14 +455,7 @@ fn predicted_place_mask(
             }
         }
     }
-    let mut out = vec![false; n * n];
-    for (k, o) in out.iter_mut().enumerate() {
-        let (y, x) = (k / n, k % n);
-        *o = (y.saturating_sub(reach)..=(y + reach).min(n - 1)).any(|yy| {
-            (x.saturating_sub(reach)..=(x + reach).min(n - 1)).any(|xx| objects[yy * n + xx])
-        });
-    }
-    out
+    crate::heightmap::dilate(&objects, n, reach)
 }
 
 /// Every place of block `held` (set down `offset` to the side of the

@@ -82,14 +82,30 @@ impl Correspondence {
     }
 }
 
+/// The one of `all` called `s` by `name`, or an error that names `what` was
+/// looked for and the choices.
+fn parse_named<T: Copy>(
+    s: &str,
+    all: &[T],
+    name: fn(T) -> &'static str,
+    what: &str,
+) -> Result<T, String> {
+    all.iter().copied().find(|c| name(*c) == s).ok_or_else(|| {
+        let names: Vec<&str> = all.iter().map(|c| name(*c)).collect();
+        format!("unknown {what} '{s}' (expected {})", names.join(" or "))
+    })
+}
+
 impl std::str::FromStr for Correspondence {
     type Err = String;
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        [Self::Reference, Self::Plain]
-            .into_iter()
-            .find(|c| c.as_str() == s)
-            .ok_or_else(|| format!("unknown correspondence '{s}' (expected reference or plain)"))
+        parse_named(
+            s,
+            &[Self::Reference, Self::Plain],
+            Self::as_str,
+            "correspondence",
+        )
     }
 }
 
@@ -144,10 +160,12 @@ impl std::str::FromStr for Smoothing {
     type Err = String;
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        [Self::Reference, Self::Normalized]
-            .into_iter()
-            .find(|c| c.as_str() == s)
-            .ok_or_else(|| format!("unknown smoothing '{s}' (expected reference or normalized)"))
+        parse_named(
+            s,
+            &[Self::Reference, Self::Normalized],
+            Self::as_str,
+            "smoothing",
+        )
     }
 }
 
@@ -178,10 +196,12 @@ impl std::str::FromStr for DemoFeatures {
     type Err = String;
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        [Self::Zeroed, Self::Real]
-            .into_iter()
-            .find(|c| c.as_str() == s)
-            .ok_or_else(|| format!("unknown demo features '{s}' (expected zeroed or real)"))
+        parse_named(
+            s,
+            &[Self::Zeroed, Self::Real],
+            Self::as_str,
+            "demo features",
+        )
     }
 }
 

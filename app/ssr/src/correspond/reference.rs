@@ -73,12 +73,9 @@ pub fn ssr_mask(hm: &Heightmaps, primitive: Primitive, task: TaskId) -> Vec<bool
     let objects: Vec<bool> = hm.depth.iter().map(|&d| d > OBJECT_HEIGHT).collect();
     match primitive {
         Primitive::Grasp => objects,
-        Primitive::Place => match place_dilation(task) {
+        Primitive::Place => match place_reach_pixels(task, hm.grid.pixel_size()) {
             None => vec![true; objects.len()],
-            Some(_) => {
-                let half = place_reach_pixels(task, hm.grid.pixel_size()).unwrap_or(0);
-                dilate(&objects, hm.resolution(), half)
-            }
+            Some(half) => dilate(&objects, hm.resolution(), half),
         },
     }
 }
