@@ -31,7 +31,17 @@ use crate::rotation::{BackMap, bilinear_taps};
 pub struct Taps {
     pub cell: Vec<u32>,
     pub weight: Vec<[f32; 4]>,
+    /// The weights by corner (`by_corner[k][i] = weight[i][k]`), each followed
+    /// by [`RUN_LANES`] zeros, so a block of lanes reads contiguous memory.
+    by_corner: [Vec<f32>; 4],
+    /// The columns where each row's runs of actions with one upper-left cell
+    /// start; row `r * H + y`'s are `run_starts[run_rows[row]..run_rows[row + 1]]`.
+    run_starts: Vec<u32>,
+    run_rows: Vec<u32>,
 }
+
+/// Lanes of the run blocks of [`row_distances_lanes`].
+const RUN_LANES: usize = 8;
 
 /// The four cells a tap at upper-left cell `a` reads in a `cells x cells`
 /// plane, as [`bilinear_taps`] orders them.
@@ -61,7 +71,29 @@ impl Taps {
                     w[x] = t;
                 }
             });
-        Self { cell, weight }
+        let by_corner = std::array::from_fn(|k| {
+            let mut v: Vec<f32> = weight.iter().map(|w| w[k]).collect();
+            v.resize(n + RUN_LANES, 0.0);
+            v
+        });
+        let mut run_starts = Vec::new();
+        let mut run_rows = Vec::with_capacity(rotations * h + 1);
+        for row in cell.chunks_exact(h) {
+            run_rows.push(run_starts.len() as u32);
+            for x in 0..h {
+                if x == 0 || row[x] != row[x - 1] {
+                    run_starts.push(x as u32);
+                }
+            }
+        }
+        run_rows.push(run_starts.len() as u32);
+        Self {
+            cell,
+            weight,
+            by_corner,
+            run_starts,
+            run_rows,
+        }
     }
 
     /// The taps of the geometry `map` at `h` px (computed once per geometry).
@@ -125,19 +157,20 @@ impl CellGram {
     /// `w`.
     #[inline(always)]
     fn norm_sq(&self, a: u32, w: [f32; 4]) -> f32 {
-        let g = &self.records[a as usize];
-        let cross = w[0] * w[1] * g[4]
-            + w[2] * w[3] * g[5]
-            + w[0] * w[2] * g[6]
-            + w[1] * w[3] * g[7]
-            + w[0] * w[3] * g[8]
-            + w[1] * w[2] * g[9];
-        w[0] * w[0] * g[0]
-            + w[1] * w[1] * g[1]
-            + w[2] * w[2] * g[2]
-            + w[3] * w[3] * g[3]
-            + 2.0 * cross
+        gram_norm(&self.records[a as usize], w)
     }
+}
+
+/// `|E|^2` of an action with tap weights `w` at a cell with Gram record `g`.
+#[inline(always)]
+fn gram_norm(g: &[f32; 10], w: [f32; 4]) -> f32 {
+    let cross = w[0] * w[1] * g[4]
+        + w[2] * w[3] * g[5]
+        + w[0] * w[2] * g[6]
+        + w[1] * w[3] * g[7]
+        + w[0] * w[3] * g[8]
+        + w[1] * w[2] * g[9];
+    w[0] * w[0] * g[0] + w[1] * w[1] * g[1] + w[2] * w[2] * g[2] + w[3] * w[3] * g[3] + 2.0 * cross
 }
 
 /// `|E - q|^2 = |E|^2 - 2 E.q + |q|^2` (clamped at 0) of an action with
@@ -147,6 +180,99 @@ impl CellGram {
 fn tap_distance_sq(norm: f32, w: [f32; 4], dots: [f32; 4], qn: f32) -> f32 {
     let eq = w[0] * dots[0] + w[1] * dots[1] + w[2] * dots[2] + w[3] * dots[3];
     (norm - 2.0 * eq + qn).max(0.0)
+}
+
+/// What every action of a row needs besides its taps: the query terms and
+/// how masked actions read ([`CellAse::plane_distances_sq_many`]).
+struct RowRun<'a> {
+    masked: Masked,
+    gram: Option<&'a CellGram>,
+    dots: &'a [Vec<[f32; 4]>],
+    qn: &'a [f32],
+}
+
+crate::simd::kernel! {
+    /// One row's squared distances to every query (`out[k]` for query `k`;
+    /// masked actions as `run.masked` says), in the widest vector
+    /// instructions the CPU has; `scratch` holds `W + RUN_LANES` per query.
+    fn row_distances(
+        run: &RowRun,
+        taps: &Taps,
+        row: usize,
+        mask: &[bool],
+        scratch: &mut [f32],
+        out: &mut [&mut [f32]],
+    ) = row_distances_lanes
+}
+
+/// [`tap_distance_sq`] (and [`CellGram::norm_sq`]) for a row of actions: per
+/// run of actions with one upper-left cell (whose Gram record and dot
+/// products every lane shares), [`RUN_LANES`] actions at a time, each lane
+/// computing the same products and sums, in the same order, as the
+/// one-action functions, so every value is the same bit for bit. A block
+/// may reach past its run's end (into the row's padding at the last run):
+/// the next run's blocks overwrite those lanes, and a skipped run is all
+/// masked.
+#[inline(always)]
+fn row_distances_lanes(
+    run: &RowRun,
+    taps: &Taps,
+    row: usize,
+    mask: &[bool],
+    scratch: &mut [f32],
+    out: &mut [&mut [f32]],
+) {
+    let n = mask.len();
+    let real = run.masked == Masked::Real;
+    let base = row * n;
+    let runs = &taps.run_starts[taps.run_rows[row] as usize..taps.run_rows[row + 1] as usize];
+    let zero = [0.0f32; 10];
+    for (j, &start) in runs.iter().enumerate() {
+        let start = start as usize;
+        let end = runs.get(j + 1).map_or(n, |&e| e as usize);
+        if !real && !mask[start..end].contains(&true) {
+            continue;
+        }
+        let a = taps.cell[base + start] as usize;
+        let rec = run.gram.map_or(&zero, |g| &g.records[a]);
+        let mut x = start;
+        while x < end {
+            let at = base + x..base + x + RUN_LANES;
+            let w0 = &taps.by_corner[0][at.clone()];
+            let w1 = &taps.by_corner[1][at.clone()];
+            let w2 = &taps.by_corner[2][at.clone()];
+            let w3 = &taps.by_corner[3][at];
+            let mut norm = [0.0f32; RUN_LANES];
+            if run.gram.is_some() {
+                for l in 0..RUN_LANES {
+                    norm[l] = gram_norm(rec, [w0[l], w1[l], w2[l], w3[l]]);
+                }
+            }
+            for ((dots, &qn), s) in run
+                .dots
+                .iter()
+                .zip(run.qn)
+                .zip(scratch.chunks_exact_mut(n + RUN_LANES))
+            {
+                let d = dots[a];
+                let s = &mut s[x..x + RUN_LANES];
+                for l in 0..RUN_LANES {
+                    s[l] = tap_distance_sq(norm[l], [w0[l], w1[l], w2[l], w3[l]], d, qn);
+                }
+            }
+            x += RUN_LANES;
+        }
+    }
+    for ((o, s), &qn) in out
+        .iter_mut()
+        .zip(scratch.chunks_exact(n + RUN_LANES))
+        .zip(run.qn)
+    {
+        let m = run.masked.value(qn);
+        for ((o, &s), &keep) in o.iter_mut().zip(s).zip(mask) {
+            *o = if keep || real { s } else { m };
+        }
+    }
 }
 
 /// What a distance to a masked action is.
@@ -339,10 +465,30 @@ impl CellAse {
 
     /// `c . q` for every cell of rotation `r`.
     pub fn cell_dots(&self, r: usize, q: &[f32]) -> Vec<f32> {
-        self.plane_cells(r)
-            .chunks_exact(self.dim)
-            .map(|c| c.iter().zip(q).map(|(a, b)| a * b).sum())
-            .collect()
+        // Eight cells side by side, each summed in order over the channels
+        // from -0.0 (as `Sum` for f32 does), so the sums do not wait on each
+        // other and equal one `dot` at a time bit for bit.
+        const SIDE: usize = 8;
+        let d = self.dim;
+        let cells = self.plane_cells(r);
+        let mut out = Vec::with_capacity(cells.len() / d.max(1));
+        let mut blocks = cells.chunks_exact(SIDE * d);
+        for block in &mut blocks {
+            let mut acc = [-0.0f32; SIDE];
+            for (k, &qk) in q.iter().enumerate().take(d) {
+                for (l, a) in acc.iter_mut().enumerate() {
+                    *a += block[l * d + k] * qk;
+                }
+            }
+            out.extend_from_slice(&acc);
+        }
+        out.extend(
+            blocks
+                .remainder()
+                .chunks_exact(d)
+                .map(|c| c.iter().zip(q).map(|(a, b)| a * b).sum::<f32>()),
+        );
+        out
     }
 
     /// The squared norm `|E(p)|^2` of action `index`'s embedding (0 for a
@@ -410,7 +556,22 @@ impl CellAse {
         queries: &[&[f32]],
         masked: Masked,
     ) -> Vec<Vec<f32>> {
+        let mut planes = vec![Vec::new(); queries.len()];
+        self.plane_distances_sq_into(r, queries, masked, &mut planes);
+        planes
+    }
+
+    /// [`Self::plane_distances_sq_many`] into `planes` (one per query, each
+    /// resized to `H x W`), reusing their memory.
+    pub fn plane_distances_sq_into(
+        &self,
+        r: usize,
+        queries: &[&[f32]],
+        masked: Masked,
+        planes: &mut [Vec<f32>],
+    ) {
         let (n, plane) = (self.resolution, self.resolution * self.resolution);
+        assert_eq!(planes.len(), queries.len(), "one plane per query");
         // Per query, each cell's dot product with the query and those of the
         // three cells a tap at it also reads.
         let dots: Vec<Vec<[f32; 4]>> = queries.iter().map(|q| self.tap_dots(r, q)).collect();
@@ -418,38 +579,32 @@ impl CellAse {
             .iter()
             .map(|q| q.iter().map(|v| v * v).sum())
             .collect();
-        let base = r * plane;
         let nq = queries.len();
-        // Rows laid out `[y][query][x]`, so each row's norms serve every query.
-        let mut rows = vec![f32::INFINITY; nq * plane];
-        let gram = self.grams[r].as_ref();
-        rows.par_chunks_mut(nq * n)
-            .enumerate()
-            .for_each(|(y, out)| {
-                for x in 0..n {
-                    let i = base + y * n + x;
-                    if !(self.mask[i] || masked == Masked::Real) {
-                        for (k, qn) in qn.iter().enumerate() {
-                            out[k * n + x] = masked.value(*qn);
-                        }
-                        continue;
-                    }
-                    let (a, w) = (self.taps.cell[i], self.taps.weight[i]);
-                    let norm = gram.map_or(0.0, |g| g.norm_sq(a, w));
-                    for (k, (dots, qn)) in dots.iter().zip(&qn).enumerate() {
-                        out[k * n + x] = tap_distance_sq(norm, w, dots[a as usize], *qn);
-                    }
-                }
-            });
-        (0..nq)
-            .map(|k| {
-                let mut plane_k = Vec::with_capacity(plane);
-                for row in rows.chunks_exact(nq * n) {
-                    plane_k.extend_from_slice(&row[k * n..(k + 1) * n]);
-                }
-                plane_k
-            })
-            .collect()
+        for p in planes.iter_mut() {
+            p.resize(plane, 0.0);
+        }
+        // Per row, every query's slice of it, so rows run in parallel and
+        // each row's norms serve every query.
+        let mut rows: Vec<Vec<&mut [f32]>> = (0..n).map(|_| Vec::with_capacity(nq)).collect();
+        for p in planes.iter_mut() {
+            for (row, chunk) in rows.iter_mut().zip(p.chunks_exact_mut(n)) {
+                row.push(chunk);
+            }
+        }
+        let run = RowRun {
+            masked,
+            gram: self.grams[r].as_ref(),
+            dots: &dots,
+            qn: &qn,
+        };
+        rows.into_par_iter().enumerate().for_each_init(
+            || vec![0.0f32; nq * (n + RUN_LANES)],
+            |scratch, (y, mut out)| {
+                let row = r * n + y;
+                let mask = &self.mask[row * n..(row + 1) * n];
+                row_distances(&run, &self.taps, row, mask, scratch, &mut out);
+            },
+        );
     }
 
     /// Replaces rotation `r`'s mask by `pixel_mask` (`H x W`).
@@ -506,5 +661,92 @@ impl CellAse {
             features,
             self.mask.clone(),
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::input::NetInput;
+    use seespot_sim::{Grid, Heightmaps};
+
+    /// A seeded value in `[-0.25, 1)`, a quarter of them exactly 0 (as after
+    /// a ReLU, so some products are -0.0).
+    fn values(n: usize, seed: u64) -> Vec<f32> {
+        let mut s = seed;
+        (0..n)
+            .map(|_| {
+                s = s
+                    .wrapping_mul(6_364_136_223_846_793_005)
+                    .wrapping_add(1_442_695_040_888_963_407);
+                let u = (s >> 40) as f32 / (1u64 << 24) as f32;
+                if u < 0.25 { 0.0 } else { u * 1.25 - 0.25 }
+            })
+            .collect()
+    }
+
+    /// At 112 and 224 px, for every kind of masked action, on sparse and
+    /// full masks: the distance planes (run blocks in the widest vector
+    /// instructions the CPU has) equal the one-action formula bit for bit,
+    /// and the cell dot products equal one `dot` at a time.
+    #[test]
+    fn run_blocks_equal_the_one_action_formula() {
+        let cells = crate::net::FEATURE_RESOLUTION;
+        let (rotations, dim) = (seespot_sim::NUM_ROTATIONS, crate::EMBEDDING_DIM);
+        for (res, seed) in [(112usize, 3u64), (224, 5)] {
+            let input = NetInput::from_heightmaps(&Heightmaps::empty(Grid::new(res)));
+            let map = BackMap::new(&input, res, crate::net::TRUNK_STRIDE);
+            let taps = Taps::shared(&map, cells, rotations, res);
+            let features = values(rotations * cells * cells * dim, seed);
+            let blobs: Vec<bool> = (0..res * res)
+                .map(|p| {
+                    let (y, x) = (p / res, p % res);
+                    (y / 9 + x / 13) % 5 == 0 || (y.abs_diff(res / 2) < 3 && x > res / 3)
+                })
+                .collect();
+            let queries: Vec<Vec<f32>> = (0..2).map(|k| values(dim, seed * 10 + k)).collect();
+            let refs: Vec<&[f32]> = queries.iter().map(Vec::as_slice).collect();
+            for mask in [blobs, vec![true; res * res]] {
+                let ase = CellAse::new(
+                    seespot_sim::Primitive::Grasp,
+                    res,
+                    cells,
+                    dim,
+                    features.clone(),
+                    taps.clone(),
+                    &mask,
+                );
+                for r in [0, 5, rotations - 1] {
+                    let plain_dots: Vec<f32> = ase
+                        .plane_cells(r)
+                        .chunks_exact(dim)
+                        .map(|c| c.iter().zip(&queries[0]).map(|(a, b)| a * b).sum())
+                        .collect();
+                    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(bits(&ase.cell_dots(r, &queries[0])), bits(&plain_dots));
+                    for masked in [Masked::Infinite, Masked::ZeroFeature, Masked::Real] {
+                        let planes = ase.plane_distances_sq_many(r, &refs, masked);
+                        for (q, plane) in queries.iter().zip(&planes) {
+                            let dots = ase.tap_dots(r, q);
+                            let qn: f32 = q.iter().map(|v| v * v).sum();
+                            for (p, &got) in plane.iter().enumerate() {
+                                let i = r * res * res + p;
+                                let want = if ase.mask[i] || masked == Masked::Real {
+                                    let (a, w) = (ase.taps.cell[i], ase.taps.weight[i]);
+                                    tap_distance_sq(ase.norm_sq(i), w, dots[a as usize], qn)
+                                } else {
+                                    masked.value(qn)
+                                };
+                                assert_eq!(
+                                    got.to_bits(),
+                                    want.to_bits(),
+                                    "{res} px r {r} {masked:?} pixel {p}: {got} vs {want}"
+                                );
+                            }
+                        }
+                    }
+                }
+            }
+        }
     }
 }

@@ -50,3 +50,49 @@ macro_rules! simd_dispatch {
 }
 
 pub use simd_dispatch as dispatch;
+
+/// Defines `fn $name(args) -> ret` that calls `$kernel(args)` (an
+/// `#[inline(always)]` function) compiled for AVX-512F, AVX2 or the baseline,
+/// as [`dispatch!`] does. For kernels too large for the compiler to inline
+/// [`dispatch!`]'s closure: here the kernel is inlined straight into each
+/// variant, so it is certain to be compiled for that variant's instructions.
+#[macro_export]
+macro_rules! simd_kernel {
+    ($(#[$meta:meta])* $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) $(-> $ret:ty)? = $kernel:path) => {
+        $(#[$meta])*
+        $vis fn $name($($arg: $ty),*) $(-> $ret)? {
+            #[cfg(target_arch = "x86_64")]
+            {
+                #[target_feature(enable = "avx512f")]
+                fn wide512($($arg: $ty),*) $(-> $ret)? {
+                    $kernel($($arg),*)
+                }
+                #[target_feature(enable = "avx2")]
+                fn wide256($($arg: $ty),*) $(-> $ret)? {
+                    $kernel($($arg),*)
+                }
+                if ::std::arch::is_x86_feature_detected!("avx512f") {
+                    // SAFETY: the CPU has AVX-512F (checked just above).
+                    #[allow(unsafe_code)]
+                    unsafe {
+                        wide512($($arg),*)
+                    }
+                } else if ::std::arch::is_x86_feature_detected!("avx2") {
+                    // SAFETY: the CPU has AVX2 (checked just above).
+                    #[allow(unsafe_code)]
+                    unsafe {
+                        wide256($($arg),*)
+                    }
+                } else {
+                    $kernel($($arg),*)
+                }
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            {
+                $kernel($($arg),*)
+            }
+        }
+    };
+}
+
+pub use simd_kernel as kernel;

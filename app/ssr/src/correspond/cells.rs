@@ -10,8 +10,19 @@ use seespot_sim::Action;
 
 use seespot_policy::Masked;
 
-use super::smooth::{Edge, Rows, smooth_reference};
-use super::{Best, Match, Smoothing, best_over_rotations, smooth_with_weights, smoothed_weights};
+use super::smooth::{Edge, Rows, smooth_reference_into};
+use super::{
+    Best, Match, Smoothing, best_over_rotations_with, smooth_with_weights, smoothed_weights,
+};
+
+/// Buffers one task of [`match_cells_with`] reuses from rotation to rotation.
+#[derive(Default)]
+struct Scratch {
+    /// One squared-distance plane per query.
+    planes: Vec<Vec<f32>>,
+    /// The smoothed plane.
+    smoothed: Vec<f32>,
+}
 
 fn sq(a: &[f32], b: &[f32]) -> f32 {
     a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum()
@@ -40,7 +51,7 @@ pub fn match_cells_with(
     }
     // Per rotation, every query's distances in one pass, then each smoothed
     // at the allowed actions and its argmin; the best over rotations per query.
-    let best = best_over_rotations(0..live.rotations, queries.len(), |r| {
+    let best = best_over_rotations_with(0..live.rotations, queries.len(), |s: &mut Scratch, r| {
         let allowed = &live.mask[r * plane..(r + 1) * plane];
         // The normalized smoothing's normalizer depends on the mask alone.
         let (masked, weights) = match smoothing {
@@ -48,25 +59,22 @@ pub fn match_cells_with(
             Smoothing::Normalized => (Masked::Infinite, smoothed_weights(allowed, n, sigma_px)),
         };
         let rows = Rows::mask(allowed, n);
-        live.plane_distances_sq_many(r, queries, masked)
-            .into_iter()
-            .map(|mut d| {
-                match smoothing {
-                    Smoothing::Normalized => {
-                        if let Some(w) = &weights {
-                            smooth_with_weights(&mut d, n, sigma_px, w);
-                        }
+        s.planes.resize_with(queries.len(), Vec::new);
+        live.plane_distances_sq_into(r, queries, masked, &mut s.planes);
+        let Scratch { planes, smoothed } = s;
+        planes
+            .iter_mut()
+            .map(|d| match smoothing {
+                Smoothing::Normalized => {
+                    if let Some(w) = &weights {
+                        smooth_with_weights(d, n, sigma_px, w);
                     }
-                    Smoothing::Reference => {
-                        d = smooth_reference(&d, n, n, sigma_px, Edge::Reflect, &rows);
-                        for (v, &ok) in d.iter_mut().zip(allowed) {
-                            if !ok {
-                                *v = f32::INFINITY;
-                            }
-                        }
-                    }
+                    Best::argmin(d, r * plane)
                 }
-                Best::argmin(&d, r * plane)
+                Smoothing::Reference => {
+                    smooth_reference_into(d, n, n, sigma_px, Edge::Reflect, &rows, smoothed);
+                    Best::argmin_allowed(smoothed, allowed, r * plane)
+                }
             })
             .collect()
     });

@@ -29,7 +29,10 @@ pub use bench::{
     CellBenchInput, CorrespondBenchInput, bandwidth_baseline, bench_correspond, correspond_step,
     correspond_step_cells, correspond_step_naive, random_ase_map,
 };
-pub use smooth::{Edge, Rows, smooth, smooth_reference, smooth_with_weights, smoothed_weights};
+pub use smooth::{
+    Edge, Rows, smooth, smooth_reference, smooth_reference_into, smooth_with_weights,
+    smoothed_weights,
+};
 
 use std::ops::Range;
 
@@ -219,10 +222,22 @@ fn best_over_rotations(
     queries: usize,
     per_rotation: impl Fn(usize) -> Vec<Best> + Sync + Send,
 ) -> Vec<Best> {
-    rots.into_par_iter().map(per_rotation).reduce(
-        || vec![Best::NONE; queries],
-        |a, b| a.into_iter().zip(b).map(|(x, y)| x.min(y)).collect(),
-    )
+    best_over_rotations_with(rots, queries, |_: &mut (), r| per_rotation(r))
+}
+
+/// [`best_over_rotations`] where each rotation also gets a scratch `S`, one
+/// per task of the thread pool (buffers reused from rotation to rotation).
+fn best_over_rotations_with<S: Default>(
+    rots: Range<usize>,
+    queries: usize,
+    per_rotation: impl Fn(&mut S, usize) -> Vec<Best> + Sync + Send,
+) -> Vec<Best> {
+    rots.into_par_iter()
+        .map_init(S::default, per_rotation)
+        .reduce(
+            || vec![Best::NONE; queries],
+            |a, b| a.into_iter().zip(b).map(|(x, y)| x.min(y)).collect(),
+        )
 }
 
 /// The smallest value of `d` below infinity (NaNs skipped), in 16 lanes.
@@ -237,6 +252,27 @@ fn min_lanes(d: &[f32]) -> f32 {
         }
     }
     tail.iter()
+        .chain(&lanes)
+        .fold(f32::INFINITY, |m, &v| if v < m { v } else { m })
+}
+
+/// [`min_lanes`] over the entries of `d` that `allowed` allows.
+#[inline(always)]
+fn min_allowed_lanes(d: &[f32], allowed: &[bool]) -> f32 {
+    let mut lanes = [f32::INFINITY; 16];
+    let chunks = d.chunks_exact(16).zip(allowed.chunks_exact(16));
+    let tail = d.len() - d.len() % 16;
+    for (c, a) in chunks {
+        for ((m, &v), &ok) in lanes.iter_mut().zip(c).zip(a) {
+            let v = if ok { v } else { f32::INFINITY };
+            *m = if v < *m { v } else { *m };
+        }
+    }
+    d[tail..]
+        .iter()
+        .zip(&allowed[tail..])
+        .filter(|(_, ok)| **ok)
+        .map(|(v, _)| v)
         .chain(&lanes)
         .fold(f32::INFINITY, |m, &v| if v < m { v } else { m })
 }
@@ -258,6 +294,25 @@ impl Best {
             return Best::NONE;
         }
         let p = d.iter().position(|&v| v == min).unwrap_or(0);
+        Best {
+            d2: min,
+            index: offset + p,
+        }
+    }
+
+    /// [`Self::argmin`] over the entries of `d` that `allowed` allows (the
+    /// same as with the others set to infinity).
+    fn argmin_allowed(d: &[f32], allowed: &[bool], offset: usize) -> Best {
+        assert_eq!(d.len(), allowed.len(), "argmin: mask length");
+        let min = seespot_policy::simd::dispatch!(min_allowed_lanes(d, allowed));
+        if min.is_nan() || min == f32::INFINITY {
+            return Best::NONE;
+        }
+        let p = d
+            .iter()
+            .zip(allowed)
+            .position(|(&v, &ok)| ok && v == min)
+            .unwrap_or(0);
         Best {
             d2: min,
             index: offset + p,
@@ -674,6 +729,43 @@ mod tests {
         let features = f.iter().flatten().copied().collect();
         let mask = mask.unwrap_or(vec![true; f.len()]);
         AseMap::new(Primitive::Grasp, n, rotations, 2, features, mask)
+    }
+
+    /// The argmin over the allowed entries equals the argmin with the others
+    /// set to infinity: ties (first wins), infinities, NaNs, every length
+    /// around the 16 lanes, nothing allowed.
+    #[test]
+    fn argmin_over_allowed_equals_argmin_of_the_masked_map() {
+        for n in [0usize, 1, 5, 15, 16, 17, 33, 100] {
+            let d: Vec<f32> = (0..n)
+                .map(|i| match i % 7 {
+                    0 => f32::NAN,
+                    3 => f32::INFINITY,
+                    _ => ((i * 13) % 5) as f32,
+                })
+                .collect();
+            for allowed in [
+                (0..n).map(|i| i % 3 != 1).collect::<Vec<bool>>(),
+                vec![true; n],
+                vec![false; n],
+                (0..n).map(|i| i > n / 2).collect(),
+            ] {
+                let masked: Vec<f32> = d
+                    .iter()
+                    .zip(&allowed)
+                    .map(|(&v, &ok)| if ok { v } else { f32::INFINITY })
+                    .collect();
+                let (a, b) = (
+                    Best::argmin_allowed(&d, &allowed, 7),
+                    Best::argmin(&masked, 7),
+                );
+                assert_eq!(
+                    (a.index, a.d2.to_bits()),
+                    (b.index, b.d2.to_bits()),
+                    "n {n}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -271,15 +271,36 @@ pub fn smooth_reference(
     edge: Edge,
     output: &Rows,
 ) -> Vec<f32> {
+    let mut out = Vec::new();
+    smooth_reference_into(map, h, w, sigma, edge, output, &mut out);
+    out
+}
+
+/// [`smooth_reference`] into `out` (resized to `h x w`), reusing its memory.
+pub fn smooth_reference_into(
+    map: &[f32],
+    h: usize,
+    w: usize,
+    sigma: f32,
+    edge: Edge,
+    output: &Rows,
+    out: &mut Vec<f32>,
+) {
     assert_eq!(map.len(), h * w, "smooth: map is not {h} x {w}");
     assert_eq!(output.0.len(), h, "smooth: output rows are not {h}");
+    out.clear();
     let Some((radius, k)) = reference_kernel(sigma) else {
-        return map.to_vec();
+        out.extend_from_slice(map);
+        return;
     };
-    seespot_policy::simd::dispatch!(smooth_reference_lanes(map, h, w, radius, &k, edge, output))
+    out.resize(h * w, 0.0);
+    seespot_policy::simd::dispatch!(smooth_reference_lanes(
+        map, h, w, radius, &k, edge, output, out
+    ))
 }
 
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn smooth_reference_lanes(
     map: &[f32],
     h: usize,
@@ -288,35 +309,76 @@ fn smooth_reference_lanes(
     kernel: &[f32],
     edge: Edge,
     output: &Rows,
-) -> Vec<f32> {
-    let mut out = vec![0.0f32; h * w];
+    out: &mut [f32],
+) {
     // Along the rows (y), on the rows with output, every column; then along
     // the columns (x) at the output entries, from the row padded at its edges.
     let mut padded = vec![0.0f32; w + 2 * radius];
+    let mut rows = vec![0usize; kernel.len()];
     for (y, span) in output.0.iter().enumerate() {
         let Some((c, d)) = *span else { continue };
-        let col = &mut padded[radius..radius + w];
-        col.fill(0.0);
-        for (k, &g) in kernel.iter().enumerate() {
-            let s = edge.index(y as isize + k as isize - radius as isize, h);
-            for (o, i) in col.iter_mut().zip(&map[s * w..(s + 1) * w]) {
-                *o += g * i;
-            }
+        for (k, s) in rows.iter_mut().enumerate() {
+            *s = edge.index(y as isize + k as isize - radius as isize, h);
         }
+        taps_blocked(&mut padded[radius..radius + w], kernel, |k, x| {
+            &map[rows[k] * w + x..]
+        });
         for j in 0..radius {
             let off = j as isize - radius as isize;
             padded[j] = padded[radius + edge.index(off, w)];
             let right = (w + j) as isize;
             padded[radius + w + j] = padded[radius + edge.index(right, w)];
         }
-        let row = &mut out[y * w + c..y * w + d + 1];
+        let padded = &padded;
+        taps_blocked(&mut out[y * w + c..y * w + d + 1], kernel, |k, x| {
+            &padded[c + k + x..]
+        });
+    }
+}
+
+/// Entry `x` of `out` becomes `sum_k kernel[k] * src(k, x)[0]`, the terms
+/// added in the order of `k` starting from zero (as a pass that adds one
+/// tap at a time to the whole row computes it, so the values are the same
+/// bit for bit), blocks of entries at a time kept in registers.
+#[inline(always)]
+fn taps_blocked<'a>(out: &mut [f32], kernel: &[f32], src: impl Fn(usize, usize) -> &'a [f32]) {
+    let mut x = 0;
+    x = taps_block::<128>(out, x, kernel, &src);
+    x = taps_block::<64>(out, x, kernel, &src);
+    x = taps_block::<32>(out, x, kernel, &src);
+    x = taps_block::<16>(out, x, kernel, &src);
+    if x < out.len() {
+        let rest = &mut out[x..];
+        rest.fill(0.0);
         for (k, &g) in kernel.iter().enumerate() {
-            for (o, i) in row.iter_mut().zip(&padded[c + k..d + 1 + k]) {
-                *o += g * i;
+            for (a, v) in rest.iter_mut().zip(src(k, x)) {
+                *a += g * v;
             }
         }
     }
-    out
+}
+
+/// [`taps_blocked`] on blocks of `B` entries from `x` while they fit;
+/// returns where it stopped.
+#[inline(always)]
+fn taps_block<'a, const B: usize>(
+    out: &mut [f32],
+    mut x: usize,
+    kernel: &[f32],
+    src: &impl Fn(usize, usize) -> &'a [f32],
+) -> usize {
+    while x + B <= out.len() {
+        let mut acc = [0.0f32; B];
+        for (k, &g) in kernel.iter().enumerate() {
+            let s: &[f32; B] = src(k, x)[..B].try_into().expect("block");
+            for (a, v) in acc.iter_mut().zip(s) {
+                *a += g * v;
+            }
+        }
+        out[x..x + B].copy_from_slice(&acc);
+        x += B;
+    }
+    x
 }
 
 #[cfg(test)]
@@ -354,12 +416,6 @@ mod tests {
     /// either edge mode.
     #[test]
     fn reference_smoothing_reflects_and_wraps_like_scipy() {
-        let (h, w) = (9, 13);
-        let map: Vec<f32> = (0..h * w).map(|i| ((i * 37) % 11) as f32).collect();
-        let sigma = 1.5;
-        let (radius, k) = reference_kernel(sigma).expect("kernel");
-        assert_eq!(radius, 6);
-        assert!((k.iter().sum::<f32>() - 1.0).abs() < 1e-6);
         // scipy's reflect: index -1 reads 0, -2 reads 1, n reads n-1.
         assert_eq!(Edge::Reflect.index(-1, 5), 0);
         assert_eq!(Edge::Reflect.index(-2, 5), 1);
@@ -367,34 +423,50 @@ mod tests {
         assert_eq!(Edge::Reflect.index(11, 5), 1);
         assert_eq!(Edge::Wrap.index(-1, 5), 4);
         assert_eq!(Edge::Wrap.index(7, 5), 2);
-        for edge in [Edge::Reflect, Edge::Wrap] {
-            let mut v = vec![0.0f32; h * w];
-            for y in 0..h {
-                for x in 0..w {
-                    for (j, g) in k.iter().enumerate() {
-                        let s = edge.index(y as isize + j as isize - radius as isize, h);
-                        v[y * w + x] += g * map[s * w + x];
+        // A small map, and one wide enough for every block width of the
+        // passes (250 = 128 + 64 + 32 + 16 + 10 columns).
+        for (h, w) in [(9usize, 13usize), (7, 250)] {
+            let map: Vec<f32> = (0..h * w).map(|i| ((i * 37) % 11) as f32).collect();
+            let sigma = 1.5;
+            let (radius, k) = reference_kernel(sigma).expect("kernel");
+            assert_eq!(radius, 6);
+            assert!((k.iter().sum::<f32>() - 1.0).abs() < 1e-6);
+            for edge in [Edge::Reflect, Edge::Wrap] {
+                let mut v = vec![0.0f32; h * w];
+                for y in 0..h {
+                    for x in 0..w {
+                        for (j, g) in k.iter().enumerate() {
+                            let s = edge.index(y as isize + j as isize - radius as isize, h);
+                            v[y * w + x] += g * map[s * w + x];
+                        }
                     }
                 }
-            }
-            let mut want = vec![0.0f32; h * w];
-            for y in 0..h {
-                for x in 0..w {
-                    for (j, g) in k.iter().enumerate() {
-                        let s = edge.index(x as isize + j as isize - radius as isize, w);
-                        want[y * w + x] += g * v[y * w + s];
+                let mut want = vec![0.0f32; h * w];
+                for y in 0..h {
+                    for x in 0..w {
+                        for (j, g) in k.iter().enumerate() {
+                            let s = edge.index(x as isize + j as isize - radius as isize, w);
+                            want[y * w + x] += g * v[y * w + s];
+                        }
                     }
                 }
+                let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                let all = smooth_reference(&map, h, w, sigma, edge, &Rows::all_of(h, w));
+                assert_eq!(bits(&all), bits(&want), "{edge:?} {h} x {w}");
+                let mask: Vec<bool> = (0..h * w).map(|i| i % 5 == 0).collect();
+                let blob: Vec<bool> = (0..h * w)
+                    .map(|i| (i % w).abs_diff(w / 2) < w / 5)
+                    .collect();
+                for mask in [mask, blob] {
+                    let some = smooth_reference(&map, h, w, sigma, edge, &Rows::mask(&mask, w));
+                    for i in (0..h * w).filter(|&i| mask[i]) {
+                        assert_eq!(some[i].to_bits(), want[i].to_bits(), "{edge:?} entry {i}");
+                    }
+                }
+                let flat =
+                    smooth_reference(&vec![3.0; h * w], h, w, sigma, edge, &Rows::all_of(h, w));
+                assert!(flat.iter().all(|v| (v - 3.0).abs() < 1e-5), "{edge:?}");
             }
-            let all = smooth_reference(&map, h, w, sigma, edge, &Rows::all_of(h, w));
-            assert_eq!(all, want, "{edge:?}");
-            let mask: Vec<bool> = (0..h * w).map(|i| i % 5 == 0).collect();
-            let some = smooth_reference(&map, h, w, sigma, edge, &Rows::mask(&mask, w));
-            for i in (0..h * w).filter(|&i| mask[i]) {
-                assert_eq!(some[i], want[i], "{edge:?} entry {i}");
-            }
-            let flat = smooth_reference(&vec![3.0; h * w], h, w, sigma, edge, &Rows::all_of(h, w));
-            assert!(flat.iter().all(|v| (v - 3.0).abs() < 1e-5), "{edge:?}");
         }
     }
 
