@@ -275,6 +275,41 @@ fn row_distances_lanes(
     }
 }
 
+crate::simd::kernel! {
+    /// `c . q` for every `dim`-long cell vector `c` of `cells`, in the widest
+    /// vector instructions the CPU has.
+    fn cell_dots_wide(cells: &[f32], q: &[f32], dim: usize) -> Vec<f32> = cell_dots_lanes
+}
+
+/// [`CellAse::cell_dots`]: eight cells side by side, each summed in order
+/// over the channels from -0.0 (as `Sum` for f32 does), so the sums do not
+/// wait on each other and equal one `dot` at a time bit for bit.
+#[inline(always)]
+fn cell_dots_lanes(cells: &[f32], q: &[f32], dim: usize) -> Vec<f32> {
+    const SIDE: usize = 8;
+    let d = dim;
+    let mut out = Vec::with_capacity(cells.len() / d.max(1));
+    let mut blocks = cells.chunks_exact(SIDE * d);
+    for block in &mut blocks {
+        let c: [&[f32]; SIDE] = std::array::from_fn(|l| &block[l * d..(l + 1) * d]);
+        let mut acc = [-0.0f32; SIDE];
+        for (k, &qk) in q[..d].iter().enumerate() {
+            let v: [f32; SIDE] = std::array::from_fn(|l| c[l][k]);
+            for (a, v) in acc.iter_mut().zip(v) {
+                *a += v * qk;
+            }
+        }
+        out.extend_from_slice(&acc);
+    }
+    out.extend(
+        blocks
+            .remainder()
+            .chunks_exact(d)
+            .map(|c| c.iter().zip(q).map(|(a, b)| a * b).sum::<f32>()),
+    );
+    out
+}
+
 /// What a distance to a masked action is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Masked {
@@ -465,30 +500,7 @@ impl CellAse {
 
     /// `c . q` for every cell of rotation `r`.
     pub fn cell_dots(&self, r: usize, q: &[f32]) -> Vec<f32> {
-        // Eight cells side by side, each summed in order over the channels
-        // from -0.0 (as `Sum` for f32 does), so the sums do not wait on each
-        // other and equal one `dot` at a time bit for bit.
-        const SIDE: usize = 8;
-        let d = self.dim;
-        let cells = self.plane_cells(r);
-        let mut out = Vec::with_capacity(cells.len() / d.max(1));
-        let mut blocks = cells.chunks_exact(SIDE * d);
-        for block in &mut blocks {
-            let mut acc = [-0.0f32; SIDE];
-            for (k, &qk) in q.iter().enumerate().take(d) {
-                for (l, a) in acc.iter_mut().enumerate() {
-                    *a += block[l * d + k] * qk;
-                }
-            }
-            out.extend_from_slice(&acc);
-        }
-        out.extend(
-            blocks
-                .remainder()
-                .chunks_exact(d)
-                .map(|c| c.iter().zip(q).map(|(a, b)| a * b).sum::<f32>()),
-        );
-        out
+        cell_dots_wide(self.plane_cells(r), q, self.dim)
     }
 
     /// The squared norm `|E(p)|^2` of action `index`'s embedding (0 for a

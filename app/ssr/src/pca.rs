@@ -186,6 +186,11 @@ fn symmetric_times(m: &[f64], v: &[f64], dim: usize) -> Vec<f64> {
     w
 }
 
+seespot_policy::simd::kernel! {
+    /// [`symmetric_times`] in the widest vector instructions the CPU has.
+    fn symmetric_times_wide(m: &[f64], v: &[f64], dim: usize) -> Vec<f64> = symmetric_times
+}
+
 fn top_eigenvectors(m: &mut [f64], dim: usize, k: usize) -> Vec<Vec<f64>> {
     let mut out = Vec::with_capacity(k);
     for c in 0..k {
@@ -193,7 +198,7 @@ fn top_eigenvectors(m: &mut [f64], dim: usize, k: usize) -> Vec<Vec<f64>> {
         let mut v: Vec<f64> = (0..dim).map(|i| 1.0 + ((i + c) % 7) as f64 * 0.1).collect();
         let mut lambda = 0.0;
         for _ in 0..200 {
-            let w = seespot_policy::simd::dispatch!(symmetric_times(m, &v, dim));
+            let w = symmetric_times_wide(m, &v, dim);
             let norm = w.iter().map(|x| x * x).sum::<f64>().sqrt();
             if norm < 1e-30 {
                 break;

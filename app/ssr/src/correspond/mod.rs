@@ -256,6 +256,29 @@ fn min_lanes(d: &[f32]) -> f32 {
         .fold(f32::INFINITY, |m, &v| if v < m { v } else { m })
 }
 
+seespot_policy::simd::kernel! {
+    /// [`min_allowed_lanes`] in the widest vector instructions the CPU has.
+    fn min_allowed(d: &[f32], allowed: &[bool]) -> f32 = min_allowed_lanes
+}
+
+seespot_policy::simd::kernel! {
+    /// The first allowed entry of `d` equal to `v`, sixteen entries at a time.
+    fn first_allowed_at(d: &[f32], allowed: &[bool], v: f32) -> Option<usize> = first_allowed_at_lanes
+}
+
+#[inline(always)]
+fn first_allowed_at_lanes(d: &[f32], allowed: &[bool], v: f32) -> Option<usize> {
+    let hit = |(x, ok): (&f32, &bool)| *ok && *x == v;
+    let mut base = 0;
+    for (c, a) in d.chunks(16).zip(allowed.chunks(16)) {
+        if c.iter().zip(a).fold(false, |any, p| any | hit(p)) {
+            return c.iter().zip(a).position(hit).map(|p| base + p);
+        }
+        base += c.len();
+    }
+    None
+}
+
 /// [`min_lanes`] over the entries of `d` that `allowed` allows.
 #[inline(always)]
 fn min_allowed_lanes(d: &[f32], allowed: &[bool]) -> f32 {
@@ -304,15 +327,11 @@ impl Best {
     /// same as with the others set to infinity).
     fn argmin_allowed(d: &[f32], allowed: &[bool], offset: usize) -> Best {
         assert_eq!(d.len(), allowed.len(), "argmin: mask length");
-        let min = seespot_policy::simd::dispatch!(min_allowed_lanes(d, allowed));
+        let min = min_allowed(d, allowed);
         if min.is_nan() || min == f32::INFINITY {
             return Best::NONE;
         }
-        let p = d
-            .iter()
-            .zip(allowed)
-            .position(|(&v, &ok)| ok && v == min)
-            .unwrap_or(0);
+        let p = first_allowed_at(d, allowed, min).unwrap_or(0);
         Best {
             d2: min,
             index: offset + p,

@@ -97,7 +97,19 @@ fn convolve(
     input: &Rows,
     output: &Rows,
 ) -> Vec<f32> {
-    seespot_policy::simd::dispatch!(convolve_lanes(src, n, radius, kernel, input, output))
+    convolve_wide(src, n, radius, kernel, input, output)
+}
+
+seespot_policy::simd::kernel! {
+    /// [`convolve_lanes`] in the widest vector instructions the CPU has.
+    fn convolve_wide(
+        src: &[f32],
+        n: usize,
+        radius: usize,
+        kernel: &[f32],
+        input: &Rows,
+        output: &Rows,
+    ) -> Vec<f32> = convolve_lanes
 }
 
 #[inline(always)]
@@ -294,9 +306,22 @@ pub fn smooth_reference_into(
         return;
     };
     out.resize(h * w, 0.0);
-    seespot_policy::simd::dispatch!(smooth_reference_lanes(
-        map, h, w, radius, &k, edge, output, out
-    ))
+    smooth_reference_wide(map, h, w, radius, &k, edge, output, out);
+}
+
+seespot_policy::simd::kernel! {
+    /// [`smooth_reference_lanes`] in the widest vector instructions the CPU has.
+    #[allow(clippy::too_many_arguments)]
+    fn smooth_reference_wide(
+        map: &[f32],
+        h: usize,
+        w: usize,
+        radius: usize,
+        kernel: &[f32],
+        edge: Edge,
+        output: &Rows,
+        out: &mut [f32],
+    ) = smooth_reference_lanes
 }
 
 #[inline(always)]
@@ -313,27 +338,104 @@ fn smooth_reference_lanes(
 ) {
     // Along the rows (y), on the rows with output, every column; then along
     // the columns (x) at the output entries, from the row padded at its edges.
-    let mut padded = vec![0.0f32; w + 2 * radius];
-    let mut rows = vec![0usize; kernel.len()];
-    for (y, span) in output.0.iter().enumerate() {
-        let Some((c, d)) = *span else { continue };
-        for (k, s) in rows.iter_mut().enumerate() {
-            *s = edge.index(y as isize + k as isize - radius as isize, h);
+    // Two neighbouring output rows share their pass along y: row y + 1's
+    // k-th term reads the row that row y's (k + 1)-th reads (at the edges
+    // too), so one read of each row serves both, each still summing its
+    // terms in the order of k.
+    let mut padded = [vec![0.0f32; w + 2 * radius], vec![0.0f32; w + 2 * radius]];
+    let mut rows = vec![0usize; kernel.len() + 1];
+    let mut y = 0;
+    while y < h {
+        let Some((c, d)) = output.0[y] else {
+            y += 1;
+            continue;
+        };
+        let next = output.0.get(y + 1).copied().flatten();
+        for (j, s) in rows.iter_mut().enumerate() {
+            *s = edge.index(y as isize + j as isize - radius as isize, h);
         }
-        taps_blocked(&mut padded[radius..radius + w], kernel, |k, x| {
-            &map[rows[k] * w + x..]
-        });
-        for j in 0..radius {
-            let off = j as isize - radius as isize;
-            padded[j] = padded[radius + edge.index(off, w)];
-            let right = (w + j) as isize;
-            padded[radius + w + j] = padded[radius + edge.index(right, w)];
+        let [pa, pb] = &mut padded;
+        let src = |j: usize, x: usize| &map[rows[j] * w + x..];
+        if next.is_some() {
+            pair_blocked(
+                &mut pa[radius..radius + w],
+                &mut pb[radius..radius + w],
+                kernel,
+                src,
+            );
+        } else {
+            taps_blocked(&mut pa[radius..radius + w], kernel, src);
         }
-        let padded = &padded;
-        taps_blocked(&mut out[y * w + c..y * w + d + 1], kernel, |k, x| {
-            &padded[c + k + x..]
-        });
+        for (row, span) in [(y, Some((c, d))), (y + 1, next)] {
+            let Some((c, d)) = span else { continue };
+            let p = &mut padded[row - y];
+            for j in 0..radius {
+                let off = j as isize - radius as isize;
+                p[j] = p[radius + edge.index(off, w)];
+                let right = (w + j) as isize;
+                p[radius + w + j] = p[radius + edge.index(right, w)];
+            }
+            let p = &*p;
+            taps_blocked(&mut out[row * w + c..row * w + d + 1], kernel, |k, x| {
+                &p[c + k + x..]
+            });
+        }
+        y += if next.is_some() { 2 } else { 1 };
     }
+}
+
+/// [`taps_blocked`] for two outputs at once: `a[x]` sums `kernel[k] *
+/// src(k, x)[0]` and `b[x]` sums `kernel[k] * src(k + 1, x)[0]`, each in
+/// the order of `k` from zero, reading each `src(j, _)` once for both.
+#[inline(always)]
+fn pair_blocked<'a>(
+    a: &mut [f32],
+    b: &mut [f32],
+    kernel: &[f32],
+    src: impl Fn(usize, usize) -> &'a [f32],
+) {
+    let mut x = 0;
+    x = pair_block::<64>(a, b, x, kernel, &src);
+    x = pair_block::<32>(a, b, x, kernel, &src);
+    x = pair_block::<16>(a, b, x, kernel, &src);
+    if x < a.len() {
+        taps_blocked(&mut a[x..], kernel, |k, i| src(k, x + i));
+        taps_blocked(&mut b[x..], kernel, |k, i| src(k + 1, x + i));
+    }
+}
+
+/// [`pair_blocked`] on blocks of `B` entries from `x` while they fit;
+/// returns where it stopped.
+#[inline(always)]
+fn pair_block<'a, const B: usize>(
+    a: &mut [f32],
+    b: &mut [f32],
+    mut x: usize,
+    kernel: &[f32],
+    src: &impl Fn(usize, usize) -> &'a [f32],
+) -> usize {
+    let taps = kernel.len();
+    while x + B <= a.len() {
+        let (mut acc_a, mut acc_b) = ([0.0f32; B], [0.0f32; B]);
+        let read = |j: usize| -> &[f32; B] { src(j, x)[..B].try_into().expect("block") };
+        for (o, v) in acc_a.iter_mut().zip(read(0)) {
+            *o += kernel[0] * v;
+        }
+        for j in 1..taps {
+            let (ga, gb, s) = (kernel[j], kernel[j - 1], read(j));
+            for ((oa, ob), v) in acc_a.iter_mut().zip(acc_b.iter_mut()).zip(s) {
+                *oa += ga * v;
+                *ob += gb * v;
+            }
+        }
+        for (o, v) in acc_b.iter_mut().zip(read(taps)) {
+            *o += kernel[taps - 1] * v;
+        }
+        a[x..x + B].copy_from_slice(&acc_a);
+        b[x..x + B].copy_from_slice(&acc_b);
+        x += B;
+    }
+    x
 }
 
 /// Entry `x` of `out` becomes `sum_k kernel[k] * src(k, x)[0]`, the terms
@@ -457,7 +559,8 @@ mod tests {
                 let blob: Vec<bool> = (0..h * w)
                     .map(|i| (i % w).abs_diff(w / 2) < w / 5)
                     .collect();
-                for mask in [mask, blob] {
+                let rows: Vec<bool> = (0..h * w).map(|i| (i / w) % 3 == 0).collect();
+                for mask in [mask, blob, rows] {
                     let some = smooth_reference(&map, h, w, sigma, edge, &Rows::mask(&mask, w));
                     for i in (0..h * w).filter(|&i| mask[i]) {
                         assert_eq!(some[i].to_bits(), want[i].to_bits(), "{edge:?} entry {i}");
