@@ -242,10 +242,16 @@ fn row_distances_lanes(
             let w1 = &taps.by_corner[1][at.clone()];
             let w2 = &taps.by_corner[2][at.clone()];
             let w3 = &taps.by_corner[3][at];
+            // The products and sums of `gram_norm` and `tap_distance_sq`, in
+            // their order, with the run's record and dot products as scalars.
+            let [g0, g1, g2, g3, g4, g5, g6, g7, g8, g9] = *rec;
             let mut norm = [0.0f32; RUN_LANES];
             if run.gram.is_some() {
                 for l in 0..RUN_LANES {
-                    norm[l] = gram_norm(rec, [w0[l], w1[l], w2[l], w3[l]]);
+                    let (a, b, c, d) = (w0[l], w1[l], w2[l], w3[l]);
+                    let cross =
+                        a * b * g4 + c * d * g5 + a * c * g6 + b * d * g7 + a * d * g8 + b * c * g9;
+                    norm[l] = a * a * g0 + b * b * g1 + c * c * g2 + d * d * g3 + 2.0 * cross;
                 }
             }
             for ((dots, &qn), s) in run
@@ -254,10 +260,11 @@ fn row_distances_lanes(
                 .zip(run.qn)
                 .zip(scratch.chunks_exact_mut(n + RUN_LANES))
             {
-                let d = dots[a];
+                let [d0, d1, d2, d3] = dots[a];
                 let s = &mut s[x..x + RUN_LANES];
                 for l in 0..RUN_LANES {
-                    s[l] = tap_distance_sq(norm[l], [w0[l], w1[l], w2[l], w3[l]], d, qn);
+                    let eq = w0[l] * d0 + w1[l] * d1 + w2[l] * d2 + w3[l] * d3;
+                    s[l] = (norm[l] - 2.0 * eq + qn).max(0.0);
                 }
             }
             x += RUN_LANES;

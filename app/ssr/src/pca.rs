@@ -44,7 +44,7 @@ pub fn pca_rgb(planes: &[&[f32]], dim: usize) -> Vec<Vec<u8>> {
     // Upper triangle of the scatter matrix, per chunk, then summed in order.
     let parts: Vec<Vec<f64>> = fit_rows
         .par_chunks(CHUNK)
-        .map(|rows| seespot_policy::simd::dispatch!(covariance_part(rows, &mean, dim)))
+        .map(|rows| covariance_part_wide(rows, &mean, dim))
         .collect();
     let mut cov = vec![0.0f64; dim * dim];
     for p in &parts {
@@ -73,9 +73,7 @@ pub fn pca_rgb(planes: &[&[f32]], dim: usize) -> Vec<Vec<u8>> {
     let projected: Vec<[f32; 3]> = rows
         .par_chunks(CHUNK)
         .zip(finite.par_chunks(CHUNK))
-        .flat_map_iter(|(rows, ok)| {
-            seespot_policy::simd::dispatch!(project_rows(rows, ok, &axes, &offsets))
-        })
+        .flat_map_iter(|(rows, ok)| project_rows_wide(rows, ok, &axes, &offsets))
         .collect();
     // Per component, the 1st and 99th percentiles over every finite pixel.
     let ranges: Vec<(f32, f32)> = (0..3)
@@ -126,13 +124,12 @@ pub fn pca_rgb(planes: &[&[f32]], dim: usize) -> Vec<Vec<u8>> {
 #[inline(always)]
 fn project_rows(rows: &[&[f32]], ok: &[bool], axes: &[Vec<f32>], offsets: &[f32]) -> Vec<[f32; 3]> {
     const LANES: usize = 16;
-    rows.iter()
-        .zip(ok)
-        .map(|(f, ok)| {
-            let mut out = [0.0f32; 3];
-            if !ok {
-                return out;
-            }
+    // Plain loops rather than a closure, so the whole body is compiled for
+    // the variant's instructions ([`seespot_policy::simd::kernel!`]).
+    let mut projected = Vec::with_capacity(rows.len());
+    for (f, &ok) in rows.iter().zip(ok) {
+        let mut out = [0.0f32; 3];
+        if ok {
             for (k, o) in out.iter_mut().enumerate() {
                 let mut acc = [0.0f32; LANES];
                 let (fc, ac) = (f.chunks_exact(LANES), axes[k].chunks_exact(LANES));
@@ -145,9 +142,10 @@ fn project_rows(rows: &[&[f32]], ok: &[bool], axes: &[Vec<f32>], offsets: &[f32]
                 let tail: f32 = fr.iter().zip(ar).map(|(a, b)| a * b).sum();
                 *o = acc.iter().sum::<f32>() + tail - offsets[k];
             }
-            out
-        })
-        .collect()
+        }
+        projected.push(out);
+    }
+    projected
 }
 
 /// The `k` leading eigenvectors of the symmetric `dim x dim` matrix `m`, by
@@ -184,6 +182,21 @@ fn symmetric_times(m: &[f64], v: &[f64], dim: usize) -> Vec<f64> {
         }
     }
     w
+}
+
+seespot_policy::simd::kernel! {
+    /// [`covariance_part`] in the widest vector instructions the CPU has.
+    fn covariance_part_wide(rows: &[&[f32]], mean: &[f64], dim: usize) -> Vec<f64> = covariance_part
+}
+
+seespot_policy::simd::kernel! {
+    /// [`project_rows`] in the widest vector instructions the CPU has.
+    fn project_rows_wide(
+        rows: &[&[f32]],
+        ok: &[bool],
+        axes: &[Vec<f32>],
+        offsets: &[f32],
+    ) -> Vec<[f32; 3]> = project_rows
 }
 
 seespot_policy::simd::kernel! {

@@ -343,7 +343,17 @@ fn smooth_reference_lanes(
     // too), so one read of each row serves both, each still summing its
     // terms in the order of k.
     let mut padded = [vec![0.0f32; w + 2 * radius], vec![0.0f32; w + 2 * radius]];
-    let mut rows = vec![0usize; kernel.len() + 1];
+    // The rows a pass along y reads (`along_y[y + j]` for term j of row y)
+    // and the columns the padding copies, worked out once per map.
+    let along_y: Vec<usize> = (0..h + 2 * radius + 1)
+        .map(|t| edge.index(t as isize - radius as isize, h))
+        .collect();
+    let pad_left: Vec<usize> = (0..radius)
+        .map(|j| edge.index(j as isize - radius as isize, w))
+        .collect();
+    let pad_right: Vec<usize> = (0..radius)
+        .map(|j| edge.index((w + j) as isize, w))
+        .collect();
     let mut y = 0;
     while y < h {
         let Some((c, d)) = output.0[y] else {
@@ -351,9 +361,7 @@ fn smooth_reference_lanes(
             continue;
         };
         let next = output.0.get(y + 1).copied().flatten();
-        for (j, s) in rows.iter_mut().enumerate() {
-            *s = edge.index(y as isize + j as isize - radius as isize, h);
-        }
+        let rows = &along_y[y..];
         let [pa, pb] = &mut padded;
         let src = |j: usize, x: usize| &map[rows[j] * w + x..];
         if next.is_some() {
@@ -370,10 +378,8 @@ fn smooth_reference_lanes(
             let Some((c, d)) = span else { continue };
             let p = &mut padded[row - y];
             for j in 0..radius {
-                let off = j as isize - radius as isize;
-                p[j] = p[radius + edge.index(off, w)];
-                let right = (w + j) as isize;
-                p[radius + w + j] = p[radius + edge.index(right, w)];
+                p[j] = p[radius + pad_left[j]];
+                p[radius + w + j] = p[radius + pad_right[j]];
             }
             let p = &*p;
             taps_blocked(&mut out[row * w + c..row * w + d + 1], kernel, |k, x| {
