@@ -350,6 +350,15 @@ pub fn correspond_step_cells(input: &CellBenchInput) -> Vec<(f32, f32)> {
 /// `cargo bench -p seespot-ssr --bench correspond`.)
 pub fn bench_correspond(resolution: usize, iterations: usize) -> serde_json::Value {
     let input = CellBenchInput::random(resolution, 0x5EE5_9071);
+    // The smoothing's arithmetic: every action allowed, so each of the
+    // 16 x 3 x 2 match planes is smoothed whole, two passes of `taps`
+    // multiply-adds per entry (the rematch windows add well under 1%).
+    let pixel = seespot_sim::workspace::WORKSPACE_SIZE / resolution as f32;
+    let taps = super::smooth::reference_taps(super::reference::sigma_pixels(pixel));
+    let planes: usize =
+        input.demos.iter().map(Vec::len).sum::<usize>() * seespot_sim::NUM_ROTATIONS;
+    let smoothing_pairs = planes * resolution * resolution * 2 * taps;
+    let rate = mul_add_rate();
     // Warm-up (page faults, thread pool, taps).
     let out = correspond_step_cells(&input);
     let t = time_ms(iterations, || {
@@ -368,5 +377,51 @@ pub fn bench_correspond(resolution: usize, iterations: usize) -> serde_json::Val
         "correspond_ms": median,
         "correspond_min_ms": t[0],
         "pairs": out.len(),
+        "smoothing_mul_adds": smoothing_pairs,
+        "machine_mul_add_per_ns": rate,
+        "smoothing_floor_ms": smoothing_pairs as f64 / rate / 1e6,
     })
+}
+
+seespot_policy::simd::kernel! {
+    /// [`mul_add_block`] in the widest vector instructions the CPU has.
+    fn mul_add_wide(xs: &[f32], reps: usize, g: f32) -> f32 = mul_add_block
+}
+
+/// `acc += g * x` over an L1-resident buffer, 128 accumulators kept in
+/// registers: the smoothing's inner step (a load, a multiply and an add per
+/// term) at the best rate the compiler reaches.
+#[inline(always)]
+fn mul_add_block(xs: &[f32], reps: usize, g: f32) -> f32 {
+    let mut acc = [0.0f32; 128];
+    for _ in 0..reps {
+        for c in xs.chunks_exact(128) {
+            let c: &[f32; 128] = c.try_into().expect("block");
+            for (a, v) in acc.iter_mut().zip(c) {
+                *a += g * v;
+            }
+        }
+    }
+    acc.iter().sum::<f32>()
+}
+
+/// This machine's rate of the smoothing's multiply-adds on all threads
+/// (terms per nanosecond, best of five runs of some 30 ms), the ceiling
+/// against which `smoothing_floor_ms` puts the smoothing's arithmetic.
+pub fn mul_add_rate() -> f64 {
+    let xs = vec![1.0f32; 4096];
+    let reps = 250_000;
+    let threads = rayon::current_num_threads();
+    let mut best = 0.0f64;
+    for _ in 0..5 {
+        let t = Instant::now();
+        let s: f32 = (0..threads)
+            .into_par_iter()
+            .map(|_| mul_add_wide(&xs, reps, std::hint::black_box(0.5)))
+            .sum();
+        std::hint::black_box(s);
+        let terms = (threads * xs.len() * reps) as f64;
+        best = best.max(terms / t.elapsed().as_secs_f64() / 1e9);
+    }
+    best
 }

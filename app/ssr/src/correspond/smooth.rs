@@ -251,6 +251,12 @@ impl Edge {
     }
 }
 
+/// Taps of the reference's Gaussian at `sigma` pixels (0 when it smooths
+/// nothing): each smoothed entry costs this many multiply-adds per pass.
+pub fn reference_taps(sigma: f32) -> usize {
+    reference_kernel(sigma).map_or(0, |(_, k)| k.len())
+}
+
 /// The reference's Gaussian kernel (scipy.ndimage.gaussian_filter's
 /// defaults): radius `floor(4 sigma + 0.5)`, weights summing to 1. `None`
 /// when `sigma` smooths nothing.
