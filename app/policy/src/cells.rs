@@ -120,11 +120,43 @@ struct CellGram {
 }
 
 impl CellGram {
-    /// The records of stored plane `k` of `planes`.
-    fn from_channels(planes: &ChannelPlanes, k: usize) -> Self {
-        Self {
-            records: gram_records_wide(planes, k),
-        }
+    /// The records of one rotation's `n x n` cells (`dim` channels last).
+    ///
+    /// Five dot products per cell are summed, each in order over the
+    /// channels from zero (as one `dot` at a time would): the cell's own
+    /// norm and its products with its right, lower and lower-right
+    /// neighbours, and its right neighbour's with its lower one (clamped at
+    /// the border as [`corners`]). A record's other five are its neighbours'
+    /// (a product and its mirror are the same float), so every record equals
+    /// its ten dot products one at a time, bit for bit.
+    fn new(cells: &[f32], n: usize, dim: usize) -> Self {
+        let at = |i: usize| &cells[i * dim..(i + 1) * dim];
+        let five: Vec<[f32; 5]> = (0..n * n)
+            .map(|a| {
+                let [a, b, c, d] = corners(a, n).map(at);
+                let mut g = [0.0f32; 5];
+                for k in 0..dim {
+                    let (a, b, c, d) = (a[k], b[k], c[k], d[k]);
+                    for (g, t) in g.iter_mut().zip([a * a, a * b, a * c, a * d, b * c]) {
+                        *g += t;
+                    }
+                }
+                g
+            })
+            .collect();
+        let records = (0..n * n)
+            .map(|i| {
+                let [a, b, c, _] = corners(i, n);
+                // b.d is b's product with its lower neighbour, c.d c's with
+                // its right one (the clamps agree: see `corners`).
+                let (fa, fb, fc) = (five[a], five[b], five[c]);
+                let d = corners(i, n)[3];
+                [
+                    fa[0], fb[0], fc[0], five[d][0], fa[1], fc[1], fa[2], fb[2], fa[3], fa[4],
+                ]
+            })
+            .collect();
+        Self { records }
     }
 
     /// `|sum_k w_k c_k|^2` for the taps at upper-left cell `a` with weights
@@ -257,156 +289,38 @@ fn row_distances_lanes(
 }
 
 crate::simd::kernel! {
-    /// `c . q` for every cell `c` of stored plane `k`, in the widest vector
-    /// instructions the CPU has.
-    fn cell_dots_wide(planes: &ChannelPlanes, k: usize, q: &[f32]) -> Vec<f32> = cell_dots_lanes
+    /// `c . q` for every `dim`-long cell vector `c` of `cells`, in the widest
+    /// vector instructions the CPU has.
+    fn cell_dots_wide(cells: &[f32], q: &[f32], dim: usize) -> Vec<f32> = cell_dots_lanes
 }
 
-/// [`CellAse::cell_dots`]: a row of cells side by side in lanes, each summed
-/// in order over the channels from -0.0 (as `Sum` for f32 does), so every
-/// value equals one `dot` at a time bit for bit.
+/// [`CellAse::cell_dots`]: eight cells side by side, each summed in order
+/// over the channels from -0.0 (as `Sum` for f32 does), so the sums do not
+/// wait on each other and equal one `dot` at a time bit for bit.
 #[inline(always)]
-fn cell_dots_lanes(planes: &ChannelPlanes, k: usize, q: &[f32]) -> Vec<f32> {
-    let n = planes.cells;
-    let plane = planes.plane(k);
-    let mut rows = vec![[0.0f32; ROW_LANES]; n];
-    for (y, out) in rows.iter_mut().enumerate() {
-        let mut acc = [-0.0f32; ROW_LANES];
-        for (channel, &qc) in plane.chunks_exact(n * ROW_LANES).zip(q) {
-            let row: &[f32; ROW_LANES] = channel[y * ROW_LANES..(y + 1) * ROW_LANES]
-                .try_into()
-                .expect("row");
-            for l in 0..ROW_LANES {
-                acc[l] += row[l] * qc;
+fn cell_dots_lanes(cells: &[f32], q: &[f32], dim: usize) -> Vec<f32> {
+    const SIDE: usize = 8;
+    let d = dim;
+    let mut out = Vec::with_capacity(cells.len() / d.max(1));
+    let mut blocks = cells.chunks_exact(SIDE * d);
+    for block in &mut blocks {
+        let c: [&[f32]; SIDE] = std::array::from_fn(|l| &block[l * d..(l + 1) * d]);
+        let mut acc = [-0.0f32; SIDE];
+        for (k, &qk) in q[..d].iter().enumerate() {
+            let v: [f32; SIDE] = std::array::from_fn(|l| c[l][k]);
+            for (a, v) in acc.iter_mut().zip(v) {
+                *a += v * qk;
             }
         }
-        *out = acc;
+        out.extend_from_slice(&acc);
     }
-    rows.iter().flat_map(|r| r[..n].iter().copied()).collect()
-}
-
-/// Lanes of a row of cells in [`ChannelPlanes`] (at least `cells + 1`).
-const ROW_LANES: usize = 32;
-
-/// Cell planes by channel: per stored plane `k`, channel `c` and cell row
-/// `y`, the row's values in [`ROW_LANES`] lanes, the last cell repeated past
-/// the row's end (as [`corners`] clamps a right neighbour at the border), and
-/// [`ROW_LANES`] more at the very end, so a row read one cell to the right
-/// stays inside.
-#[derive(Clone, Debug)]
-struct ChannelPlanes {
-    cells: usize,
-    dim: usize,
-    /// Planes held.
-    planes: usize,
-    values: Vec<f32>,
-}
-
-impl ChannelPlanes {
-    /// From planes of `cells x cells x dim`, channels last.
-    fn new(features: &[f32], cells: usize, dim: usize) -> Self {
-        assert!(
-            cells < ROW_LANES,
-            "{cells} cells per row do not fit {ROW_LANES} lanes"
-        );
-        let plane = cells * cells * dim;
-        let planes = features.len() / plane.max(1);
-        let mut values = vec![0.0f32; planes * dim * cells * ROW_LANES + ROW_LANES];
-        for (k, src) in features.chunks_exact(plane).enumerate() {
-            for (i, f) in src.chunks_exact(dim).enumerate() {
-                let (y, x) = (i / cells, i % cells);
-                for (c, &v) in f.iter().enumerate() {
-                    let at = ((k * dim + c) * cells + y) * ROW_LANES;
-                    values[at + x] = v;
-                    if x + 1 == cells {
-                        values[at + cells..at + ROW_LANES].fill(v);
-                    }
-                }
-            }
-        }
-        Self {
-            cells,
-            dim,
-            planes,
-            values,
-        }
-    }
-
-    /// Plane `k`: per channel, per cell row, [`ROW_LANES`] values.
-    #[inline(always)]
-    fn plane(&self, k: usize) -> &[f32] {
-        let len = self.dim * self.cells * ROW_LANES;
-        &self.values[k * len..(k + 1) * len]
-    }
-
-    /// Plane `k`, channel `c`, cell row `y`: [`ROW_LANES`] values.
-    #[inline(always)]
-    fn row(&self, k: usize, c: usize, y: usize) -> &[f32; ROW_LANES] {
-        let at = ((k * self.dim + c) * self.cells + y) * ROW_LANES;
-        self.values[at..at + ROW_LANES].try_into().expect("row")
-    }
-
-    /// [`Self::row`] read one cell to the right (the border cell repeated).
-    #[inline(always)]
-    fn row_right(&self, k: usize, c: usize, y: usize) -> &[f32; ROW_LANES] {
-        let at = ((k * self.dim + c) * self.cells + y) * ROW_LANES + 1;
-        self.values[at..at + ROW_LANES].try_into().expect("row")
-    }
-}
-
-crate::simd::kernel! {
-    /// [`CellGram::from_channels`]'s records in the widest vector
-    /// instructions the CPU has.
-    fn gram_records_wide(planes: &ChannelPlanes, k: usize) -> Vec<[f32; 10]> = gram_records_lanes
-}
-
-/// The ten dot products of every cell's record ([`CellGram`]) from five per
-/// cell: its own norm and its products with its right, lower, lower-right
-/// neighbours, and of its right with its lower neighbour. Each is summed in
-/// order over the channels from zero with the same products, a row of cells
-/// side by side in lanes, so every record equals ten dots one at a time bit
-/// for bit (a product and its mirror are the same float).
-#[inline(always)]
-fn gram_records_lanes(planes: &ChannelPlanes, k: usize) -> Vec<[f32; 10]> {
-    let n = planes.cells;
-    // Per cell row: a.a, a.b, a.c, a.d, b.c (b right of a, c below, d below b).
-    let mut dots = vec![[[0.0f32; ROW_LANES]; 5]; n];
-    for (y, row_dots) in dots.iter_mut().enumerate() {
-        let y1 = (y + 1).min(n - 1);
-        let [aa, ab, ac, ad, bc] = row_dots;
-        for c in 0..planes.dim {
-            let (a, b) = (planes.row(k, c, y), planes.row_right(k, c, y));
-            let (cv, d) = (planes.row(k, c, y1), planes.row_right(k, c, y1));
-            for l in 0..ROW_LANES {
-                aa[l] += a[l] * a[l];
-                ab[l] += a[l] * b[l];
-                ac[l] += a[l] * cv[l];
-                ad[l] += a[l] * d[l];
-                bc[l] += b[l] * cv[l];
-            }
-        }
-    }
-    let mut records = Vec::with_capacity(n * n);
-    for y in 0..n {
-        let y1 = (y + 1).min(n - 1);
-        for x in 0..n {
-            let x1 = (x + 1).min(n - 1);
-            let (here, below) = (&dots[y], &dots[y1]);
-            records.push([
-                here[0][x],
-                here[0][x1],
-                below[0][x],
-                below[0][x1],
-                here[1][x],
-                below[1][x],
-                here[2][x],
-                here[2][x1],
-                here[3][x],
-                here[4][x],
-            ]);
-        }
-    }
-    records
+    out.extend(
+        blocks
+            .remainder()
+            .chunks_exact(d)
+            .map(|c| c.iter().zip(q).map(|(a, b)| a * b).sum::<f32>()),
+    );
+    out
 }
 
 /// What a distance to a masked action is.
@@ -448,13 +362,6 @@ pub struct CellAse {
     /// rotation only ([`Self::with_rotations`]), that rotation's plane and
     /// then one plane of zeros, which every other rotation reads.
     features: Vec<f32>,
-    /// The same cells by channel ([`ChannelPlanes`]): what the dot products
-    /// of a query with every cell, and the Gram records, read in vector lanes.
-    /// Kept for maps embedded at every rotation (a live scene's, matched at
-    /// every rotation); a one-rotation map (a demonstration step's, kept for
-    /// the whole run and read in one small window) drops it once its Gram
-    /// record is made.
-    by_channel: Option<ChannelPlanes>,
     /// The one rotation embedded, if not all.
     only: Option<usize>,
     pub taps: Arc<Taps>,
@@ -517,13 +424,6 @@ impl CellAse {
             }
         };
         assert_eq!(pixel_mask.len(), plane);
-        // By channel: the planes embedded (not the plane of zeros).
-        let embedded = if only.is_some() { 1 } else { rotations };
-        let by_channel = Some(ChannelPlanes::new(
-            &features[..embedded * cell_plane],
-            cells,
-            dim,
-        ));
         let mut m = Self {
             primitive,
             resolution,
@@ -531,7 +431,6 @@ impl CellAse {
             dim,
             cells,
             features,
-            by_channel,
             only,
             taps,
             grams: Vec::new(),
@@ -552,14 +451,10 @@ impl CellAse {
         m.grams = (0..rotations)
             .into_par_iter()
             .map(|r| {
-                let planes = m.by_channel.as_ref()?;
                 only.is_none_or(|o| o == r)
-                    .then(|| CellGram::from_channels(planes, m.stored_plane(r)))
+                    .then(|| CellGram::new(m.plane_cells(r), cells, dim))
             })
             .collect();
-        if only.is_some() {
-            m.by_channel = None;
-        }
         m
     }
 
@@ -575,18 +470,12 @@ impl CellAse {
     /// The cell vectors of rotation `r`: `cells x cells x D`.
     pub fn plane_cells(&self, r: usize) -> &[f32] {
         let p = self.cells * self.cells * self.dim;
-        let k = self.stored_plane(r);
-        &self.features[k * p..(k + 1) * p]
-    }
-
-    /// Which stored plane rotation `r` reads (all of them, or the one
-    /// rotation embedded and then the plane of zeros).
-    fn stored_plane(&self, r: usize) -> usize {
         assert!(r < self.rotations, "rotation {r} of {}", self.rotations);
-        match self.only {
+        let k = match self.only {
             None => r,
             Some(o) => usize::from(r != o),
-        }
+        };
+        &self.features[k * p..(k + 1) * p]
     }
 
     /// Writes the embedding of action `index` (flat `(r * H + y) * W + x`)
@@ -624,17 +513,7 @@ impl CellAse {
 
     /// `c . q` for every cell of rotation `r`.
     pub fn cell_dots(&self, r: usize, q: &[f32]) -> Vec<f32> {
-        assert_eq!(q.len(), self.dim, "query is not {}-d", self.dim);
-        let k = self.stored_plane(r);
-        if let Some(planes) = self.by_channel.as_ref().filter(|p| k < p.planes) {
-            cell_dots_wide(planes, k, q)
-        } else {
-            // A one-rotation map, one dot at a time.
-            self.plane_cells(r)
-                .chunks_exact(self.dim)
-                .map(|c| c.iter().zip(q).map(|(a, b)| a * b).sum())
-                .collect()
-        }
+        cell_dots_wide(self.plane_cells(r), q, self.dim)
     }
 
     /// The squared norm `|E(p)|^2` of action `index`'s embedding (0 for a
@@ -834,7 +713,8 @@ mod tests {
     /// At 112 and 224 px, for every kind of masked action, on sparse and
     /// full masks: the distance planes (run blocks in the widest vector
     /// instructions the CPU has) equal the one-action formula bit for bit,
-    /// and the cell dot products equal one `dot` at a time.
+    /// the cell dot products and every Gram record equal one `dot` at a time,
+    /// and a map embedded at one rotation reads as the whole map there.
     #[test]
     fn run_blocks_equal_the_one_action_formula() {
         let cells = crate::net::FEATURE_RESOLUTION;
@@ -862,8 +742,7 @@ mod tests {
                     taps.clone(),
                     &mask,
                 );
-                // A map embedded at one rotation reads as the whole map there,
-                // and its other rotations' cells as zeros.
+                // A map embedded at one rotation reads as the whole map there.
                 let plane = cells * cells * dim;
                 let one = CellAse::with_rotations(
                     seespot_sim::Primitive::Grasp,
@@ -874,16 +753,6 @@ mod tests {
                     taps.clone(),
                     &mask,
                     Some(5),
-                );
-                let zeros: Vec<f32> = vec![0.0f32; cells * cells]
-                    .iter()
-                    .map(|_| queries[0].iter().map(|q| 0.0 * q).sum())
-                    .collect();
-                let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-                assert_eq!(bits(&one.cell_dots(0, &queries[0])), bits(&zeros));
-                assert_eq!(
-                    bits(&one.cell_dots(5, &queries[0])),
-                    bits(&ase.cell_dots(5, &queries[0]))
                 );
                 assert_eq!(
                     one.plane_distances_sq_many(5, &refs, Masked::ZeroFeature),
@@ -898,8 +767,7 @@ mod tests {
                     let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
                     assert_eq!(bits(&ase.cell_dots(r, &queries[0])), bits(&plain_dots));
                     // Each Gram record equals its ten dot products one at a time.
-                    let plane = ase.plane_cells(r);
-                    let at = |i: usize| &plane[i * dim..(i + 1) * dim];
+                    let at = |i: usize| &ase.plane_cells(r)[i * dim..(i + 1) * dim];
                     let dot =
                         |a: &[f32], b: &[f32]| a.iter().zip(b).fold(0.0f32, |s, (x, y)| s + x * y);
                     let records = &ase.grams[r].as_ref().expect("gram").records;
