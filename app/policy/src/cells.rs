@@ -30,9 +30,9 @@ use crate::rotation::{BackMap, bilinear_taps};
 #[derive(Debug)]
 pub struct Taps {
     pub cell: Vec<u32>,
-    pub weight: Vec<[f32; 4]>,
-    /// The weights by corner (`by_corner[k][i] = weight[i][k]`), each followed
-    /// by [`RUN_LANES`] zeros, so a block of lanes reads contiguous memory.
+    /// The weights by corner (action `i`'s are `by_corner[k][i]`, `k` in
+    /// [`corners`]' order: [`Self::weight`]), each followed by
+    /// [`RUN_LANES`] zeros, so a block of lanes reads contiguous memory.
     by_corner: [Vec<f32>; 4],
     /// The columns where each row's runs of actions with one upper-left cell
     /// start; row `r * H + y`'s are `run_starts[run_rows[row]..run_rows[row + 1]]`.
@@ -89,11 +89,16 @@ impl Taps {
         run_rows.push(run_starts.len() as u32);
         Self {
             cell,
-            weight,
             by_corner,
             run_starts,
             run_rows,
         }
+    }
+
+    /// The four tap weights of action `i`.
+    #[inline(always)]
+    pub fn weight(&self, i: usize) -> [f32; 4] {
+        self.by_corner.each_ref().map(|w| w[i])
     }
 
     /// The taps of the geometry `map` at `h` px (computed once per geometry).
@@ -485,7 +490,7 @@ impl CellAse {
         let src = self.plane_cells(index / plane);
         let d = self.dim;
         let idx = corners(self.taps.cell[index] as usize, self.cells);
-        let w = self.taps.weight[index];
+        let w = self.taps.weight(index);
         let at = |k: usize| &src[idx[k] * d..idx[k] * d + d];
         let (a, b, c, e) = (at(0), at(1), at(2), at(3));
         for k in 0..d {
@@ -521,7 +526,7 @@ impl CellAse {
     pub fn norm_sq(&self, index: usize) -> f32 {
         let plane = self.resolution * self.resolution;
         self.grams[index / plane].as_ref().map_or(0.0, |g| {
-            g.norm_sq(self.taps.cell[index], self.taps.weight[index])
+            g.norm_sq(self.taps.cell[index], self.taps.weight(index))
         })
     }
 
@@ -556,7 +561,7 @@ impl CellAse {
                     out.push(masked.value(qn));
                     continue;
                 }
-                let (a, w) = (self.taps.cell[i], self.taps.weight[i]);
+                let (a, w) = (self.taps.cell[i], self.taps.weight(i));
                 let norm = gram.map_or(0.0, |g| g.norm_sq(a, w));
                 out.push(tap_distance_sq(norm, w, dots[a as usize], qn));
             }
@@ -795,7 +800,7 @@ mod tests {
                             for (p, &got) in plane.iter().enumerate() {
                                 let i = r * res * res + p;
                                 let want = if ase.mask[i] || masked == Masked::Real {
-                                    let (a, w) = (ase.taps.cell[i], ase.taps.weight[i]);
+                                    let (a, w) = (ase.taps.cell[i], ase.taps.weight(i));
                                     tap_distance_sq(ase.norm_sq(i), w, dots[a as usize], qn)
                                 } else {
                                     masked.value(qn)
