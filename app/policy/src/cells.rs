@@ -204,128 +204,115 @@ struct RowRun<'a> {
 
 crate::simd::kernel! {
     /// One row's squared distances to every query (`out[k]` for query `k`;
-    /// masked actions as `run.masked` says), in the widest vector
-    /// instructions the CPU has; `scratch` holds `W + RUN_LANES` per query.
-    fn row_distances(
+    /// masked actions as `run.masked` says); `scratch` holds `W + RUN_LANES`
+    /// per query.
+    ///
+    /// [`tap_distance_sq`] (and [`CellGram::norm_sq`]) for a row of actions: per
+    /// run of actions with one upper-left cell (whose Gram record and dot
+    /// products every lane shares), [`RUN_LANES`] actions at a time, each lane
+    /// computing the same products and sums, in the same order, as the
+    /// one-action functions, so every value is the same bit for bit. A block
+    /// may reach past its run's end (into the row's padding at the last run):
+    /// the next run's blocks overwrite those lanes, and a skipped run is all
+    /// masked.
+    fn row_distances / row_distances_lanes(
         run: &RowRun,
         taps: &Taps,
         row: usize,
         mask: &[bool],
         scratch: &mut [f32],
         out: &mut [&mut [f32]],
-    ) = row_distances_lanes
-}
-
-/// [`tap_distance_sq`] (and [`CellGram::norm_sq`]) for a row of actions: per
-/// run of actions with one upper-left cell (whose Gram record and dot
-/// products every lane shares), [`RUN_LANES`] actions at a time, each lane
-/// computing the same products and sums, in the same order, as the
-/// one-action functions, so every value is the same bit for bit. A block
-/// may reach past its run's end (into the row's padding at the last run):
-/// the next run's blocks overwrite those lanes, and a skipped run is all
-/// masked.
-#[inline(always)]
-fn row_distances_lanes(
-    run: &RowRun,
-    taps: &Taps,
-    row: usize,
-    mask: &[bool],
-    scratch: &mut [f32],
-    out: &mut [&mut [f32]],
-) {
-    let n = mask.len();
-    let real = run.masked == Masked::Real;
-    let base = row * n;
-    let runs = &taps.run_starts[taps.run_rows[row] as usize..taps.run_rows[row + 1] as usize];
-    let zero = [0.0f32; 10];
-    for (j, &start) in runs.iter().enumerate() {
-        let start = start as usize;
-        let end = runs.get(j + 1).map_or(n, |&e| e as usize);
-        if !real && !mask[start..end].contains(&true) {
-            continue;
-        }
-        let a = taps.cell[base + start] as usize;
-        let rec = run.gram.map_or(&zero, |g| &g.records[a]);
-        let mut x = start;
-        while x < end {
-            let at = base + x..base + x + RUN_LANES;
-            let w0 = &taps.by_corner[0][at.clone()];
-            let w1 = &taps.by_corner[1][at.clone()];
-            let w2 = &taps.by_corner[2][at.clone()];
-            let w3 = &taps.by_corner[3][at];
-            // The products and sums of `gram_norm` and `tap_distance_sq`, in
-            // their order, with the run's record and dot products as scalars.
-            let [g0, g1, g2, g3, g4, g5, g6, g7, g8, g9] = *rec;
-            let mut norm = [0.0f32; RUN_LANES];
-            if run.gram.is_some() {
-                for l in 0..RUN_LANES {
-                    let (a, b, c, d) = (w0[l], w1[l], w2[l], w3[l]);
-                    let cross =
-                        a * b * g4 + c * d * g5 + a * c * g6 + b * d * g7 + a * d * g8 + b * c * g9;
-                    norm[l] = a * a * g0 + b * b * g1 + c * c * g2 + d * d * g3 + 2.0 * cross;
-                }
+    ) {
+        let n = mask.len();
+        let real = run.masked == Masked::Real;
+        let base = row * n;
+        let runs = &taps.run_starts[taps.run_rows[row] as usize..taps.run_rows[row + 1] as usize];
+        let zero = [0.0f32; 10];
+        for (j, &start) in runs.iter().enumerate() {
+            let start = start as usize;
+            let end = runs.get(j + 1).map_or(n, |&e| e as usize);
+            if !real && !mask[start..end].contains(&true) {
+                continue;
             }
-            for ((dots, &qn), s) in run
-                .dots
-                .iter()
-                .zip(run.qn)
-                .zip(scratch.chunks_exact_mut(n + RUN_LANES))
-            {
-                let [d0, d1, d2, d3] = dots[a];
-                let s = &mut s[x..x + RUN_LANES];
-                for l in 0..RUN_LANES {
-                    let eq = w0[l] * d0 + w1[l] * d1 + w2[l] * d2 + w3[l] * d3;
-                    s[l] = (norm[l] - 2.0 * eq + qn).max(0.0);
+            let a = taps.cell[base + start] as usize;
+            let rec = run.gram.map_or(&zero, |g| &g.records[a]);
+            let mut x = start;
+            while x < end {
+                let at = base + x..base + x + RUN_LANES;
+                let w0 = &taps.by_corner[0][at.clone()];
+                let w1 = &taps.by_corner[1][at.clone()];
+                let w2 = &taps.by_corner[2][at.clone()];
+                let w3 = &taps.by_corner[3][at];
+                // The products and sums of `gram_norm` and `tap_distance_sq`, in
+                // their order, with the run's record and dot products as scalars.
+                let [g0, g1, g2, g3, g4, g5, g6, g7, g8, g9] = *rec;
+                let mut norm = [0.0f32; RUN_LANES];
+                if run.gram.is_some() {
+                    for l in 0..RUN_LANES {
+                        let (a, b, c, d) = (w0[l], w1[l], w2[l], w3[l]);
+                        let cross =
+                            a * b * g4 + c * d * g5 + a * c * g6 + b * d * g7 + a * d * g8 + b * c * g9;
+                        norm[l] = a * a * g0 + b * b * g1 + c * c * g2 + d * d * g3 + 2.0 * cross;
+                    }
                 }
+                for ((dots, &qn), s) in run
+                    .dots
+                    .iter()
+                    .zip(run.qn)
+                    .zip(scratch.chunks_exact_mut(n + RUN_LANES))
+                {
+                    let [d0, d1, d2, d3] = dots[a];
+                    let s = &mut s[x..x + RUN_LANES];
+                    for l in 0..RUN_LANES {
+                        let eq = w0[l] * d0 + w1[l] * d1 + w2[l] * d2 + w3[l] * d3;
+                        s[l] = (norm[l] - 2.0 * eq + qn).max(0.0);
+                    }
+                }
+                x += RUN_LANES;
             }
-            x += RUN_LANES;
         }
-    }
-    for ((o, s), &qn) in out
-        .iter_mut()
-        .zip(scratch.chunks_exact(n + RUN_LANES))
-        .zip(run.qn)
-    {
-        let m = run.masked.value(qn);
-        for ((o, &s), &keep) in o.iter_mut().zip(s).zip(mask) {
-            *o = if keep || real { s } else { m };
+        for ((o, s), &qn) in out
+            .iter_mut()
+            .zip(scratch.chunks_exact(n + RUN_LANES))
+            .zip(run.qn)
+        {
+            let m = run.masked.value(qn);
+            for ((o, &s), &keep) in o.iter_mut().zip(s).zip(mask) {
+                *o = if keep || real { s } else { m };
+            }
         }
     }
 }
 
 crate::simd::kernel! {
-    /// `c . q` for every `dim`-long cell vector `c` of `cells`, in the widest
-    /// vector instructions the CPU has.
-    fn cell_dots_wide(cells: &[f32], q: &[f32], dim: usize) -> Vec<f32> = cell_dots_lanes
-}
-
-/// [`CellAse::cell_dots`]: eight cells side by side, each summed in order
-/// over the channels from -0.0 (as `Sum` for f32 does), so the sums do not
-/// wait on each other and equal one `dot` at a time bit for bit.
-#[inline(always)]
-fn cell_dots_lanes(cells: &[f32], q: &[f32], dim: usize) -> Vec<f32> {
-    const SIDE: usize = 8;
-    let d = dim;
-    let mut out = Vec::with_capacity(cells.len() / d.max(1));
-    let mut blocks = cells.chunks_exact(SIDE * d);
-    for block in &mut blocks {
-        let c: [&[f32]; SIDE] = std::array::from_fn(|l| &block[l * d..(l + 1) * d]);
-        let mut acc = [-0.0f32; SIDE];
-        for (k, &qk) in q[..d].iter().enumerate() {
-            let v: [f32; SIDE] = std::array::from_fn(|l| c[l][k]);
-            for (a, v) in acc.iter_mut().zip(v) {
-                *a += v * qk;
+    /// `c . q` for every `dim`-long cell vector `c` of `cells`
+    /// ([`CellAse::cell_dots`]): eight cells side by side, each summed in order
+    /// over the channels from -0.0 (as `Sum` for f32 does), so the sums do not
+    /// wait on each other and equal one `dot` at a time bit for bit.
+    fn cell_dots_wide / cell_dots_lanes(cells: &[f32], q: &[f32], dim: usize) -> Vec<f32> {
+        const SIDE: usize = 8;
+        let d = dim;
+        let mut out = Vec::with_capacity(cells.len() / d.max(1));
+        let mut blocks = cells.chunks_exact(SIDE * d);
+        for block in &mut blocks {
+            let c: [&[f32]; SIDE] = std::array::from_fn(|l| &block[l * d..(l + 1) * d]);
+            let mut acc = [-0.0f32; SIDE];
+            for (k, &qk) in q[..d].iter().enumerate() {
+                let v: [f32; SIDE] = std::array::from_fn(|l| c[l][k]);
+                for (a, v) in acc.iter_mut().zip(v) {
+                    *a += v * qk;
+                }
             }
+            out.extend_from_slice(&acc);
         }
-        out.extend_from_slice(&acc);
+        out.extend(
+            blocks
+                .remainder()
+                .chunks_exact(d)
+                .map(|c| c.iter().zip(q).map(|(a, b)| a * b).sum::<f32>()),
+        );
+        out
     }
-    out.extend(
-        blocks
-            .remainder()
-            .chunks_exact(d)
-            .map(|c| c.iter().zip(q).map(|(a, b)| a * b).sum::<f32>()),
-    );
-    out
 }
 
 /// What a distance to a masked action is.

@@ -51,25 +51,34 @@ macro_rules! simd_dispatch {
 
 pub use simd_dispatch as dispatch;
 
-/// Defines `fn $name(args) -> ret` that calls `$kernel(args)` (an
-/// `#[inline(always)]` function) compiled for AVX-512F, AVX2 or the baseline,
-/// as [`dispatch!`] does. For kernels too large for the compiler to inline
-/// [`dispatch!`]'s closure: here the kernel is inlined straight into each
-/// variant, so it is certain to be compiled for that variant's instructions.
+/// Defines a kernel once and two functions from it: `fn $lanes(args) -> ret`
+/// with the body given (`#[inline(always)]`, the plain code; callable
+/// directly, e.g. by a test comparing the baseline build), and `fn
+/// $name(args) -> ret`, which runs that body compiled for AVX-512F, AVX2 or
+/// the baseline, as [`dispatch!`] does. For kernels too large for the
+/// compiler to inline [`dispatch!`]'s closure: here the body is inlined
+/// straight into each variant, so it is certain to be compiled for that
+/// variant's instructions. The attributes given apply to both functions.
 #[macro_export]
 macro_rules! simd_kernel {
-    ($(#[$meta:meta])* $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) $(-> $ret:ty)? = $kernel:path) => {
+    ($(#[$meta:meta])* $vis:vis fn $name:ident / $lanes:ident($($arg:ident: $ty:ty),* $(,)?) $(-> $ret:ty)? $body:block) => {
         $(#[$meta])*
+        #[inline(always)]
+        $vis fn $lanes($($arg: $ty),*) $(-> $ret)? $body
+
+        $(#[$meta])*
+        #[doc = ""]
+        #[doc = concat!("Runs [`", stringify!($lanes), "`] in the widest vector instructions the CPU has.")]
         $vis fn $name($($arg: $ty),*) $(-> $ret)? {
             #[cfg(target_arch = "x86_64")]
             {
                 #[target_feature(enable = "avx512f")]
                 fn wide512($($arg: $ty),*) $(-> $ret)? {
-                    $kernel($($arg),*)
+                    $lanes($($arg),*)
                 }
                 #[target_feature(enable = "avx2")]
                 fn wide256($($arg: $ty),*) $(-> $ret)? {
-                    $kernel($($arg),*)
+                    $lanes($($arg),*)
                 }
                 if ::std::arch::is_x86_feature_detected!("avx512f") {
                     // SAFETY: the CPU has AVX-512F (checked just above).
@@ -84,12 +93,12 @@ macro_rules! simd_kernel {
                         wide256($($arg),*)
                     }
                 } else {
-                    $kernel($($arg),*)
+                    $lanes($($arg),*)
                 }
             }
             #[cfg(not(target_arch = "x86_64"))]
             {
-                $kernel($($arg),*)
+                $lanes($($arg),*)
             }
         }
     };

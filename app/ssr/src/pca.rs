@@ -119,91 +119,83 @@ pub fn pca_rgb(planes: &[&[f32]], dim: usize) -> Vec<Vec<u8>> {
         .collect()
 }
 
-/// Each row's three projections `f . axes[k] - offsets[k]` (zeros where the
-/// row is not finite), summed in 16 lanes.
-#[inline(always)]
-fn project_rows(rows: &[&[f32]], ok: &[bool], axes: &[Vec<f32>], offsets: &[f32]) -> Vec<[f32; 3]> {
-    const LANES: usize = 16;
-    // Plain loops rather than a closure, so the whole body is compiled for
-    // the variant's instructions ([`seespot_policy::simd::kernel!`]).
-    let mut projected = Vec::with_capacity(rows.len());
-    for (f, &ok) in rows.iter().zip(ok) {
-        let mut out = [0.0f32; 3];
-        if ok {
-            for (k, o) in out.iter_mut().enumerate() {
-                let mut acc = [0.0f32; LANES];
-                let (fc, ac) = (f.chunks_exact(LANES), axes[k].chunks_exact(LANES));
-                let (fr, ar) = (fc.remainder(), ac.remainder());
-                for (a, b) in fc.zip(ac) {
-                    for l in 0..LANES {
-                        acc[l] += a[l] * b[l];
-                    }
-                }
-                let tail: f32 = fr.iter().zip(ar).map(|(a, b)| a * b).sum();
-                *o = acc.iter().sum::<f32>() + tail - offsets[k];
-            }
-        }
-        projected.push(out);
-    }
-    projected
-}
-
-/// The `k` leading eigenvectors of the symmetric `dim x dim` matrix `m`, by
-/// power iteration with deflation (`m` is deflated in place).
-/// The upper triangle of `sum (f - mean)(f - mean)^T` over `rows`
-/// (`dim x dim`, row-major; the lower triangle is left zero).
-#[inline(always)]
-fn covariance_part(rows: &[&[f32]], mean: &[f64], dim: usize) -> Vec<f64> {
-    let mut acc = vec![0.0f64; dim * dim];
-    let mut c = vec![0.0f64; dim];
-    for f in rows {
-        for ((x, v), m) in c.iter_mut().zip(*f).zip(mean) {
-            *x = *v as f64 - m;
-        }
-        for i in 0..dim {
-            let ci = c[i];
-            for (a, cj) in acc[i * dim + i..(i + 1) * dim].iter_mut().zip(&c[i..]) {
-                *a += ci * cj;
-            }
-        }
-    }
-    acc
-}
-
-/// `m v` for a symmetric `dim x dim` matrix `m`: each entry summed over `j`
-/// in order, as `sum_j m[i][j] v[j]`, but read by rows (`m[j][i]`), so the
-/// entries are computed side by side in vector lanes.
-#[inline(always)]
-fn symmetric_times(m: &[f64], v: &[f64], dim: usize) -> Vec<f64> {
-    let mut w = vec![0.0f64; dim];
-    for (row, &vj) in m.chunks_exact(dim).zip(v) {
-        for (a, mji) in w.iter_mut().zip(row) {
-            *a += mji * vj;
-        }
-    }
-    w
-}
-
 seespot_policy::simd::kernel! {
-    /// [`covariance_part`] in the widest vector instructions the CPU has.
-    fn covariance_part_wide(rows: &[&[f32]], mean: &[f64], dim: usize) -> Vec<f64> = covariance_part
-}
-
-seespot_policy::simd::kernel! {
-    /// [`project_rows`] in the widest vector instructions the CPU has.
-    fn project_rows_wide(
+    /// Each row's three projections `f . axes[k] - offsets[k]` (zeros where the
+    /// row is not finite), summed in 16 lanes.
+    fn project_rows_wide / project_rows(
         rows: &[&[f32]],
         ok: &[bool],
         axes: &[Vec<f32>],
         offsets: &[f32],
-    ) -> Vec<[f32; 3]> = project_rows
+    ) -> Vec<[f32; 3]> {
+        const LANES: usize = 16;
+        // Plain loops rather than a closure, so the whole body is compiled for
+        // the variant's instructions ([`seespot_policy::simd::kernel!`]).
+        let mut projected = Vec::with_capacity(rows.len());
+        for (f, &ok) in rows.iter().zip(ok) {
+            let mut out = [0.0f32; 3];
+            if ok {
+                for (k, o) in out.iter_mut().enumerate() {
+                    let mut acc = [0.0f32; LANES];
+                    let (fc, ac) = (f.chunks_exact(LANES), axes[k].chunks_exact(LANES));
+                    let (fr, ar) = (fc.remainder(), ac.remainder());
+                    for (a, b) in fc.zip(ac) {
+                        for l in 0..LANES {
+                            acc[l] += a[l] * b[l];
+                        }
+                    }
+                    let tail: f32 = fr.iter().zip(ar).map(|(a, b)| a * b).sum();
+                    *o = acc.iter().sum::<f32>() + tail - offsets[k];
+                }
+            }
+            projected.push(out);
+        }
+        projected
+    }
 }
 
 seespot_policy::simd::kernel! {
-    /// [`symmetric_times`] in the widest vector instructions the CPU has.
-    fn symmetric_times_wide(m: &[f64], v: &[f64], dim: usize) -> Vec<f64> = symmetric_times
+    /// The upper triangle of `sum (f - mean)(f - mean)^T` over `rows`
+    /// (`dim x dim`, row-major; the lower triangle is left zero).
+    fn covariance_part_wide / covariance_part(
+        rows: &[&[f32]],
+        mean: &[f64],
+        dim: usize,
+    ) -> Vec<f64> {
+        let mut acc = vec![0.0f64; dim * dim];
+        let mut c = vec![0.0f64; dim];
+        for f in rows {
+            for ((x, v), m) in c.iter_mut().zip(*f).zip(mean) {
+                *x = *v as f64 - m;
+            }
+            for i in 0..dim {
+                let ci = c[i];
+                for (a, cj) in acc[i * dim + i..(i + 1) * dim].iter_mut().zip(&c[i..]) {
+                    *a += ci * cj;
+                }
+            }
+        }
+        acc
+    }
 }
 
+seespot_policy::simd::kernel! {
+    /// `m v` for a symmetric `dim x dim` matrix `m`: each entry summed over `j`
+    /// in order, as `sum_j m[i][j] v[j]`, but read by rows (`m[j][i]`), so the
+    /// entries are computed side by side in vector lanes.
+    fn symmetric_times_wide / symmetric_times(m: &[f64], v: &[f64], dim: usize) -> Vec<f64> {
+        let mut w = vec![0.0f64; dim];
+        for (row, &vj) in m.chunks_exact(dim).zip(v) {
+            for (a, mji) in w.iter_mut().zip(row) {
+                *a += mji * vj;
+            }
+        }
+        w
+    }
+}
+
+/// The `k` leading eigenvectors of the symmetric `dim x dim` matrix `m`, by
+/// power iteration with deflation (`m` is deflated in place).
 fn top_eigenvectors(m: &mut [f64], dim: usize, k: usize) -> Vec<Vec<f64>> {
     let mut out = Vec::with_capacity(k);
     for c in 0..k {

@@ -384,25 +384,21 @@ pub fn bench_correspond(resolution: usize, iterations: usize) -> serde_json::Val
 }
 
 seespot_policy::simd::kernel! {
-    /// [`mul_add_block`] in the widest vector instructions the CPU has.
-    fn mul_add_wide(xs: &[f32], reps: usize, g: f32) -> f32 = mul_add_block
-}
-
-/// `acc += g * x` over an L1-resident buffer, 128 accumulators kept in
-/// registers: the smoothing's inner step (a load, a multiply and an add per
-/// term) at the best rate the compiler reaches.
-#[inline(always)]
-fn mul_add_block(xs: &[f32], reps: usize, g: f32) -> f32 {
-    let mut acc = [0.0f32; 128];
-    for _ in 0..reps {
-        for c in xs.chunks_exact(128) {
-            let c: &[f32; 128] = c.try_into().expect("block");
-            for (a, v) in acc.iter_mut().zip(c) {
-                *a += g * v;
+    /// `acc += g * x` over an L1-resident buffer, 128 accumulators kept in
+    /// registers: the smoothing's inner step (a load, a multiply and an add per
+    /// term) at the best rate the compiler reaches.
+    fn mul_add_wide / mul_add_block(xs: &[f32], reps: usize, g: f32) -> f32 {
+        let mut acc = [0.0f32; 128];
+        for _ in 0..reps {
+            for c in xs.chunks_exact(128) {
+                let c: &[f32; 128] = c.try_into().expect("block");
+                for (a, v) in acc.iter_mut().zip(c) {
+                    *a += g * v;
+                }
             }
         }
+        acc.iter().sum::<f32>()
     }
-    acc.iter().sum::<f32>()
 }
 
 /// This machine's rate of the smoothing's multiply-adds on all threads

@@ -257,47 +257,44 @@ fn min_lanes(d: &[f32]) -> f32 {
 }
 
 seespot_policy::simd::kernel! {
-    /// [`min_allowed_lanes`] in the widest vector instructions the CPU has.
-    fn min_allowed(d: &[f32], allowed: &[bool]) -> f32 = min_allowed_lanes
+    /// The first allowed entry of `d` equal to `v`, sixteen entries at a time.
+    fn first_allowed_at / first_allowed_at_lanes(
+        d: &[f32],
+        allowed: &[bool],
+        v: f32,
+    ) -> Option<usize> {
+        let hit = |(x, ok): (&f32, &bool)| *ok && *x == v;
+        let mut base = 0;
+        for (c, a) in d.chunks(16).zip(allowed.chunks(16)) {
+            if c.iter().zip(a).fold(false, |any, p| any | hit(p)) {
+                return c.iter().zip(a).position(hit).map(|p| base + p);
+            }
+            base += c.len();
+        }
+        None
+    }
 }
 
 seespot_policy::simd::kernel! {
-    /// The first allowed entry of `d` equal to `v`, sixteen entries at a time.
-    fn first_allowed_at(d: &[f32], allowed: &[bool], v: f32) -> Option<usize> = first_allowed_at_lanes
-}
-
-#[inline(always)]
-fn first_allowed_at_lanes(d: &[f32], allowed: &[bool], v: f32) -> Option<usize> {
-    let hit = |(x, ok): (&f32, &bool)| *ok && *x == v;
-    let mut base = 0;
-    for (c, a) in d.chunks(16).zip(allowed.chunks(16)) {
-        if c.iter().zip(a).fold(false, |any, p| any | hit(p)) {
-            return c.iter().zip(a).position(hit).map(|p| base + p);
+    /// [`min_lanes`] over the entries of `d` that `allowed` allows.
+    fn min_allowed / min_allowed_lanes(d: &[f32], allowed: &[bool]) -> f32 {
+        let mut lanes = [f32::INFINITY; 16];
+        let chunks = d.chunks_exact(16).zip(allowed.chunks_exact(16));
+        let tail = d.len() - d.len() % 16;
+        for (c, a) in chunks {
+            for ((m, &v), &ok) in lanes.iter_mut().zip(c).zip(a) {
+                let v = if ok { v } else { f32::INFINITY };
+                *m = if v < *m { v } else { *m };
+            }
         }
-        base += c.len();
+        d[tail..]
+            .iter()
+            .zip(&allowed[tail..])
+            .filter(|(_, ok)| **ok)
+            .map(|(v, _)| v)
+            .chain(&lanes)
+            .fold(f32::INFINITY, |m, &v| if v < m { v } else { m })
     }
-    None
-}
-
-/// [`min_lanes`] over the entries of `d` that `allowed` allows.
-#[inline(always)]
-fn min_allowed_lanes(d: &[f32], allowed: &[bool]) -> f32 {
-    let mut lanes = [f32::INFINITY; 16];
-    let chunks = d.chunks_exact(16).zip(allowed.chunks_exact(16));
-    let tail = d.len() - d.len() % 16;
-    for (c, a) in chunks {
-        for ((m, &v), &ok) in lanes.iter_mut().zip(c).zip(a) {
-            let v = if ok { v } else { f32::INFINITY };
-            *m = if v < *m { v } else { *m };
-        }
-    }
-    d[tail..]
-        .iter()
-        .zip(&allowed[tail..])
-        .filter(|(_, ok)| **ok)
-        .map(|(v, _)| v)
-        .chain(&lanes)
-        .fold(f32::INFINITY, |m, &v| if v < m { v } else { m })
 }
 
 impl Best {

@@ -101,81 +101,70 @@ fn convolve(
 }
 
 seespot_policy::simd::kernel! {
-    /// [`convolve_lanes`] in the widest vector instructions the CPU has.
-    fn convolve_wide(
+    fn convolve_wide / convolve_lanes(
         src: &[f32],
         n: usize,
         radius: usize,
         kernel: &[f32],
         input: &Rows,
         output: &Rows,
-    ) -> Vec<f32> = convolve_lanes
-}
-
-#[inline(always)]
-fn convolve_lanes(
-    src: &[f32],
-    n: usize,
-    radius: usize,
-    kernel: &[f32],
-    input: &Rows,
-    output: &Rows,
-) -> Vec<f32> {
-    // Columns the vertical pass reads from each row of the horizontal one:
-    // the hull of the output spans within `radius` rows.
-    let need: Vec<Option<(usize, usize)>> = (0..n)
-        .map(|s| {
-            let rows = s.saturating_sub(radius)..(s + radius + 1).min(n);
-            output.0[rows]
-                .iter()
-                .flatten()
-                .fold(None, |acc: Option<(usize, usize)>, &(a, b)| {
-                    Some(acc.map_or((a, b), |(x, y)| (x.min(a), y.max(b))))
-                })
-        })
-        .collect();
-    // Horizontal pass, on the rows with input, at the columns needed.
-    let mut h = vec![0.0f32; n * n];
-    for y in 0..n {
-        let (Some((a, b)), Some((c, d))) = (input.0[y], need[y]) else {
-            continue;
-        };
-        let (row, out) = (&src[y * n..(y + 1) * n], &mut h[y * n..(y + 1) * n]);
-        for (k, &g) in kernel.iter().enumerate() {
-            // Output x reads input x + k - radius, which must lie in a..=b.
-            let lo = (a + radius).saturating_sub(k).max(c);
-            let hi = (b + radius + 1).saturating_sub(k).min(d + 1);
-            if lo >= hi {
+    ) -> Vec<f32> {
+        // Columns the vertical pass reads from each row of the horizontal one:
+        // the hull of the output spans within `radius` rows.
+        let need: Vec<Option<(usize, usize)>> = (0..n)
+            .map(|s| {
+                let rows = s.saturating_sub(radius)..(s + radius + 1).min(n);
+                output.0[rows]
+                    .iter()
+                    .flatten()
+                    .fold(None, |acc: Option<(usize, usize)>, &(a, b)| {
+                        Some(acc.map_or((a, b), |(x, y)| (x.min(a), y.max(b))))
+                    })
+            })
+            .collect();
+        // Horizontal pass, on the rows with input, at the columns needed.
+        let mut h = vec![0.0f32; n * n];
+        for y in 0..n {
+            let (Some((a, b)), Some((c, d))) = (input.0[y], need[y]) else {
                 continue;
-            }
-            let inp = &row[lo + k - radius..hi + k - radius];
-            for (o, i) in out[lo..hi].iter_mut().zip(inp) {
-                *o += g * i;
+            };
+            let (row, out) = (&src[y * n..(y + 1) * n], &mut h[y * n..(y + 1) * n]);
+            for (k, &g) in kernel.iter().enumerate() {
+                // Output x reads input x + k - radius, which must lie in a..=b.
+                let lo = (a + radius).saturating_sub(k).max(c);
+                let hi = (b + radius + 1).saturating_sub(k).min(d + 1);
+                if lo >= hi {
+                    continue;
+                }
+                let inp = &row[lo + k - radius..hi + k - radius];
+                for (o, i) in out[lo..hi].iter_mut().zip(inp) {
+                    *o += g * i;
+                }
             }
         }
-    }
-    // Vertical pass at the output entries, rows contiguous in the inner loop.
-    let mut v = vec![0.0f32; n * n];
-    for y in 0..n {
-        let Some((c, d)) = output.0[y] else {
-            continue;
-        };
-        let out = &mut v[y * n + c..y * n + d + 1];
-        for (k, &g) in kernel.iter().enumerate() {
-            let s = y + k;
-            if s < radius || s - radius >= n {
+        // Vertical pass at the output entries, rows contiguous in the inner loop.
+        let mut v = vec![0.0f32; n * n];
+        for y in 0..n {
+            let Some((c, d)) = output.0[y] else {
                 continue;
-            }
-            let s = s - radius;
-            if input.0[s].is_none() {
-                continue;
-            }
-            for (o, i) in out.iter_mut().zip(&h[s * n + c..s * n + d + 1]) {
-                *o += g * i;
+            };
+            let out = &mut v[y * n + c..y * n + d + 1];
+            for (k, &g) in kernel.iter().enumerate() {
+                let s = y + k;
+                if s < radius || s - radius >= n {
+                    continue;
+                }
+                let s = s - radius;
+                if input.0[s].is_none() {
+                    continue;
+                }
+                for (o, i) in out.iter_mut().zip(&h[s * n + c..s * n + d + 1]) {
+                    *o += g * i;
+                }
             }
         }
+        v
     }
-    v
 }
 
 /// The normalizer of [`smooth`] for maps whose finite entries are `finite`
@@ -316,9 +305,8 @@ pub fn smooth_reference_into(
 }
 
 seespot_policy::simd::kernel! {
-    /// [`smooth_reference_lanes`] in the widest vector instructions the CPU has.
     #[allow(clippy::too_many_arguments)]
-    fn smooth_reference_wide(
+    fn smooth_reference_wide / smooth_reference_lanes(
         map: &[f32],
         h: usize,
         w: usize,
@@ -327,72 +315,59 @@ seespot_policy::simd::kernel! {
         edge: Edge,
         output: &Rows,
         out: &mut [f32],
-    ) = smooth_reference_lanes
-}
-
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn smooth_reference_lanes(
-    map: &[f32],
-    h: usize,
-    w: usize,
-    radius: usize,
-    kernel: &[f32],
-    edge: Edge,
-    output: &Rows,
-    out: &mut [f32],
-) {
-    // Along the rows (y), on the rows with output, every column; then along
-    // the columns (x) at the output entries, from the row padded at its edges.
-    // Two neighbouring output rows share their pass along y: row y + 1's
-    // k-th term reads the row that row y's (k + 1)-th reads (at the edges
-    // too), so one read of each row serves both, each still summing its
-    // terms in the order of k.
-    let mut padded = [vec![0.0f32; w + 2 * radius], vec![0.0f32; w + 2 * radius]];
-    // The rows a pass along y reads (`along_y[y + j]` for term j of row y)
-    // and the columns the padding copies, worked out once per map.
-    let along_y: Vec<usize> = (0..h + 2 * radius + 1)
-        .map(|t| edge.index(t as isize - radius as isize, h))
-        .collect();
-    let pad_left: Vec<usize> = (0..radius)
-        .map(|j| edge.index(j as isize - radius as isize, w))
-        .collect();
-    let pad_right: Vec<usize> = (0..radius)
-        .map(|j| edge.index((w + j) as isize, w))
-        .collect();
-    let mut y = 0;
-    while y < h {
-        let Some((c, d)) = output.0[y] else {
-            y += 1;
-            continue;
-        };
-        let next = output.0.get(y + 1).copied().flatten();
-        let rows = &along_y[y..];
-        let [pa, pb] = &mut padded;
-        let src = |j: usize, x: usize| &map[rows[j] * w + x..];
-        if next.is_some() {
-            pair_blocked(
-                &mut pa[radius..radius + w],
-                &mut pb[radius..radius + w],
-                kernel,
-                src,
-            );
-        } else {
-            taps_blocked(&mut pa[radius..radius + w], kernel, src);
-        }
-        for (row, span) in [(y, Some((c, d))), (y + 1, next)] {
-            let Some((c, d)) = span else { continue };
-            let p = &mut padded[row - y];
-            for j in 0..radius {
-                p[j] = p[radius + pad_left[j]];
-                p[radius + w + j] = p[radius + pad_right[j]];
+    ) {
+        // Along the rows (y), on the rows with output, every column; then along
+        // the columns (x) at the output entries, from the row padded at its edges.
+        // Two neighbouring output rows share their pass along y: row y + 1's
+        // k-th term reads the row that row y's (k + 1)-th reads (at the edges
+        // too), so one read of each row serves both, each still summing its
+        // terms in the order of k.
+        let mut padded = [vec![0.0f32; w + 2 * radius], vec![0.0f32; w + 2 * radius]];
+        // The rows a pass along y reads (`along_y[y + j]` for term j of row y)
+        // and the columns the padding copies, worked out once per map.
+        let along_y: Vec<usize> = (0..h + 2 * radius + 1)
+            .map(|t| edge.index(t as isize - radius as isize, h))
+            .collect();
+        let pad_left: Vec<usize> = (0..radius)
+            .map(|j| edge.index(j as isize - radius as isize, w))
+            .collect();
+        let pad_right: Vec<usize> = (0..radius)
+            .map(|j| edge.index((w + j) as isize, w))
+            .collect();
+        let mut y = 0;
+        while y < h {
+            let Some((c, d)) = output.0[y] else {
+                y += 1;
+                continue;
+            };
+            let next = output.0.get(y + 1).copied().flatten();
+            let rows = &along_y[y..];
+            let [pa, pb] = &mut padded;
+            let src = |j: usize, x: usize| &map[rows[j] * w + x..];
+            if next.is_some() {
+                pair_blocked(
+                    &mut pa[radius..radius + w],
+                    &mut pb[radius..radius + w],
+                    kernel,
+                    src,
+                );
+            } else {
+                taps_blocked(&mut pa[radius..radius + w], kernel, src);
             }
-            let p = &*p;
-            taps_blocked(&mut out[row * w + c..row * w + d + 1], kernel, |k, x| {
-                &p[c + k + x..]
-            });
+            for (row, span) in [(y, Some((c, d))), (y + 1, next)] {
+                let Some((c, d)) = span else { continue };
+                let p = &mut padded[row - y];
+                for j in 0..radius {
+                    p[j] = p[radius + pad_left[j]];
+                    p[radius + w + j] = p[radius + pad_right[j]];
+                }
+                let p = &*p;
+                taps_blocked(&mut out[row * w + c..row * w + d + 1], kernel, |k, x| {
+                    &p[c + k + x..]
+                });
+            }
+            y += if next.is_some() { 2 } else { 1 };
         }
-        y += if next.is_some() { 2 } else { 1 };
     }
 }
 
