@@ -84,24 +84,13 @@ fn kernel(sigma: f32) -> Option<(usize, Vec<f32>)> {
     Some((radius, k))
 }
 
-/// Separable convolution of an `n x n` map with `kernel` (zero outside),
-/// where `src` is zero outside `input`; only the entries of `output` are
-/// computed (the rest of the result is zero). Each computed entry sums its
-/// kernel taps in the same order as the whole-plane convolution, so it has
-/// the same value.
-fn convolve(
-    src: &[f32],
-    n: usize,
-    radius: usize,
-    kernel: &[f32],
-    input: &Rows,
-    output: &Rows,
-) -> Vec<f32> {
-    convolve_wide(src, n, radius, kernel, input, output)
-}
-
 seespot_policy::simd::kernel! {
-    fn convolve_wide / convolve_lanes(
+    /// Separable convolution of an `n x n` map with `kernel` (zero outside),
+    /// where `src` is zero outside `input`; only the entries of `output` are
+    /// computed (the rest of the result is zero). Each computed entry sums its
+    /// kernel taps in the same order as the whole-plane convolution, so it has
+    /// the same value.
+    fn convolve / convolve_lanes(
         src: &[f32],
         n: usize,
         radius: usize,
