@@ -151,13 +151,11 @@ impl CellGram {
             .collect();
         let records = (0..n * n)
             .map(|i| {
-                let [a, b, c, _] = corners(i, n);
                 // b.d is b's product with its lower neighbour, c.d c's with
                 // its right one (the clamps agree: see `corners`).
-                let (fa, fb, fc) = (five[a], five[b], five[c]);
-                let d = corners(i, n)[3];
+                let [fa, fb, fc, fd] = corners(i, n).map(|c| five[c]);
                 [
-                    fa[0], fb[0], fc[0], five[d][0], fa[1], fc[1], fa[2], fb[2], fa[3], fa[4],
+                    fa[0], fb[0], fc[0], fd[0], fa[1], fc[1], fa[2], fb[2], fa[3], fa[4],
                 ]
             })
             .collect();
@@ -210,8 +208,8 @@ crate::simd::kernel! {
     /// [`tap_distance_sq`] (and [`CellGram::norm_sq`]) for a row of actions: per
     /// run of actions with one upper-left cell (whose Gram record and dot
     /// products every lane shares), [`RUN_LANES`] actions at a time, each lane
-    /// computing the same products and sums, in the same order, as the
-    /// one-action functions, so every value is the same bit for bit. A block
+    /// computing the one-action functions, so every value is the same bit for
+    /// bit. A block
     /// may reach past its run's end (into the row's padding at the last run):
     /// the next run's blocks overwrite those lanes, and a skipped run is all
     /// masked.
@@ -243,16 +241,10 @@ crate::simd::kernel! {
                 let w1 = &taps.by_corner[1][at.clone()];
                 let w2 = &taps.by_corner[2][at.clone()];
                 let w3 = &taps.by_corner[3][at];
-                // The products and sums of `gram_norm` and `tap_distance_sq`, in
-                // their order, with the run's record and dot products as scalars.
-                let [g0, g1, g2, g3, g4, g5, g6, g7, g8, g9] = *rec;
                 let mut norm = [0.0f32; RUN_LANES];
                 if run.gram.is_some() {
                     for l in 0..RUN_LANES {
-                        let (a, b, c, d) = (w0[l], w1[l], w2[l], w3[l]);
-                        let cross =
-                            a * b * g4 + c * d * g5 + a * c * g6 + b * d * g7 + a * d * g8 + b * c * g9;
-                        norm[l] = a * a * g0 + b * b * g1 + c * c * g2 + d * d * g3 + 2.0 * cross;
+                        norm[l] = gram_norm(rec, [w0[l], w1[l], w2[l], w3[l]]);
                     }
                 }
                 for ((dots, &qn), s) in run
@@ -261,11 +253,10 @@ crate::simd::kernel! {
                     .zip(run.qn)
                     .zip(scratch.chunks_exact_mut(n + RUN_LANES))
                 {
-                    let [d0, d1, d2, d3] = dots[a];
+                    let d = dots[a];
                     let s = &mut s[x..x + RUN_LANES];
                     for l in 0..RUN_LANES {
-                        let eq = w0[l] * d0 + w1[l] * d1 + w2[l] * d2 + w3[l] * d3;
-                        s[l] = (norm[l] - 2.0 * eq + qn).max(0.0);
+                        s[l] = tap_distance_sq(norm[l], [w0[l], w1[l], w2[l], w3[l]], d, qn);
                     }
                 }
                 x += RUN_LANES;
