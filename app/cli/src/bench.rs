@@ -27,6 +27,20 @@ pub enum BenchCommand {
         #[arg(long)]
         json: bool,
     },
+    /// The SPOT-Q trainer: a short pure-RL run from a fresh policy with
+    /// epsilon at its final 0.1; actions per second and the wall time per
+    /// action of choosing, simulating and learning.
+    Train {
+        #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 224)]
+        resolution: usize,
+        /// Actions to run (the first few dozen fill the replay).
+        #[arg(long, default_value_t = 300, value_parser = seespot_sim::bounds::parse_bench_actions)]
+        actions: usize,
+        #[arg(long, default_value_t = seespot_sim::TaskId::Stack)]
+        task: seespot_sim::TaskId,
+        #[arg(long)]
+        json: bool,
+    },
     /// The debugger: time from a "next phase" request to the page's data, and
     /// the .rrd size per trial.
     #[cfg(feature = "viewer")]
@@ -64,6 +78,27 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
             iterations,
             json,
         } => bench_ssr(resolution, iterations, json),
+        BenchCommand::Train {
+            resolution,
+            actions,
+            task,
+            json,
+        } => {
+            let r = seespot_policy::bench::bench_train(task, resolution, actions)?;
+            if json {
+                return crate::print_json(&r);
+            }
+            let part = |k: &str| r["ms_per_action"][k].as_f64().unwrap_or(f64::NAN);
+            println!(
+                "train {task} at {resolution} px: {:.1} actions/s (per action: choose {:.1} ms, simulate {:.1} ms, learn {:.1} ms, other {:.1} ms)",
+                r["actions_per_s"].as_f64().unwrap_or(f64::NAN),
+                part("choose"),
+                part("simulate"),
+                part("learn"),
+                part("other"),
+            );
+            Ok(())
+        }
         #[cfg(feature = "viewer")]
         BenchCommand::View(args) => crate::view::run_bench_view(args),
     }

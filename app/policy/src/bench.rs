@@ -62,6 +62,7 @@ fn time_ms(
 /// (batch `trainer::DEFAULT_BATCH`). `iters` timed runs each after a warm-up.
 pub fn bench(resolutions: &[usize], iters: usize) -> Result<serde_json::Value, PolicyError> {
     let policy = PolicyNet::new(TaskId::Stack, 112, 0)?;
+    let trunk = bench_trunk(iters)?;
     let mut rows = Vec::new();
     for &res in resolutions {
         let (_, hm) = scene(res, 1);
@@ -97,6 +98,7 @@ pub fn bench(resolutions: &[usize], iters: usize) -> Result<serde_json::Value, P
     let step = time_ms(|| tr.train_step(&batch).map(|_| ()), iters)?;
     Ok(serde_json::json!({
         "threads": rayon::current_num_threads(),
+        "trunk_both_primitives_16_rotations": trunk,
         "forward": rows,
         "train_step": step,
         "load_average_1min": std::fs::read_to_string("/proc/loadavg")
@@ -105,6 +107,36 @@ pub fn bench(resolutions: &[usize], iters: usize) -> Result<serde_json::Value, P
         "train_batch": trainer::DEFAULT_BATCH,
         "budget_ms_224_both_primitives": 150.0,
     }))
+}
+
+/// The trunk alone, as `scripts/peers/trunk_onnxruntime.py` times its
+/// peer: the shipped stack policy's grasp and place trunks, each on the same
+/// 16 rotated 4 x 112 x 112 network inputs (a scene's, as a decision rotates
+/// it), weights already in the inference layout.
+pub fn bench_trunk(iters: usize) -> Result<serde_json::Value, PolicyError> {
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/stack.safetensors");
+    let policy = PolicyNet::load(&path).or_else(|_| PolicyNet::new(TaskId::Stack, 112, 0))?;
+    let trunks = [
+        crate::infer::InferTrunk::new(policy.net(Primitive::Grasp))?,
+        crate::infer::InferTrunk::new(policy.net(Primitive::Place))?,
+    ];
+    let (_, hm) = scene(224, 1);
+    let input = crate::input::NetInput::from_heightmaps(&hm);
+    let rotations: Vec<usize> = (0..seespot_sim::NUM_ROTATIONS).collect();
+    let x = crate::rotation::rotate_input_batch(&input, &rotations);
+    let n = crate::input::NET_RESOLUTION;
+    let mut timed = time_ms(
+        || {
+            for t in &trunks {
+                std::hint::black_box(t.forward(&x, rotations.len(), n));
+            }
+            Ok(())
+        },
+        iters.max(10),
+    )?;
+    timed["input"] = serde_json::json!([2, rotations.len(), crate::input::INPUT_CHANNELS, n, n]);
+    Ok(timed)
 }
 
 /// A fixed batch of experiences from oracle trials (for benches and tests):
@@ -125,4 +157,63 @@ pub fn fixed_batch(n: usize) -> Vec<Experience> {
         seed += 2;
     }
     out
+}
+
+/// `seespot bench train`: a pure-RL training run of `actions` actions on
+/// `task` at `resolution` px from a fresh policy, in a temporary run
+/// directory, with epsilon held at its final value (0.1, so nine actions in
+/// ten are greedy, each a forward pass of 16 rotations: the slowest part of
+/// a run's schedule). Reports actions per second and the wall time per
+/// action of its parts (choose, simulate, learn).
+pub fn bench_train(
+    task: TaskId,
+    resolution: usize,
+    actions: usize,
+) -> Result<serde_json::Value, PolicyError> {
+    let mut config = trainer::TrainConfig::new(task, actions, 0);
+    config.resolution = resolution;
+    config.oracle_start = 0.0;
+    config.oracle_end = 0.0;
+    config.epsilon_start = config.epsilon_end;
+    config.checkpoint_every = usize::MAX / 2;
+    let dir = std::env::temp_dir().join(format!(
+        "seespot-bench-train-{}-{}",
+        std::process::id(),
+        resolution
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+    let load = std::fs::read_to_string("/proc/loadavg").ok().and_then(|l| {
+        l.split_whitespace()
+            .next()
+            .and_then(|v| v.parse::<f64>().ok())
+    });
+    let cpu0 = process_cpu_ms();
+    let start = Instant::now();
+    let outcome = trainer::train(&config, &dir, &mut |_| {});
+    let wall = start.elapsed().as_secs_f64();
+    let cpu = cpu0.zip(process_cpu_ms()).map(|(a, b)| b - a);
+    let _ = std::fs::remove_dir_all(&dir);
+    let state = outcome?.state;
+    let n = state.actions as f64;
+    let ph = state.phase_seconds;
+    let per = |s: f64| 1e3 * s / n;
+    Ok(serde_json::json!({
+        "task": task.as_str(),
+        "resolution": resolution,
+        "actions": state.actions,
+        "train_steps": state.train_steps,
+        "epsilon": config.epsilon_end,
+        "greedy_actions": state.mode_counts[2],
+        "wall_s": wall,
+        "actions_per_s": n / wall,
+        "ms_per_action": {
+            "choose": per(ph.choose),
+            "simulate": per(ph.simulate),
+            "learn": per(ph.learn),
+            "other": per(wall - ph.choose - ph.simulate - ph.learn),
+        },
+        "cpu_ms_per_action": cpu.map(|c| c / n),
+        "threads": rayon::current_num_threads(),
+        "load_average_1min": load,
+    }))
 }

@@ -17,6 +17,7 @@
 pub mod actors;
 pub mod bench;
 pub mod cells;
+pub mod cone;
 pub mod curve;
 pub mod embedding;
 pub mod error;

@@ -75,3 +75,54 @@ impl Adam {
         Ok(())
     }
 }
+
+/// Adam on plain `f32` vectors (the SPOT-Q learner's parameters): the same
+/// update as [`Adam`], one parameter tensor at a time, with its moments kept
+/// in the order the learner numbers its parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FlatAdam {
+    pub config: AdamConfig,
+    pub m: Vec<Vec<f32>>,
+    pub v: Vec<Vec<f32>>,
+    /// Steps taken; [`Self::update`] reads it for the bias correction, the
+    /// caller counts a step once for all its tensors.
+    pub t: u64,
+}
+
+impl FlatAdam {
+    /// Zero moments for tensors of `sizes` elements.
+    pub fn new(sizes: &[usize], config: AdamConfig) -> Self {
+        Self {
+            config,
+            m: sizes.iter().map(|&n| vec![0.0; n]).collect(),
+            v: sizes.iter().map(|&n| vec![0.0; n]).collect(),
+            t: 0,
+        }
+    }
+
+    /// Updates tensor `i` (`param`) from its gradient `grad` at step `t`.
+    ///
+    /// # Panics
+    /// If `param`, `grad` and the moments of `i` differ in length.
+    pub fn update(&mut self, i: usize, param: &mut [f32], grad: &[f32]) {
+        let c = self.config;
+        let t = self.t.max(1) as i32;
+        let bc1 = (1.0 - c.beta1.powi(t)) as f32;
+        let bc2 = (1.0 - c.beta2.powi(t)) as f32;
+        let (b1, b2) = (c.beta1 as f32, c.beta2 as f32);
+        let (lr, eps) = (c.lr as f32, c.eps as f32);
+        let decay = (1.0 - c.lr * c.weight_decay) as f32;
+        let (m, v) = (&mut self.m[i], &mut self.v[i]);
+        assert!(
+            m.len() == param.len() && grad.len() == param.len(),
+            "tensor {i}: sizes differ"
+        );
+        for k in 0..param.len() {
+            let g = grad[k];
+            m[k] = b1 * m[k] + (1.0 - b1) * g;
+            v[k] = b2 * v[k] + (1.0 - b2) * g * g;
+            let update = (m[k] / bc1) / ((v[k] / bc2).sqrt() + eps);
+            param[k] = param[k] * decay - lr * update;
+        }
+    }
+}

@@ -23,6 +23,7 @@ use crate::input::{INPUT_CHANNELS, NetInput, fill_values};
 
 /// Bilinear sample of channel plane `plane` (`n x n`) at continuous `(fx, fy)`;
 /// taps outside the image read `fill`.
+#[inline(always)]
 pub(crate) fn sample_fill(plane: &[f32], n: usize, fx: f32, fy: f32, fill: f32) -> f32 {
     let x0 = fx.floor();
     let y0 = fy.floor();
@@ -42,9 +43,12 @@ pub(crate) fn sample_fill(plane: &[f32], n: usize, fx: f32, fy: f32, fill: f32) 
     top * (1.0 - ty) + bot * ty
 }
 
+crate::simd::kernel! {
 /// Rotates `data` (`C x n x n`) by `theta` radians about pixel `(c, c)`: output
 /// pixel `p` reads the input at `c + R(theta) (p - c)`. Outside reads `fill[ch]`.
-pub fn rotate_image(
+/// (Compiled wide for the CPU's rounding instructions: `floor` is otherwise a
+/// library call; the results are the same bits.)
+pub fn rotate_image / rotate_image_lanes(
     data: &[f32],
     channels: usize,
     n: usize,
@@ -67,6 +71,7 @@ pub fn rotate_image(
         }
     }
     out
+}
 }
 
 /// The network input rotated by rotation index `r` (`C x N x N`).
@@ -117,7 +122,7 @@ impl BackMap {
 
     /// Continuous feature-map coordinates `(fx, fy)` of output pixel `(y, x)`
     /// under rotation `theta` (radians).
-    #[inline]
+    #[inline(always)]
     pub fn locate(&self, theta_sin_cos: (f32, f32), y: usize, x: usize) -> (f32, f32) {
         let (s, c) = theta_sin_cos;
         let half = WORKSPACE_SIZE / 2.0;
@@ -132,7 +137,7 @@ impl BackMap {
 
 /// Bilinear taps with clamping at the borders: four flat indices into an
 /// `n x n` plane and their weights.
-#[inline]
+#[inline(always)]
 pub fn bilinear_taps(n: usize, fx: f32, fy: f32) -> ([usize; 4], [f32; 4]) {
     let max = (n - 1) as f32;
     let fx = fx.clamp(0.0, max);
@@ -178,20 +183,35 @@ pub fn sample_back(
             let (ri, y) = (row / h, row % h);
             let sc = rotation_angle(rotations[ri]).sin_cos();
             let src = &features[ri * plane..(ri + 1) * plane];
-            for x in 0..h {
-                let (fx, fy) = map.locate(sc, y, x);
-                let (idx, w) = bilinear_taps(n, fx, fy);
-                let o = &mut dst[x * dim..(x + 1) * dim];
-                let a = &src[idx[0] * dim..idx[0] * dim + dim];
-                let b = &src[idx[1] * dim..idx[1] * dim + dim];
-                let c = &src[idx[2] * dim..idx[2] * dim + dim];
-                let d = &src[idx[3] * dim..idx[3] * dim + dim];
-                for k in 0..dim {
-                    o[k] = w[0] * a[k] + w[1] * b[k] + w[2] * c[k] + w[3] * d[k];
-                }
-            }
+            sample_back_row(src, n, dim, sc, map, y, dst);
         });
     out
+}
+
+crate::simd::kernel! {
+/// Row `y` of one rotation's [`sample_back`] (`dst`: `H x D`).
+fn sample_back_row / sample_back_row_lanes(
+    src: &[f32],
+    n: usize,
+    dim: usize,
+    sc: (f32, f32),
+    map: &BackMap,
+    y: usize,
+    dst: &mut [f32],
+) {
+    for x in 0..dst.len() / dim {
+        let (fx, fy) = map.locate(sc, y, x);
+        let (idx, w) = bilinear_taps(n, fx, fy);
+        let o = &mut dst[x * dim..(x + 1) * dim];
+        let a = &src[idx[0] * dim..idx[0] * dim + dim];
+        let b = &src[idx[1] * dim..idx[1] * dim + dim];
+        let c = &src[idx[2] * dim..idx[2] * dim + dim];
+        let d = &src[idx[3] * dim..idx[3] * dim + dim];
+        for k in 0..dim {
+            o[k] = w[0] * a[k] + w[1] * b[k] + w[2] * c[k] + w[3] * d[k];
+        }
+    }
+}
 }
 
 #[cfg(test)]

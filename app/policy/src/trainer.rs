@@ -118,10 +118,26 @@ pub struct TrainState {
     pub wall_seconds: f64,
     /// Actions executed per mode: oracle, random, greedy.
     pub mode_counts: [usize; 3],
+    /// Wall time spent in each part of an action, summed over resumes,
+    /// seconds: choosing it (the greedy Q maps and masks, or a random
+    /// masked action), simulating it (rendering the observation and
+    /// executing the action), learning from it (drawing the batch and the
+    /// training step).
+    #[serde(default)]
+    pub phase_seconds: PhaseSeconds,
     /// The checkpoint file holding the tensors of this state.
     pub checkpoint: String,
     pub curve: Vec<CurveRow>,
     pub replay: Replay,
+}
+
+/// Wall time per part of a training action, seconds (see
+/// [`TrainState::phase_seconds`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct PhaseSeconds {
+    pub choose: f64,
+    pub simulate: f64,
+    pub learn: f64,
 }
 
 /// What the progress callback sees after every action.
@@ -229,6 +245,7 @@ pub fn open_run(
         rng_seed: config.seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) ^ 0x5eed,
         wall_seconds: 0.0,
         mode_counts: [0; 3],
+        phase_seconds: PhaseSeconds::default(),
         checkpoint: String::new(),
         curve: Vec::new(),
         replay: Replay::new(config.replay_capacity),
@@ -296,7 +313,10 @@ pub fn train(
         let mut progress_before_grasp = trial.progress();
         while trial.end().is_none() {
             let primitive = trial.world().next_primitive();
+            let t_observe = Instant::now();
             let hm = trial.world_mut().observe();
+            let t_choose = Instant::now();
+            state.phase_seconds.simulate += (t_choose - t_observe).as_secs_f64();
             let blocks = trial.world().table_blocks();
             let u: f32 = rng.random();
             let po = cfg.oracle_probability(state.actions);
@@ -342,7 +362,11 @@ pub fn train(
                 oracle = None;
             }
             state.mode_counts[mode as usize] += 1;
+            let t_step = Instant::now();
+            state.phase_seconds.choose += (t_step - t_choose).as_secs_f64();
             let rec = trial.step(action).clone();
+            state.phase_seconds.simulate += t_step.elapsed().as_secs_f64();
+            let t_learn = Instant::now();
             if primitive == Primitive::Grasp && !rec.outcome.success {
                 oracle = None;
             }
@@ -386,6 +410,7 @@ pub fn train(
                 losses.push(stats.loss);
                 last_loss = stats.loss;
             }
+            state.phase_seconds.learn += t_learn.elapsed().as_secs_f64();
             on_progress(&TrainProgress {
                 actions: state.actions,
                 total_actions: cfg.actions,

@@ -111,22 +111,8 @@ fn checkpoint_round_trip_is_bit_identical() {
         .zip(&back.adam.m)
         .chain(learner.adam.v.iter().zip(&back.adam.v))
     {
-        let a: Vec<u32> = a
-            .flatten_all()
-            .unwrap()
-            .to_vec1::<f32>()
-            .unwrap()
-            .into_iter()
-            .map(f32::to_bits)
-            .collect();
-        let b: Vec<u32> = b
-            .flatten_all()
-            .unwrap()
-            .to_vec1::<f32>()
-            .unwrap()
-            .into_iter()
-            .map(f32::to_bits)
-            .collect();
+        let a: Vec<u32> = a.iter().map(|v| v.to_bits()).collect();
+        let b: Vec<u32> = b.iter().map(|v| v.to_bits()).collect();
         assert_eq!(a, b);
     }
     assert_eq!(learner.policy.meta, back.policy.meta);

@@ -39,3 +39,38 @@ fn a_killed_run_resumes_from_its_checkpoint() {
         .to_string();
     assert!(err.contains("state.json") && err.contains("row"), "{err}");
 }
+
+/// A run killed at a checkpoint and resumed ends with the same weights, bit
+/// for bit, as the same run trained without a break (checkpoints at every
+/// trial end in both, so both reseed their random numbers at the same points).
+#[test]
+fn a_resumed_run_gives_the_weights_of_an_unbroken_one() {
+    let mut config = TrainConfig::new(TaskId::Stack, 40, 5);
+    config.checkpoint_every = 1;
+    config.max_trial_actions = 6;
+    config.decay_actions = 30;
+    config.oracle_start = 0.0;
+    config.oracle_end = 0.0;
+    let unbroken_dir = tempfile::tempdir().unwrap();
+    let unbroken = train(&config, unbroken_dir.path(), &mut |_| {}).unwrap();
+
+    let broken_dir = tempfile::tempdir().unwrap();
+    let mut first = config.clone();
+    first.actions = 20;
+    let part = train(&first, broken_dir.path(), &mut |_| {}).unwrap();
+    assert!(part.state.actions < unbroken.state.actions);
+    let resumed = train(&config, broken_dir.path(), &mut |_| {}).unwrap();
+    assert_eq!(resumed.resumed_from, Some(part.state.actions));
+    assert_eq!(resumed.state.actions, unbroken.state.actions);
+    assert_eq!(resumed.state.train_steps, unbroken.state.train_steps);
+    for (a, b) in resumed.policy.nets.iter().zip(&unbroken.policy.nets) {
+        let bits = |n: &seespot_policy::net::QNet| -> Vec<Vec<u32>> {
+            n.to_vecs()
+                .unwrap()
+                .into_iter()
+                .map(|v| v.into_iter().map(f32::to_bits).collect())
+                .collect()
+        };
+        assert_eq!(bits(a), bits(b));
+    }
+}
