@@ -14,14 +14,6 @@ use rayon::prelude::*;
 use crate::input::INPUT_CHANNELS;
 use crate::net::{ConvSpec, KERNEL, QNet, TRUNK};
 
-/// `acc += v * w`, lane by lane (a multiply and an add, never fused).
-#[inline(always)]
-fn mul_add16(acc: &mut [f32; 16], v: f32, w: &[f32; 16]) {
-    for l in 0..16 {
-        acc[l] += v * w[l];
-    }
-}
-
 /// One convolution, weights laid out `[ky][kx][in][out]`.
 #[derive(Clone, Debug)]
 struct Layer {
@@ -138,134 +130,35 @@ impl Layer {
         let ci = s.in_channels;
         let (b, oy) = (row / m, row % m);
         let img = &x[b * n * n * ci..(b + 1) * n * n * ci];
-        let iys: [Option<usize>; KERNEL] = std::array::from_fn(|ky| {
-            (oy * s.stride + ky * s.dilation)
-                .checked_sub(s.dilation)
-                .filter(|&iy| iy < n)
-        });
-        // Columns whose three taps all lie inside the image go through the
-        // blocked kernel; the few at the edges, one at a time.
-        let first = s.dilation.div_ceil(s.stride).min(m);
-        let last = if n > s.dilation {
-            ((n - 1 - s.dilation) / s.stride + 1).min(m)
-        } else {
-            first
-        };
-        let last = last.max(first);
-        let mut ox = first;
-        // Blocks of P pixels x all output channels (16 accumulator registers
-        // of 16 lanes), then single pixels for the rest of the row.
-        macro_rules! blocks {
-            ($ci:literal, $v:literal, $p:literal) => {
-                while ox + $p <= last {
-                    self.block::<$ci, $v, $p>(img, n, &iys, ox, 0, CO, dst);
-                    ox += $p;
+        let bias: [f32; CO] = std::array::from_fn(|o| self.bias[o]);
+        for ox in 0..m {
+            let mut acc = bias;
+            for ky in 0..KERNEL {
+                let Some(iy) = (oy * s.stride + ky * s.dilation).checked_sub(s.dilation) else {
+                    continue;
+                };
+                if iy >= n {
+                    continue;
                 }
-            };
-        }
-        match (ci, CO) {
-            (4, 16) => blocks!(4, 1, 12),
-            (16, 32) => blocks!(16, 2, 8),
-            (32, 32) => blocks!(32, 2, 8),
-            (32, 64) => blocks!(32, 4, 4),
-            _ => {}
-        }
-        for ox in (0..first).chain(ox..m) {
-            self.pixel::<CO>(img, n, &iys, ox, dst);
-        }
-    }
-
-    /// Output pixels `ox..ox + P` of one row, output channels `o0..o0 + 16
-    /// V` of `co`, from `CI` input channels (every tap inside the image along
-    /// x; `iys` the rows the kernel reads, `None` in the padding), each
-    /// channel summed in the order of [`Self::pixel`]: bias, then taps by
-    /// `ky`, `kx`, input channel. The accumulators are groups of 16 lanes, so
-    /// each weight row loaded serves `P` pixels.
-    #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    fn block<const CI: usize, const V: usize, const P: usize>(
-        &self,
-        img: &[f32],
-        n: usize,
-        iys: &[Option<usize>; KERNEL],
-        ox: usize,
-        o0: usize,
-        co: usize,
-        dst: &mut [f32],
-    ) {
-        let s = self.spec;
-        let bias: [[f32; 16]; V] =
-            std::array::from_fn(|j| std::array::from_fn(|l| self.bias[o0 + 16 * j + l]));
-        let mut acc = [bias; P];
-        for (ky, iy) in iys.iter().enumerate() {
-            let Some(iy) = *iy else { continue };
-            for kx in 0..KERNEL {
-                let w = &self.weights[(ky * KERNEL + kx) * CI * co..][..CI * co];
-                let srcs: [&[f32; CI]; P] = std::array::from_fn(|q| {
-                    let ix = (ox + q) * s.stride + kx * s.dilation - s.dilation;
-                    img[(iy * n + ix) * CI..][..CI]
-                        .try_into()
-                        .expect("CI channels")
-                });
-                for (c, wrow) in w.chunks_exact(co).enumerate() {
-                    let wv: [&[f32; 16]; V] = std::array::from_fn(|j| {
-                        wrow[o0 + 16 * j..o0 + 16 * j + 16]
-                            .try_into()
-                            .expect("16 lanes")
-                    });
-                    for q in 0..P {
-                        let v = srcs[q][c];
-                        for j in 0..V {
-                            mul_add16(&mut acc[q][j], v, wv[j]);
+                for kx in 0..KERNEL {
+                    let Some(ix) = (ox * s.stride + kx * s.dilation).checked_sub(s.dilation) else {
+                        continue;
+                    };
+                    if ix >= n {
+                        continue;
+                    }
+                    let src = &img[(iy * n + ix) * ci..(iy * n + ix + 1) * ci];
+                    let w = &self.weights[(ky * KERNEL + kx) * ci * CO..][..ci * CO];
+                    for (v, wrow) in src.iter().zip(w.chunks_exact(CO)) {
+                        for o in 0..CO {
+                            acc[o] += v * wrow[o];
                         }
                     }
                 }
             }
-        }
-        for (q, a) in acc.iter().enumerate() {
-            let out = &mut dst[(ox + q) * co + o0..][..16 * V];
-            for (j, lanes) in a.iter().enumerate() {
-                for (d, v) in out[16 * j..16 * j + 16].iter_mut().zip(lanes) {
-                    *d = v.max(0.0);
-                }
+            for (d, a) in dst[ox * CO..(ox + 1) * CO].iter_mut().zip(acc) {
+                *d = a.max(0.0);
             }
-        }
-    }
-
-    /// Output pixel `ox` of one row, its channels in lanes, taps outside the
-    /// image skipped.
-    #[inline(always)]
-    fn pixel<const CO: usize>(
-        &self,
-        img: &[f32],
-        n: usize,
-        iys: &[Option<usize>; KERNEL],
-        ox: usize,
-        dst: &mut [f32],
-    ) {
-        let s = self.spec;
-        let ci = s.in_channels;
-        let mut acc: [f32; CO] = std::array::from_fn(|o| self.bias[o]);
-        for (ky, iy) in iys.iter().enumerate() {
-            let Some(iy) = *iy else { continue };
-            for kx in 0..KERNEL {
-                let Some(ix) = (ox * s.stride + kx * s.dilation).checked_sub(s.dilation) else {
-                    continue;
-                };
-                if ix >= n {
-                    continue;
-                }
-                let src = &img[(iy * n + ix) * ci..(iy * n + ix + 1) * ci];
-                let w = &self.weights[(ky * KERNEL + kx) * ci * CO..][..ci * CO];
-                for (v, wrow) in src.iter().zip(w.chunks_exact(CO)) {
-                    for o in 0..CO {
-                        acc[o] += v * wrow[o];
-                    }
-                }
-            }
-        }
-        for (d, a) in dst[ox * CO..(ox + 1) * CO].iter_mut().zip(acc) {
-            *d = a.max(0.0);
         }
     }
 
@@ -342,54 +235,6 @@ mod tests {
                 32 => both::<32>(l, &x, n, m),
                 64 => both::<64>(l, &x, n, m),
                 c => panic!("no const path for {c} channels"),
-            }
-        }
-    }
-
-    /// The blocked kernel gives every output pixel the bits of the
-    /// one-pixel kernel (the same sums in the same order), at the network's
-    /// input size and at sizes whose rows end in a partial block.
-    #[test]
-    fn blocked_rows_equal_pixels_one_at_a_time() {
-        fn both<const CO: usize>(l: &Layer, x: &[f32], n: usize, m: usize) {
-            let s = l.spec;
-            let ci = s.in_channels;
-            for row in 0..m {
-                let mut blocked = vec![0.0; m * CO];
-                l.row_lanes::<CO>(x, n, m, row, &mut blocked[..]);
-                let mut single = vec![0.0; m * CO];
-                let img = &x[..n * n * ci];
-                let iys: [Option<usize>; KERNEL] = std::array::from_fn(|ky| {
-                    (row * s.stride + ky * s.dilation)
-                        .checked_sub(s.dilation)
-                        .filter(|&iy| iy < n)
-                });
-                for ox in 0..m {
-                    l.pixel::<CO>(img, n, &iys, ox, &mut single[..]);
-                }
-                assert_eq!(
-                    blocked.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
-                    single.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
-                    "{} n {n} row {row}",
-                    s.name
-                );
-            }
-        }
-        let trunk = InferTrunk::new(&QNet::new(13).expect("net")).expect("infer");
-        for n in [NET_RESOLUTION, 57, 30] {
-            for l in &trunk.layers {
-                let ci = l.spec.in_channels;
-                let x: Vec<f32> = (0..n * n * ci)
-                    .map(|i| ((i * 7919) % 1000) as f32 / 1000.0 - 0.3)
-                    .collect();
-                let s = l.spec;
-                let m = (n + 2 * s.dilation - s.dilation * (KERNEL - 1) - 1) / s.stride + 1;
-                match s.out_channels {
-                    16 => both::<16>(l, &x, n, m),
-                    32 => both::<32>(l, &x, n, m),
-                    64 => both::<64>(l, &x, n, m),
-                    c => panic!("no const path for {c} channels"),
-                }
             }
         }
     }
