@@ -116,6 +116,77 @@ fn live_scene_identical_to_the_demo_scene_reproduces_the_demo_action() {
     }
 }
 
+/// `--rematch global` (the reference trial runner's pair): every pair's C is
+/// the squared 2 mm pixel distance from its live match to its rematch, which
+/// may lie anywhere in the demo action's rotation plane; on the demo scene
+/// itself the identical demo's pairs match the demo action with C = 0.
+#[test]
+fn global_rematch_measures_c_from_the_live_match() {
+    use seespot_ssr::correspond::{Rematch, reference::ccd_reference};
+    let task = TaskId::Stack;
+    let demos = demos(task);
+    let config = SsrConfig {
+        method: Method::SsrCcd,
+        correspond: CorrespondOptions {
+            rematch: Rematch::Global,
+            ..CorrespondOptions::default()
+        },
+        loop_break: false,
+    };
+    let mut ssr =
+        SsrPolicy::new(task, untrained_policies(task), demos.clone(), config).expect("ssr");
+    for step in [0usize, 1] {
+        for (d, demo) in demos.iter().enumerate() {
+            let s = &demo.steps[step];
+            let dec = ssr
+                .decide(
+                    &s.heightmaps,
+                    s.meta.progress_before,
+                    s.meta.action.primitive,
+                )
+                .expect("decide");
+            // The identical demo's pairs come back to where they started.
+            let own = dec
+                .pairs
+                .iter()
+                .find(|p| p.demo == d)
+                .expect("a pair of this demo");
+            assert_eq!(own.matched, s.meta.action, "demo {d} step {step}");
+            assert_eq!(own.c, 0.0);
+            assert_eq!(dec.pairs[dec.chosen].c, 0.0);
+        }
+    }
+    // On fresh starts: the matches are those of the default (the option
+    // changes only the rematch and C), and C is measured from each match.
+    let mut window = SsrPolicy::new(
+        task,
+        untrained_policies(task),
+        demos.clone(),
+        SsrConfig {
+            method: Method::SsrCcd,
+            ..SsrConfig::default()
+        },
+    )
+    .expect("ssr");
+    for seed in [1, 3, 5, 7] {
+        let hm = seespot_sim::Trial::new(world_config(112), task, seed)
+            .world()
+            .render();
+        let dec = ssr.decide(&hm, 1, Primitive::Grasp).expect("decide");
+        let def = window.decide(&hm, 1, Primitive::Grasp).expect("decide");
+        let pixel = hm.grid.pixel_size();
+        for (p, q) in dec.pairs.iter().zip(&def.pairs) {
+            assert_eq!((p.matched, p.l), (q.matched, q.l));
+            assert_eq!(p.c, ccd_reference(&p.matched, &p.rematch, pixel));
+            assert_eq!(p.rematch.rotation, p.demo_action.rotation);
+        }
+    }
+    assert_eq!(
+        EvalMethod::SsrCcd.record_name_with(0, config.correspond, false),
+        "ssr-ccd-global-rematch"
+    );
+}
+
 #[test]
 fn click_to_query_at_the_demo_action_is_zero_at_the_same_pixel() {
     let task = TaskId::Row;

@@ -64,6 +64,13 @@ pub struct EvalArgs {
     /// rematch's whole plane smoothed on real embeddings).
     #[arg(long, default_value = "reference")]
     smoothing: seespot_ssr::correspond::Smoothing,
+    /// With `--correspond reference` only: `window` (the default, Eq. 7 as
+    /// the paper writes it: the rematch within 3 cm of the demonstrated
+    /// action, C measured from it) or `global` (the reference trial runner's
+    /// pair: the rematch over the whole demo plane, C measured from the live
+    /// match; recorded as `<method>-global-rematch`).
+    #[arg(long, default_value = "window")]
+    rematch: seespot_ssr::correspond::Rematch,
     /// Finetune on the two demonstrations first: steps per policy (333 = the
     /// paper's 1k in all). With `--method spot-q` this gives "Good Robot
     /// finetuned"; with `--method transporter`, iterations of another task's
@@ -131,14 +138,18 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
             smooth_sigma: args.smooth_sigma,
             demo_features: args.demo_features,
             smoothing: args.smoothing,
+            rematch: args.rematch,
         },
         finetune_steps: args.finetune_steps,
     };
     if args.correspond == Correspondence::Plain
         && (args.smoothing != seespot_ssr::correspond::Smoothing::Reference
-            || args.demo_features != seespot_ssr::correspond::DemoFeatures::Zeroed)
+            || args.demo_features != seespot_ssr::correspond::DemoFeatures::Zeroed
+            || args.rematch != seespot_ssr::correspond::Rematch::Window)
     {
-        anyhow::bail!("--smoothing and --demo-features apply to --correspond reference only");
+        anyhow::bail!(
+            "--smoothing, --demo-features and --rematch apply to --correspond reference only"
+        );
     }
     if args.smooth_sigma.is_some() && args.correspond != Correspondence::Plain {
         anyhow::bail!(

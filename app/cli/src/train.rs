@@ -253,6 +253,8 @@ fn model_card(
          | seed | {seed} |\n\
          | training wall time | {wall:.0} s ({wallm:.1} min) on a shared 2-core CPU |\n\
          | exploration | oracle {o_n} / random {r_n} / greedy {g_n} actions |\n\
+         | time per action | choose {ch:.1} ms, simulate {si:.1} ms, learn {le:.1} ms (measured since the run began, or since a resume by a build that measures it) |\n\
+         | network input | the {res} px heightmaps area-averaged (or resampled) to a 112 px, 4 mm grid before the trunk |\n\
          | seespot version | {ver} |\n\n",
         arch = seespot_policy::policy::ARCHITECTURE,
         res = c.resolution,
@@ -270,8 +272,34 @@ fn model_card(
         o_n = s.mode_counts[0],
         r_n = s.mode_counts[1],
         g_n = s.mode_counts[2],
+        ch = 1e3 * s.phase_seconds.choose / s.actions.max(1) as f64,
+        si = 1e3 * s.phase_seconds.simulate / s.actions.max(1) as f64,
+        le = 1e3 * s.phase_seconds.learn / s.actions.max(1) as f64,
         ver = seespot_sim::VERSION,
     );
+    // The command that remakes these files, with every setting that differs
+    // from the defaults.
+    let mut retrain = format!(
+        "seespot train{} --task {task} --actions {} --seed {}",
+        if args.pure_rl { " --pure-rl" } else { "" },
+        args.actions,
+        c.seed
+    );
+    if c.resolution != 112 {
+        retrain.push_str(&format!(" --resolution {}", c.resolution));
+    }
+    if let Some(dir) = &args.run_dir {
+        retrain.push_str(&format!(" --run-dir {}", dir.display()));
+    }
+    if args.out.is_some() {
+        retrain.push_str(&format!(" --out {}", out.display()));
+    }
+    let run_dir = args.run_dir.clone().unwrap_or_else(|| {
+        PathBuf::from(format!(
+            "runs/train-{}{task}",
+            if args.pure_rl { "pure-rl-" } else { "" }
+        ))
+    });
     md.push_str("## Own-task success\n\n");
     match report {
         Some(r) => {
@@ -308,8 +336,10 @@ fn model_card(
         ));
     }
     let differences = "Other differences: a small strided convolutional trunk instead of two \
-         DenseNet-121s, Adam instead of SGD, and the SPOT trial reward used as the regression target \
-         without bootstrapping.";
+         DenseNet-121s (its input a 4 mm grid, where the reference zoomed the 2 mm heightmap to 1 mm), \
+         Adam instead of SGD, and the SPOT trial reward used as the regression target without \
+         bootstrapping. Each training step backpropagates through the executed action's receptive \
+         field alone (`app/policy/src/cone.rs`): the same gradient as the whole trunk's.";
     if args.pure_rl {
         md.push_str(&format!(
             "## Pretraining by reinforcement learning alone\n\n\
@@ -317,16 +347,13 @@ fn model_card(
              probability epsilon decaying from {e0} to {e1}, a random action under the common-sense \
              mask, otherwise the greedy argmax of Q; SPOT-Q off-policy learning from the \
              progress-scaled rewards and SPOT trial rewards (discount 0.65), Huber loss at the \
-             executed action, surprise-prioritised replay. Same actions budget and seed as the \
-             shipped oracle-guided policy of this task, for the ablation. {differences}\n\n\
+             executed action, surprise-prioritised replay. {differences}\n\n\
              ## Retrain\n\n\
-             ```\nseespot train --pure-rl --task {task} --actions {a} --seed {seed}{res}\n```\n\n\
-             It resumes from `runs/train-pure-rl-{task}` if a checkpoint is there.\n",
+             ```\n{retrain}\n```\n\n\
+             It resumes from `{run}` if a checkpoint is there.\n",
             e0 = c.epsilon_start,
             e1 = c.epsilon_end,
-            a = args.actions,
-            seed = c.seed,
-            res = if c.resolution == 112 { String::new() } else { format!(" --resolution {}", c.resolution) },
+            run = run_dir.display(),
         ));
         return md;
     }
@@ -341,15 +368,13 @@ fn model_card(
          progress-scaled rewards and SPOT trial rewards (discount 0.65) those actions earned, with a \
          Huber loss at the executed action and surprise-prioritised replay. {differences}\n\n\
          ## Retrain\n\n\
-         ```\nseespot train --task {task} --actions {a} --seed {seed}{res}\n```\n\n\
-         It resumes from `runs/train-{task}` if a checkpoint is there.\n",
+         ```\n{retrain}\n```\n\n\
+         It resumes from `{run}` if a checkpoint is there.\n",
         o0 = c.oracle_start,
         o1 = c.oracle_end,
         e0 = c.epsilon_start,
         e1 = c.epsilon_end,
-        a = args.actions,
-        seed = c.seed,
-        res = if c.resolution == 112 { String::new() } else { format!(" --resolution {}", c.resolution) },
+        run = run_dir.display(),
     ));
     md
 }

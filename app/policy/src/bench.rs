@@ -136,6 +136,36 @@ pub fn bench_trunk(iters: usize) -> Result<serde_json::Value, PolicyError> {
         iters.max(10),
     )?;
     timed["input"] = serde_json::json!([2, rotations.len(), crate::input::INPUT_CHANNELS, n, n]);
+    // Where the time goes: the median per stage (both primitives summed).
+    let mut stages: Vec<(&'static str, Vec<f64>)> = Vec::new();
+    for _ in 0..iters.max(10) {
+        let mut run: Vec<(&'static str, f64)> = Vec::new();
+        for t in &trunks {
+            t.forward_timed(&x, rotations.len(), n, &mut |name, ms| match run
+                .iter_mut()
+                .find(|(s, _)| *s == name)
+            {
+                Some(e) => e.1 += ms,
+                None => run.push((name, ms)),
+            });
+        }
+        for (name, ms) in run {
+            match stages.iter_mut().find(|(s, _)| *s == name) {
+                Some(e) => e.1.push(ms),
+                None => stages.push((name, vec![ms])),
+            }
+        }
+    }
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    timed["stages_ms_median"] = serde_json::Value::Object(
+        stages
+            .iter_mut()
+            .map(|(name, v)| ((*name).to_string(), serde_json::json!(median(v))))
+            .collect(),
+    );
     Ok(timed)
 }
 

@@ -8,7 +8,7 @@ use rand_chacha::ChaCha8Rng;
 use seespot_sim::{Demo, Primitive};
 
 use crate::error::PolicyError;
-use crate::learner::Learner;
+use crate::learner::CandleLearner;
 use crate::optim::AdamConfig;
 use crate::policy::PolicyNet;
 use crate::replay::Experience;
@@ -60,7 +60,8 @@ pub fn demo_experiences(demos: &[Demo]) -> Result<Vec<Experience>, PolicyError> 
 
 /// Finetunes `policy` on the demonstrations for `steps` SPOT-Q steps (Adam,
 /// batches of up to [`FINETUNE_BATCH`] demo actions drawn with an rng seeded by
-/// `seed`).
+/// `seed`), through candle's whole-trunk step ([`CandleLearner`]), as the
+/// committed finetuned records were made.
 pub fn finetune(
     policy: PolicyNet,
     demos: &[Demo],
@@ -71,7 +72,7 @@ pub fn finetune(
     if experiences.is_empty() || steps == 0 {
         return Ok(policy);
     }
-    let mut learner = Learner::new(policy, AdamConfig::default())?;
+    let mut learner = CandleLearner::new(policy, AdamConfig::default())?;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     for _ in 0..steps {
         let batch: Vec<Experience> = (0..experiences.len().min(FINETUNE_BATCH))

@@ -69,6 +69,19 @@ impl InferTrunk {
     /// # Panics
     /// If `x` is not `batch x C x n x n`.
     pub fn forward(&self, x: &[f32], batch: usize, n: usize) -> Vec<f32> {
+        self.forward_timed(x, batch, n, &mut |_, _| {})
+    }
+
+    /// [`Self::forward`], telling `timed` each stage's name and wall time in
+    /// ms (the layout change, then each layer): where a forward's time goes.
+    pub fn forward_timed(
+        &self,
+        x: &[f32],
+        batch: usize,
+        n: usize,
+        timed: &mut dyn FnMut(&'static str, f64),
+    ) -> Vec<f32> {
+        let t = std::time::Instant::now();
         let c0 = INPUT_CHANNELS;
         assert_eq!(x.len(), batch * c0 * n * n, "input is not B x C x n x n");
         let plane = n * n;
@@ -82,9 +95,12 @@ impl InferTrunk {
                     }
                 }
             });
+        timed("layout", t.elapsed().as_secs_f64() * 1e3);
         let mut side = n;
         for layer in &self.layers {
+            let t = std::time::Instant::now();
             let (out, m) = layer.forward(&h, batch, side);
+            timed(layer.spec.name, t.elapsed().as_secs_f64() * 1e3);
             h = out;
             side = m;
         }

@@ -21,7 +21,7 @@ use crate::cone::{ConeGrad, q_and_grad};
 use crate::error::PolicyError;
 use crate::input::{INPUT_CHANNELS, NET_RESOLUTION, NetInput};
 use crate::net::{FEATURE_RESOLUTION, TRUNK_STRIDE, param_shapes};
-use crate::optim::{AdamConfig, FlatAdam};
+use crate::optim::{Adam, AdamConfig, FlatAdam};
 use crate::policy::PolicyNet;
 use crate::replay::Experience;
 use crate::rotation::{BackMap, bilinear_taps, rotate_input};
@@ -164,50 +164,12 @@ impl Learner {
     /// transposed convolutions): the reference the cone's gradients are
     /// tested against. Same loss, same Adam update.
     pub fn train_step_candle(&mut self, batch: &[Experience]) -> Result<StepStats, PolicyError> {
-        let prepared: Vec<Prepared> = batch.par_iter().map(prepare).collect();
-        let mut predictions = vec![0.0f32; batch.len()];
-        let mut losses = Vec::new();
-        let n = NET_RESOLUTION;
-        let cells = FEATURE_RESOLUTION * FEATURE_RESOLUTION;
-        let mut groups = Vec::new();
-        for p in Primitive::ALL {
-            let idx: Vec<usize> = (0..batch.len())
-                .filter(|&i| batch[i].action.primitive == p)
-                .collect();
-            if idx.is_empty() {
-                continue;
-            }
-            let b = idx.len();
-            let mut x = Vec::with_capacity(b * INPUT_CHANNELS * n * n);
-            let mut taps = Vec::with_capacity(4 * b);
-            let mut w = Vec::with_capacity(4 * b);
-            let mut t = Vec::with_capacity(b);
-            for (k, &i) in idx.iter().enumerate() {
-                x.extend_from_slice(&prepared[i].input);
-                taps.extend(prepared[i].taps.iter().map(|&c| (k * cells + c) as u32));
-                w.extend_from_slice(&prepared[i].weights);
-                t.push(batch[i].target);
-            }
-            let dev = Device::Cpu;
-            let x = Tensor::from_vec(x, (b, INPUT_CHANNELS, n, n), &dev)?;
-            let taps = Tensor::from_vec(taps, 4 * b, &dev)?;
-            let w = Tensor::from_vec(w, (b, 4), &dev)?;
-            let t = Tensor::from_vec(t, b, &dev)?;
-            let q = self.policy.net(p).q_at(&x, &taps, &w)?;
-            losses.push(huber_tensor(&(&q - &t)?)?.sum_all()?);
-            groups.push((p, idx, q));
-        }
-        if losses.is_empty() {
+        let Some((total, groups)) = candle_loss(&self.policy, batch)? else {
             return Ok(StepStats {
                 loss: 0.0,
-                predictions,
+                predictions: vec![0.0; batch.len()],
             });
-        }
-        let mut total = losses[0].clone();
-        for l in &losses[1..] {
-            total = (total + l)?;
-        }
-        let total = (total / batch.len() as f64)?;
+        };
         let grads = total.backward()?;
         self.adam.t += 1;
         let per = param_shapes().len();
@@ -227,15 +189,7 @@ impl Learner {
                 )?)?;
             }
         }
-        for (_, idx, q) in groups {
-            for (k, v) in q.to_vec1::<f32>()?.into_iter().enumerate() {
-                predictions[idx[k]] = v;
-            }
-        }
-        Ok(StepStats {
-            loss: total.to_scalar::<f32>()?,
-            predictions,
-        })
+        step_stats(&total, groups, batch.len())
     }
 
     /// Mean Huber loss on `batch` without updating (for tests and logs).
@@ -352,6 +306,105 @@ impl Learner {
             policy,
             adam: FlatAdam { config, m, v, t },
         })
+    }
+}
+
+/// Per primitive in the batch: the batch positions of its experiences and
+/// their Q (a candle graph).
+type Groups = Vec<(Primitive, Vec<usize>, Tensor)>;
+
+/// The mean Huber loss of `batch` as a candle graph through the whole trunk
+/// of each primitive's net, and the groups it was computed in; `None` for an
+/// empty batch.
+fn candle_loss(
+    policy: &PolicyNet,
+    batch: &[Experience],
+) -> Result<Option<(Tensor, Groups)>, PolicyError> {
+    let prepared: Vec<Prepared> = batch.par_iter().map(prepare).collect();
+    let mut losses = Vec::new();
+    let n = NET_RESOLUTION;
+    let cells = FEATURE_RESOLUTION * FEATURE_RESOLUTION;
+    let mut groups = Vec::new();
+    for p in Primitive::ALL {
+        let idx: Vec<usize> = (0..batch.len())
+            .filter(|&i| batch[i].action.primitive == p)
+            .collect();
+        if idx.is_empty() {
+            continue;
+        }
+        let b = idx.len();
+        let mut x = Vec::with_capacity(b * INPUT_CHANNELS * n * n);
+        let mut taps = Vec::with_capacity(4 * b);
+        let mut w = Vec::with_capacity(4 * b);
+        let mut t = Vec::with_capacity(b);
+        for (k, &i) in idx.iter().enumerate() {
+            x.extend_from_slice(&prepared[i].input);
+            taps.extend(prepared[i].taps.iter().map(|&c| (k * cells + c) as u32));
+            w.extend_from_slice(&prepared[i].weights);
+            t.push(batch[i].target);
+        }
+        let dev = Device::Cpu;
+        let x = Tensor::from_vec(x, (b, INPUT_CHANNELS, n, n), &dev)?;
+        let taps = Tensor::from_vec(taps, 4 * b, &dev)?;
+        let w = Tensor::from_vec(w, (b, 4), &dev)?;
+        let t = Tensor::from_vec(t, b, &dev)?;
+        let q = policy.net(p).q_at(&x, &taps, &w)?;
+        losses.push(huber_tensor(&(&q - &t)?)?.sum_all()?);
+        groups.push((p, idx, q));
+    }
+    let Some(first) = losses.first() else {
+        return Ok(None);
+    };
+    let mut total = first.clone();
+    for l in &losses[1..] {
+        total = (total + l)?;
+    }
+    Ok(Some(((total / batch.len() as f64)?, groups)))
+}
+
+/// The loss and predictions of a step through [`candle_loss`].
+fn step_stats(total: &Tensor, groups: Groups, len: usize) -> Result<StepStats, PolicyError> {
+    let mut predictions = vec![0.0f32; len];
+    for (_, idx, q) in groups {
+        for (k, v) in q.to_vec1::<f32>()?.into_iter().enumerate() {
+            predictions[idx[k]] = v;
+        }
+    }
+    Ok(StepStats {
+        loss: total.to_scalar::<f32>()?,
+        predictions,
+    })
+}
+
+/// SPOT-Q steps through candle, the whole trunk and candle's Adam: the
+/// step finetuning on demonstrations takes ([`crate::finetune`]), unchanged
+/// since the committed finetuned records were made, so that they remake bit
+/// for bit (the cone's step gives the same gradients up to rounding, and
+/// rounding changes actions).
+#[derive(Debug)]
+pub struct CandleLearner {
+    pub policy: PolicyNet,
+    adam: Adam,
+}
+
+impl CandleLearner {
+    pub fn new(policy: PolicyNet, config: AdamConfig) -> Result<Self, PolicyError> {
+        let adam = Adam::new(&vars(&policy), config)?;
+        Ok(Self { policy, adam })
+    }
+
+    /// One step on `batch`: the mean Huber loss through candle's autograd,
+    /// one update of candle's Adam (parameters without a gradient left alone).
+    pub fn train_step(&mut self, batch: &[Experience]) -> Result<StepStats, PolicyError> {
+        let Some((total, groups)) = candle_loss(&self.policy, batch)? else {
+            return Ok(StepStats {
+                loss: 0.0,
+                predictions: vec![0.0; batch.len()],
+            });
+        };
+        let grads = total.backward()?;
+        self.adam.step(&vars(&self.policy), &grads)?;
+        step_stats(&total, groups, batch.len())
     }
 }
 

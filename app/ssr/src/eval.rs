@@ -15,7 +15,7 @@ use seespot_sim::{
     Actor, Demo, Grid, Oracle, Provenance, Seeds, TaskId, Trial, TrialRecord, WorldConfig,
 };
 
-use crate::correspond::{CorrespondOptions, Correspondence, DemoFeatures, Smoothing};
+use crate::correspond::{CorrespondOptions, Correspondence, DemoFeatures, Rematch, Smoothing};
 use crate::explain::Method;
 use crate::policy::{SsrConfig, SsrError, SsrPolicy, demo_dirs, model_path};
 
@@ -113,6 +113,11 @@ impl EvalMethod {
             && correspond.smoothing == Smoothing::Normalized
         {
             "-normalized"
+        } else if self.is_ssr()
+            && correspondence == Correspondence::Reference
+            && correspond.rematch == Rematch::Global
+        {
+            "-global-rematch"
         } else {
             ""
         };
@@ -301,6 +306,10 @@ pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalE
                 config.correspond.demo_features.as_str()
             ));
         }
+        // Records made before the option existed searched the window.
+        if config.correspond.rematch != Rematch::Window {
+            settings.push_str(&format!(", rematch={}", config.correspond.rematch.as_str()));
+        }
     }
     Ok(Provenance {
         seespot_version: seespot_sim::VERSION.to_owned(),
@@ -369,6 +378,10 @@ pub fn replay_config(
             smoothing: match setting("smoothing") {
                 Some("normalized") => Smoothing::Normalized,
                 _ => Smoothing::Reference,
+            },
+            rematch: match setting("rematch") {
+                Some("global") => Rematch::Global,
+                _ => Rematch::Window,
             },
         },
         finetune_steps: 0,

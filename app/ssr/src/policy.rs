@@ -357,7 +357,13 @@ impl SsrPolicy {
         let t = Instant::now();
         let pixel = hm.grid.pixel_size();
         let sigma_px = correspond::reference::sigma_pixels(pixel);
-        let half_window = correspond::reference::half_window_pixels(pixel);
+        let global = opts.rematch == correspond::Rematch::Global;
+        // The whole plane: a window reaching past every border.
+        let half_window = if global {
+            n
+        } else {
+            correspond::reference::half_window_pixels(pixel)
+        };
         let mut pairs = Vec::with_capacity(self.policies.len() * self.demos.len());
         let demo_masked = match opts.demo_features {
             correspond::DemoFeatures::Zeroed => seespot_policy::Masked::ZeroFeature,
@@ -407,7 +413,10 @@ impl SsrPolicy {
                     ),
                 };
                 let rematch = re.action(primitive, n);
-                let c = if reference {
+                let c = if reference && global {
+                    // The trial runner's C: from the live match to the rematch.
+                    correspond::reference::ccd_reference(&matched, &rematch, pixel)
+                } else if reference {
                     correspond::reference::ccd_reference(&demo_action, &rematch, pixel)
                 } else {
                     correspond::ccd(&demo_action, &rematch)

@@ -132,6 +132,48 @@ pub struct CorrespondOptions {
     pub demo_features: DemoFeatures,
     /// [`Correspondence::Reference`] only: how the distance maps are smoothed.
     pub smoothing: Smoothing,
+    /// [`Correspondence::Reference`] only: where the rematch searches and
+    /// what C measures.
+    pub rematch: Rematch,
+}
+
+/// Where the reference rematch searches, and what C measures.
+///
+/// The reference's `compute_cc_dist` has both: its default (and the paper's
+/// Eq. 7) searches a window around the demonstrated action and measures C
+/// from it; the authors' trial runner (`main.py`) called it with
+/// `neighborhood_match=False`, which searches the whole demo plane and
+/// measures C from the live match F. The default follows the paper.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Rematch {
+    /// Eq. 7 as the paper writes it (the faithful default): the rematch in
+    /// the window of +/- 3 cm around the demonstrated pixel at the demo
+    /// action's rotation; C is the squared pixel distance from the
+    /// demonstrated action to the rematch.
+    #[default]
+    Window,
+    /// The reference trial runner's pair (records `<method>-global-rematch`):
+    /// the rematch over the whole demo plane at the demo action's rotation
+    /// (smoothed with wrap-around edges); C is the squared pixel distance
+    /// from the live match F to the rematch.
+    Global,
+}
+
+impl Rematch {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Window => "window",
+            Self::Global => "global",
+        }
+    }
+}
+
+impl std::str::FromStr for Rematch {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        parse_named(s, &[Self::Window, Self::Global], Self::as_str, "rematch")
+    }
 }
 
 /// How the reference Correspond smooths its distance maps.
