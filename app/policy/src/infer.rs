@@ -14,6 +14,100 @@ use rayon::prelude::*;
 use crate::input::INPUT_CHANNELS;
 use crate::net::{ConvSpec, KERNEL, QNet, TRUNK};
 
+/// `acc + v * w`, lane by lane, by value (a multiply and an add, never fused).
+#[inline(always)]
+fn mul_add(mut acc: [f32; 16], v: f32, w: &[f32; 16]) -> [f32; 16] {
+    for l in 0..16 {
+        acc[l] += v * w[l];
+    }
+    acc
+}
+
+crate::simd::kernel! {
+/// `count` blocks of [`Layer::block16x8`] from column `ox` on.
+fn run16x8_4 / run16x8_4_lanes(
+    layer: &Layer,
+    img: &[f32],
+    n: usize,
+    iys: &[Option<usize>; KERNEL],
+    ox: usize,
+    count: usize,
+    dst: &mut [f32],
+) {
+    for k in 0..count {
+        layer.block16x8::<4>(img, n, iys, ox + 8 * k, dst);
+    }
+}
+}
+
+crate::simd::kernel! {
+/// `count` blocks of [`Layer::block32x4`] from column `ox` on.
+fn run32x4_16 / run32x4_16_lanes(
+    layer: &Layer,
+    img: &[f32],
+    n: usize,
+    iys: &[Option<usize>; KERNEL],
+    ox: usize,
+    count: usize,
+    dst: &mut [f32],
+) {
+    for k in 0..count {
+        layer.block32x4::<16>(img, n, iys, ox + 4 * k, dst);
+    }
+}
+}
+
+crate::simd::kernel! {
+/// `count` blocks of [`Layer::block32x4`] from column `ox` on.
+fn run32x4_32 / run32x4_32_lanes(
+    layer: &Layer,
+    img: &[f32],
+    n: usize,
+    iys: &[Option<usize>; KERNEL],
+    ox: usize,
+    count: usize,
+    dst: &mut [f32],
+) {
+    for k in 0..count {
+        layer.block32x4::<32>(img, n, iys, ox + 4 * k, dst);
+    }
+}
+}
+
+crate::simd::kernel! {
+/// `count` blocks of [`Layer::block64x4`] from column `ox` on.
+fn run64x4_32 / run64x4_32_lanes(
+    layer: &Layer,
+    img: &[f32],
+    n: usize,
+    iys: &[Option<usize>; KERNEL],
+    ox: usize,
+    count: usize,
+    dst: &mut [f32],
+) {
+    for k in 0..count {
+        layer.block64x4::<32>(img, n, iys, ox + 4 * k, dst);
+    }
+}
+}
+
+crate::simd::kernel! {
+/// `count` blocks of [`Layer::block64x2`] from column `ox` on.
+fn run64x2_32 / run64x2_32_lanes(
+    layer: &Layer,
+    img: &[f32],
+    n: usize,
+    iys: &[Option<usize>; KERNEL],
+    ox: usize,
+    count: usize,
+    dst: &mut [f32],
+) {
+    for k in 0..count {
+        layer.block64x2::<32>(img, n, iys, ox + 2 * k, dst);
+    }
+}
+}
+
 /// One convolution, weights laid out `[ky][kx][in][out]`.
 #[derive(Clone, Debug)]
 struct Layer {
@@ -83,16 +177,22 @@ impl InferTrunk {
     ) -> Vec<f32> {
         let t = std::time::Instant::now();
         let c0 = INPUT_CHANNELS;
+        const { assert!(INPUT_CHANNELS == 4) };
         assert_eq!(x.len(), batch * c0 * n * n, "input is not B x C x n x n");
         let plane = n * n;
         let mut h = vec![0.0f32; x.len()];
         h.par_chunks_mut(plane * c0)
             .zip(x.par_chunks(plane * c0))
             .for_each(|(dst, src)| {
-                for c in 0..c0 {
-                    for p in 0..plane {
-                        dst[p * c0 + c] = src[c * plane + p];
-                    }
+                // Pixel by pixel, so the writes run straight through memory.
+                let (r, g, b, d) = (
+                    &src[..plane],
+                    &src[plane..2 * plane],
+                    &src[2 * plane..3 * plane],
+                    &src[3 * plane..4 * plane],
+                );
+                for (p, out) in dst.chunks_exact_mut(4).enumerate() {
+                    out.copy_from_slice(&[r[p], g[p], b[p], d[p]]);
                 }
             });
         timed("layout", t.elapsed().as_secs_f64() * 1e3);
@@ -146,16 +246,338 @@ impl Layer {
         let ci = s.in_channels;
         let (b, oy) = (row / m, row % m);
         let img = &x[b * n * n * ci..(b + 1) * n * n * ci];
+        let iys: [Option<usize>; KERNEL] = std::array::from_fn(|ky| {
+            (oy * s.stride + ky * s.dilation)
+                .checked_sub(s.dilation)
+                .filter(|&iy| iy < n)
+        });
+        // Columns whose three taps all lie inside the image go through the
+        // blocked kernels; the few at the edges, one at a time.
+        let first = s.dilation.div_ceil(s.stride).min(m);
+        let last = if n > s.dilation {
+            ((n - 1 - s.dilation) / s.stride + 1).min(m)
+        } else {
+            first
+        };
+        let last = last.max(first);
+        let mut ox = first;
+        macro_rules! run {
+            ($f:ident, $p:literal) => {{
+                let count = (last - ox) / $p;
+                $f(self, img, n, &iys, ox, count, dst);
+                ox += count * $p;
+            }};
+        }
+        // The block sizes measured fastest here (`seespot bench policy`,
+        // `stages_ms_median`); each kernel is compiled on its own, since
+        // inlined into one function they slowed each other down.
+        match (ci, CO) {
+            (4, 16) => run!(run16x8_4, 8),
+            (16, 32) => run!(run32x4_16, 4),
+            (32, 32) => run!(run32x4_32, 4),
+            (32, 64) => {
+                run!(run64x4_32, 4);
+                run!(run64x2_32, 2);
+            }
+            _ => {}
+        }
+        self.columns::<CO>(img, n, &iys, 0..first, dst);
+        self.columns::<CO>(img, n, &iys, ox..m, dst);
+    }
+
+    /// The block kernel for `CI` input and 64 output channels and 4 pixels,
+    /// its 16 accumulators of 16 lanes named one by one, so that each
+    /// stays in a register.
+    #[inline(always)]
+    fn block64x4<const CI: usize>(
+        &self,
+        img: &[f32],
+        n: usize,
+        iys: &[Option<usize>; KERNEL],
+        ox: usize,
+        dst: &mut [f32],
+    ) {
+        let s = self.spec;
+        let b: [[f32; 16]; 4] =
+            std::array::from_fn(|j| std::array::from_fn(|l| self.bias[16 * j + l]));
+        let (mut a0_0, mut a0_1, mut a0_2, mut a0_3) = (b[0], b[1], b[2], b[3]);
+        let (mut a1_0, mut a1_1, mut a1_2, mut a1_3) = (b[0], b[1], b[2], b[3]);
+        let (mut a2_0, mut a2_1, mut a2_2, mut a2_3) = (b[0], b[1], b[2], b[3]);
+        let (mut a3_0, mut a3_1, mut a3_2, mut a3_3) = (b[0], b[1], b[2], b[3]);
+        for (ky, iy) in iys.iter().enumerate() {
+            let Some(iy) = *iy else { continue };
+            for kx in 0..KERNEL {
+                let w = &self.weights[(ky * KERNEL + kx) * CI * 64..][..CI * 64];
+                let (wc, _) = w.as_chunks::<16>();
+                let src = |q: usize| -> &[f32; CI] {
+                    let ix = (ox + q) * s.stride + kx * s.dilation - s.dilation;
+                    img[(iy * n + ix) * CI..][..CI]
+                        .try_into()
+                        .expect("CI channels")
+                };
+                let s0 = src(0);
+                let s1 = src(1);
+                let s2 = src(2);
+                let s3 = src(3);
+                for (c, wv) in wc.chunks_exact(4).enumerate().take(CI) {
+                    let v0 = s0[c];
+                    let v1 = s1[c];
+                    let v2 = s2[c];
+                    let v3 = s3[c];
+                    a0_0 = mul_add(a0_0, v0, &wv[0]);
+                    a0_1 = mul_add(a0_1, v0, &wv[1]);
+                    a0_2 = mul_add(a0_2, v0, &wv[2]);
+                    a0_3 = mul_add(a0_3, v0, &wv[3]);
+                    a1_0 = mul_add(a1_0, v1, &wv[0]);
+                    a1_1 = mul_add(a1_1, v1, &wv[1]);
+                    a1_2 = mul_add(a1_2, v1, &wv[2]);
+                    a1_3 = mul_add(a1_3, v1, &wv[3]);
+                    a2_0 = mul_add(a2_0, v2, &wv[0]);
+                    a2_1 = mul_add(a2_1, v2, &wv[1]);
+                    a2_2 = mul_add(a2_2, v2, &wv[2]);
+                    a2_3 = mul_add(a2_3, v2, &wv[3]);
+                    a3_0 = mul_add(a3_0, v3, &wv[0]);
+                    a3_1 = mul_add(a3_1, v3, &wv[1]);
+                    a3_2 = mul_add(a3_2, v3, &wv[2]);
+                    a3_3 = mul_add(a3_3, v3, &wv[3]);
+                }
+            }
+        }
+        let acc = [
+            [a0_0, a0_1, a0_2, a0_3],
+            [a1_0, a1_1, a1_2, a1_3],
+            [a2_0, a2_1, a2_2, a2_3],
+            [a3_0, a3_1, a3_2, a3_3],
+        ];
+        for (q, a) in acc.iter().enumerate() {
+            let out = &mut dst[(ox + q) * 64..][..64];
+            for (j, lanes) in a.iter().enumerate() {
+                for (d, v) in out[16 * j..16 * j + 16].iter_mut().zip(lanes) {
+                    *d = v.max(0.0);
+                }
+            }
+        }
+    }
+
+    /// The block kernel for `CI` input and 64 output channels and 2 pixels,
+    /// its 8 accumulators of 16 lanes named one by one, so that each
+    /// stays in a register.
+    #[inline(always)]
+    fn block64x2<const CI: usize>(
+        &self,
+        img: &[f32],
+        n: usize,
+        iys: &[Option<usize>; KERNEL],
+        ox: usize,
+        dst: &mut [f32],
+    ) {
+        let s = self.spec;
+        let b: [[f32; 16]; 4] =
+            std::array::from_fn(|j| std::array::from_fn(|l| self.bias[16 * j + l]));
+        let (mut a0_0, mut a0_1, mut a0_2, mut a0_3) = (b[0], b[1], b[2], b[3]);
+        let (mut a1_0, mut a1_1, mut a1_2, mut a1_3) = (b[0], b[1], b[2], b[3]);
+        for (ky, iy) in iys.iter().enumerate() {
+            let Some(iy) = *iy else { continue };
+            for kx in 0..KERNEL {
+                let w = &self.weights[(ky * KERNEL + kx) * CI * 64..][..CI * 64];
+                let (wc, _) = w.as_chunks::<16>();
+                let src = |q: usize| -> &[f32; CI] {
+                    let ix = (ox + q) * s.stride + kx * s.dilation - s.dilation;
+                    img[(iy * n + ix) * CI..][..CI]
+                        .try_into()
+                        .expect("CI channels")
+                };
+                let s0 = src(0);
+                let s1 = src(1);
+                for (c, wv) in wc.chunks_exact(4).enumerate().take(CI) {
+                    let v0 = s0[c];
+                    let v1 = s1[c];
+                    a0_0 = mul_add(a0_0, v0, &wv[0]);
+                    a0_1 = mul_add(a0_1, v0, &wv[1]);
+                    a0_2 = mul_add(a0_2, v0, &wv[2]);
+                    a0_3 = mul_add(a0_3, v0, &wv[3]);
+                    a1_0 = mul_add(a1_0, v1, &wv[0]);
+                    a1_1 = mul_add(a1_1, v1, &wv[1]);
+                    a1_2 = mul_add(a1_2, v1, &wv[2]);
+                    a1_3 = mul_add(a1_3, v1, &wv[3]);
+                }
+            }
+        }
+        let acc = [[a0_0, a0_1, a0_2, a0_3], [a1_0, a1_1, a1_2, a1_3]];
+        for (q, a) in acc.iter().enumerate() {
+            let out = &mut dst[(ox + q) * 64..][..64];
+            for (j, lanes) in a.iter().enumerate() {
+                for (d, v) in out[16 * j..16 * j + 16].iter_mut().zip(lanes) {
+                    *d = v.max(0.0);
+                }
+            }
+        }
+    }
+
+    /// The block kernel for `CI` input and 32 output channels and 4 pixels,
+    /// its 8 accumulators of 16 lanes named one by one, so that each
+    /// stays in a register.
+    #[inline(always)]
+    fn block32x4<const CI: usize>(
+        &self,
+        img: &[f32],
+        n: usize,
+        iys: &[Option<usize>; KERNEL],
+        ox: usize,
+        dst: &mut [f32],
+    ) {
+        let s = self.spec;
+        let b: [[f32; 16]; 2] =
+            std::array::from_fn(|j| std::array::from_fn(|l| self.bias[16 * j + l]));
+        let (mut a0_0, mut a0_1) = (b[0], b[1]);
+        let (mut a1_0, mut a1_1) = (b[0], b[1]);
+        let (mut a2_0, mut a2_1) = (b[0], b[1]);
+        let (mut a3_0, mut a3_1) = (b[0], b[1]);
+        for (ky, iy) in iys.iter().enumerate() {
+            let Some(iy) = *iy else { continue };
+            for kx in 0..KERNEL {
+                let w = &self.weights[(ky * KERNEL + kx) * CI * 32..][..CI * 32];
+                let (wc, _) = w.as_chunks::<16>();
+                let src = |q: usize| -> &[f32; CI] {
+                    let ix = (ox + q) * s.stride + kx * s.dilation - s.dilation;
+                    img[(iy * n + ix) * CI..][..CI]
+                        .try_into()
+                        .expect("CI channels")
+                };
+                let s0 = src(0);
+                let s1 = src(1);
+                let s2 = src(2);
+                let s3 = src(3);
+                for (c, wv) in wc.chunks_exact(2).enumerate().take(CI) {
+                    let v0 = s0[c];
+                    let v1 = s1[c];
+                    let v2 = s2[c];
+                    let v3 = s3[c];
+                    a0_0 = mul_add(a0_0, v0, &wv[0]);
+                    a0_1 = mul_add(a0_1, v0, &wv[1]);
+                    a1_0 = mul_add(a1_0, v1, &wv[0]);
+                    a1_1 = mul_add(a1_1, v1, &wv[1]);
+                    a2_0 = mul_add(a2_0, v2, &wv[0]);
+                    a2_1 = mul_add(a2_1, v2, &wv[1]);
+                    a3_0 = mul_add(a3_0, v3, &wv[0]);
+                    a3_1 = mul_add(a3_1, v3, &wv[1]);
+                }
+            }
+        }
+        let acc = [[a0_0, a0_1], [a1_0, a1_1], [a2_0, a2_1], [a3_0, a3_1]];
+        for (q, a) in acc.iter().enumerate() {
+            let out = &mut dst[(ox + q) * 32..][..32];
+            for (j, lanes) in a.iter().enumerate() {
+                for (d, v) in out[16 * j..16 * j + 16].iter_mut().zip(lanes) {
+                    *d = v.max(0.0);
+                }
+            }
+        }
+    }
+
+    /// The block kernel for `CI` input and 16 output channels and 8 pixels,
+    /// its 8 accumulators of 16 lanes named one by one, so that each
+    /// stays in a register.
+    #[inline(always)]
+    fn block16x8<const CI: usize>(
+        &self,
+        img: &[f32],
+        n: usize,
+        iys: &[Option<usize>; KERNEL],
+        ox: usize,
+        dst: &mut [f32],
+    ) {
+        let s = self.spec;
+        let b: [[f32; 16]; 1] =
+            std::array::from_fn(|j| std::array::from_fn(|l| self.bias[16 * j + l]));
+        let mut a0_0 = b[0];
+        let mut a1_0 = b[0];
+        let mut a2_0 = b[0];
+        let mut a3_0 = b[0];
+        let mut a4_0 = b[0];
+        let mut a5_0 = b[0];
+        let mut a6_0 = b[0];
+        let mut a7_0 = b[0];
+        for (ky, iy) in iys.iter().enumerate() {
+            let Some(iy) = *iy else { continue };
+            for kx in 0..KERNEL {
+                let w = &self.weights[(ky * KERNEL + kx) * CI * 16..][..CI * 16];
+                let (wc, _) = w.as_chunks::<16>();
+                let src = |q: usize| -> &[f32; CI] {
+                    let ix = (ox + q) * s.stride + kx * s.dilation - s.dilation;
+                    img[(iy * n + ix) * CI..][..CI]
+                        .try_into()
+                        .expect("CI channels")
+                };
+                let s0 = src(0);
+                let s1 = src(1);
+                let s2 = src(2);
+                let s3 = src(3);
+                let s4 = src(4);
+                let s5 = src(5);
+                let s6 = src(6);
+                let s7 = src(7);
+                for (c, wv) in wc.chunks_exact(1).enumerate().take(CI) {
+                    let v0 = s0[c];
+                    let v1 = s1[c];
+                    let v2 = s2[c];
+                    let v3 = s3[c];
+                    let v4 = s4[c];
+                    let v5 = s5[c];
+                    let v6 = s6[c];
+                    let v7 = s7[c];
+                    a0_0 = mul_add(a0_0, v0, &wv[0]);
+                    a1_0 = mul_add(a1_0, v1, &wv[0]);
+                    a2_0 = mul_add(a2_0, v2, &wv[0]);
+                    a3_0 = mul_add(a3_0, v3, &wv[0]);
+                    a4_0 = mul_add(a4_0, v4, &wv[0]);
+                    a5_0 = mul_add(a5_0, v5, &wv[0]);
+                    a6_0 = mul_add(a6_0, v6, &wv[0]);
+                    a7_0 = mul_add(a7_0, v7, &wv[0]);
+                }
+            }
+        }
+        let acc = [
+            [a0_0],
+            [a1_0],
+            [a2_0],
+            [a3_0],
+            [a4_0],
+            [a5_0],
+            [a6_0],
+            [a7_0],
+        ];
+        for (q, a) in acc.iter().enumerate() {
+            let out = &mut dst[(ox + q) * 16..][..16];
+            for (j, lanes) in a.iter().enumerate() {
+                for (d, v) in out[16 * j..16 * j + 16].iter_mut().zip(lanes) {
+                    *d = v.max(0.0);
+                }
+            }
+        }
+    }
+
+    /// Output pixels `cols` of one row one at a time, each pixel's channels
+    /// in lanes, taps outside the image skipped (`iys`: the rows the kernel
+    /// reads, `None` in the padding).
+    #[inline(always)]
+    fn columns<const CO: usize>(
+        &self,
+        img: &[f32],
+        n: usize,
+        iys: &[Option<usize>; KERNEL],
+        cols: std::ops::Range<usize>,
+        dst: &mut [f32],
+    ) {
+        let s = self.spec;
+        let ci = s.in_channels;
         let bias: [f32; CO] = std::array::from_fn(|o| self.bias[o]);
-        for ox in 0..m {
+        for ox in cols {
             let mut acc = bias;
             for ky in 0..KERNEL {
-                let Some(iy) = (oy * s.stride + ky * s.dilation).checked_sub(s.dilation) else {
+                let Some(iy) = iys[ky] else {
                     continue;
                 };
-                if iy >= n {
-                    continue;
-                }
                 for kx in 0..KERNEL {
                     let Some(ix) = (ox * s.stride + kx * s.dilation).checked_sub(s.dilation) else {
                         continue;
@@ -251,6 +673,52 @@ mod tests {
                 32 => both::<32>(l, &x, n, m),
                 64 => both::<64>(l, &x, n, m),
                 c => panic!("no const path for {c} channels"),
+            }
+        }
+    }
+
+    /// The blocked kernel gives every output pixel the bits of the
+    /// one-pixel kernel (the same sums in the same order), at the network's
+    /// input size and at sizes whose rows end in a partial block.
+    #[test]
+    fn blocked_rows_equal_pixels_one_at_a_time() {
+        fn both<const CO: usize>(l: &Layer, x: &[f32], n: usize, m: usize) {
+            let s = l.spec;
+            let ci = s.in_channels;
+            for row in 0..m {
+                let mut blocked = vec![0.0; m * CO];
+                l.row_lanes::<CO>(x, n, m, row, &mut blocked[..]);
+                let mut single = vec![0.0; m * CO];
+                let img = &x[..n * n * ci];
+                let iys: [Option<usize>; KERNEL] = std::array::from_fn(|ky| {
+                    (row * s.stride + ky * s.dilation)
+                        .checked_sub(s.dilation)
+                        .filter(|&iy| iy < n)
+                });
+                l.columns::<CO>(img, n, &iys, 0..m, &mut single[..]);
+                assert_eq!(
+                    blocked.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                    single.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                    "{} n {n} row {row}",
+                    s.name
+                );
+            }
+        }
+        let trunk = InferTrunk::new(&QNet::new(13).expect("net")).expect("infer");
+        for n in [NET_RESOLUTION, 57, 30] {
+            for l in &trunk.layers {
+                let ci = l.spec.in_channels;
+                let x: Vec<f32> = (0..n * n * ci)
+                    .map(|i| ((i * 7919) % 1000) as f32 / 1000.0 - 0.3)
+                    .collect();
+                let s = l.spec;
+                let m = (n + 2 * s.dilation - s.dilation * (KERNEL - 1) - 1) / s.stride + 1;
+                match s.out_channels {
+                    16 => both::<16>(l, &x, n, m),
+                    32 => both::<32>(l, &x, n, m),
+                    64 => both::<64>(l, &x, n, m),
+                    c => panic!("no const path for {c} channels"),
+                }
             }
         }
     }
