@@ -574,8 +574,8 @@ impl Layer {
         let bias: [f32; CO] = std::array::from_fn(|o| self.bias[o]);
         for ox in cols {
             let mut acc = bias;
-            for ky in 0..KERNEL {
-                let Some(iy) = iys[ky] else {
+            for (ky, iy) in iys.iter().enumerate() {
+                let Some(iy) = *iy else {
                     continue;
                 };
                 for kx in 0..KERNEL {
