@@ -377,7 +377,7 @@ fn step_stats(total: &Tensor, groups: Groups, len: usize) -> Result<StepStats, P
 }
 
 /// SPOT-Q steps through candle, the whole trunk and candle's Adam: the
-/// step finetuning on demonstrations takes ([`crate::finetune`]), unchanged
+/// step finetuning on demonstrations takes ([`crate::finetune()`]), unchanged
 /// since the committed finetuned records were made, so that they remake bit
 /// for bit (the cone's step gives the same gradients up to rounding, and
 /// rounding changes actions).
