@@ -108,6 +108,107 @@ fn run64x2_32 / run64x2_32_lanes(
 }
 }
 
+/// Defines a block kernel: method `$name::<CI>` of [`Layer`] computes output
+/// pixels `ox..ox + P` of one row (every tap inside the image along x; `iys`
+/// the rows the kernel reads, `None` in the padding) for `$co` output
+/// channels, each channel summed in the order of [`Layer::columns`]: bias,
+/// then taps by `ky`, `kx`, input channel. Each pixel `$q` is given its
+/// input's name `$s`, its value's `$v` and the names of its accumulators
+/// `$a` of 16 lanes (output channels `16 $j..16 $j + 16`): named one by one,
+/// each stays in a register (an array of them was also kept in memory), and
+/// each weight row loaded serves every pixel of the block.
+macro_rules! block_kernel {
+    ($name:ident, $co:literal, $v_per:literal,
+     [$(($q:literal, $s:ident, $v:ident, [$($a:ident @ $j:literal),+ $(,)?])),+ $(,)?]) => {
+        impl Layer {
+            #[inline(always)]
+            fn $name<const CI: usize>(
+                &self,
+                img: &[f32],
+                n: usize,
+                iys: &[Option<usize>; KERNEL],
+                ox: usize,
+                dst: &mut [f32],
+            ) {
+                let s = self.spec;
+                let b: [[f32; 16]; $v_per] =
+                    std::array::from_fn(|j| std::array::from_fn(|l| self.bias[16 * j + l]));
+                $($(let mut $a = b[$j];)+)+
+                for (ky, iy) in iys.iter().enumerate() {
+                    let Some(iy) = *iy else { continue };
+                    for kx in 0..KERNEL {
+                        let w = &self.weights[(ky * KERNEL + kx) * CI * $co..][..CI * $co];
+                        let (wc, _) = w.as_chunks::<16>();
+                        let src = |q: usize| -> &[f32; CI] {
+                            let ix = (ox + q) * s.stride + kx * s.dilation - s.dilation;
+                            img[(iy * n + ix) * CI..][..CI]
+                                .try_into()
+                                .expect("CI channels")
+                        };
+                        $(let $s = src($q);)+
+                        for (c, wv) in wc.chunks_exact($v_per).enumerate().take(CI) {
+                            $(let $v = $s[c];)+
+                            $($($a = mul_add($a, $v, &wv[$j]);)+)+
+                        }
+                    }
+                }
+                $($(
+                    for (d, x) in dst[(ox + $q) * $co + 16 * $j..][..16].iter_mut().zip($a) {
+                        *d = x.max(0.0);
+                    }
+                )+)+
+            }
+        }
+    };
+}
+
+block_kernel!(
+    block64x4,
+    64,
+    4,
+    [
+        (0, s0, v0, [a00 @ 0, a01 @ 1, a02 @ 2, a03 @ 3]),
+        (1, s1, v1, [a10 @ 0, a11 @ 1, a12 @ 2, a13 @ 3]),
+        (2, s2, v2, [a20 @ 0, a21 @ 1, a22 @ 2, a23 @ 3]),
+        (3, s3, v3, [a30 @ 0, a31 @ 1, a32 @ 2, a33 @ 3]),
+    ]
+);
+block_kernel!(
+    block64x2,
+    64,
+    4,
+    [
+        (0, s0, v0, [a00 @ 0, a01 @ 1, a02 @ 2, a03 @ 3]),
+        (1, s1, v1, [a10 @ 0, a11 @ 1, a12 @ 2, a13 @ 3]),
+    ]
+);
+block_kernel!(
+    block32x4,
+    32,
+    2,
+    [
+        (0, s0, v0, [a00 @ 0, a01 @ 1]),
+        (1, s1, v1, [a10 @ 0, a11 @ 1]),
+        (2, s2, v2, [a20 @ 0, a21 @ 1]),
+        (3, s3, v3, [a30 @ 0, a31 @ 1]),
+    ]
+);
+block_kernel!(
+    block16x8,
+    16,
+    1,
+    [
+        (0, s0, v0, [a0 @ 0]),
+        (1, s1, v1, [a1 @ 0]),
+        (2, s2, v2, [a2 @ 0]),
+        (3, s3, v3, [a3 @ 0]),
+        (4, s4, v4, [a4 @ 0]),
+        (5, s5, v5, [a5 @ 0]),
+        (6, s6, v6, [a6 @ 0]),
+        (7, s7, v7, [a7 @ 0]),
+    ]
+);
+
 /// One convolution, weights laid out `[ky][kx][in][out]`.
 #[derive(Clone, Debug)]
 struct Layer {
@@ -283,278 +384,6 @@ impl Layer {
         }
         self.columns::<CO>(img, n, &iys, 0..first, dst);
         self.columns::<CO>(img, n, &iys, ox..m, dst);
-    }
-
-    /// The block kernel for `CI` input and 64 output channels and 4 pixels,
-    /// its 16 accumulators of 16 lanes named one by one, so that each
-    /// stays in a register.
-    #[inline(always)]
-    fn block64x4<const CI: usize>(
-        &self,
-        img: &[f32],
-        n: usize,
-        iys: &[Option<usize>; KERNEL],
-        ox: usize,
-        dst: &mut [f32],
-    ) {
-        let s = self.spec;
-        let b: [[f32; 16]; 4] =
-            std::array::from_fn(|j| std::array::from_fn(|l| self.bias[16 * j + l]));
-        let (mut a0_0, mut a0_1, mut a0_2, mut a0_3) = (b[0], b[1], b[2], b[3]);
-        let (mut a1_0, mut a1_1, mut a1_2, mut a1_3) = (b[0], b[1], b[2], b[3]);
-        let (mut a2_0, mut a2_1, mut a2_2, mut a2_3) = (b[0], b[1], b[2], b[3]);
-        let (mut a3_0, mut a3_1, mut a3_2, mut a3_3) = (b[0], b[1], b[2], b[3]);
-        for (ky, iy) in iys.iter().enumerate() {
-            let Some(iy) = *iy else { continue };
-            for kx in 0..KERNEL {
-                let w = &self.weights[(ky * KERNEL + kx) * CI * 64..][..CI * 64];
-                let (wc, _) = w.as_chunks::<16>();
-                let src = |q: usize| -> &[f32; CI] {
-                    let ix = (ox + q) * s.stride + kx * s.dilation - s.dilation;
-                    img[(iy * n + ix) * CI..][..CI]
-                        .try_into()
-                        .expect("CI channels")
-                };
-                let s0 = src(0);
-                let s1 = src(1);
-                let s2 = src(2);
-                let s3 = src(3);
-                for (c, wv) in wc.chunks_exact(4).enumerate().take(CI) {
-                    let v0 = s0[c];
-                    let v1 = s1[c];
-                    let v2 = s2[c];
-                    let v3 = s3[c];
-                    a0_0 = mul_add(a0_0, v0, &wv[0]);
-                    a0_1 = mul_add(a0_1, v0, &wv[1]);
-                    a0_2 = mul_add(a0_2, v0, &wv[2]);
-                    a0_3 = mul_add(a0_3, v0, &wv[3]);
-                    a1_0 = mul_add(a1_0, v1, &wv[0]);
-                    a1_1 = mul_add(a1_1, v1, &wv[1]);
-                    a1_2 = mul_add(a1_2, v1, &wv[2]);
-                    a1_3 = mul_add(a1_3, v1, &wv[3]);
-                    a2_0 = mul_add(a2_0, v2, &wv[0]);
-                    a2_1 = mul_add(a2_1, v2, &wv[1]);
-                    a2_2 = mul_add(a2_2, v2, &wv[2]);
-                    a2_3 = mul_add(a2_3, v2, &wv[3]);
-                    a3_0 = mul_add(a3_0, v3, &wv[0]);
-                    a3_1 = mul_add(a3_1, v3, &wv[1]);
-                    a3_2 = mul_add(a3_2, v3, &wv[2]);
-                    a3_3 = mul_add(a3_3, v3, &wv[3]);
-                }
-            }
-        }
-        let acc = [
-            [a0_0, a0_1, a0_2, a0_3],
-            [a1_0, a1_1, a1_2, a1_3],
-            [a2_0, a2_1, a2_2, a2_3],
-            [a3_0, a3_1, a3_2, a3_3],
-        ];
-        for (q, a) in acc.iter().enumerate() {
-            let out = &mut dst[(ox + q) * 64..][..64];
-            for (j, lanes) in a.iter().enumerate() {
-                for (d, v) in out[16 * j..16 * j + 16].iter_mut().zip(lanes) {
-                    *d = v.max(0.0);
-                }
-            }
-        }
-    }
-
-    /// The block kernel for `CI` input and 64 output channels and 2 pixels,
-    /// its 8 accumulators of 16 lanes named one by one, so that each
-    /// stays in a register.
-    #[inline(always)]
-    fn block64x2<const CI: usize>(
-        &self,
-        img: &[f32],
-        n: usize,
-        iys: &[Option<usize>; KERNEL],
-        ox: usize,
-        dst: &mut [f32],
-    ) {
-        let s = self.spec;
-        let b: [[f32; 16]; 4] =
-            std::array::from_fn(|j| std::array::from_fn(|l| self.bias[16 * j + l]));
-        let (mut a0_0, mut a0_1, mut a0_2, mut a0_3) = (b[0], b[1], b[2], b[3]);
-        let (mut a1_0, mut a1_1, mut a1_2, mut a1_3) = (b[0], b[1], b[2], b[3]);
-        for (ky, iy) in iys.iter().enumerate() {
-            let Some(iy) = *iy else { continue };
-            for kx in 0..KERNEL {
-                let w = &self.weights[(ky * KERNEL + kx) * CI * 64..][..CI * 64];
-                let (wc, _) = w.as_chunks::<16>();
-                let src = |q: usize| -> &[f32; CI] {
-                    let ix = (ox + q) * s.stride + kx * s.dilation - s.dilation;
-                    img[(iy * n + ix) * CI..][..CI]
-                        .try_into()
-                        .expect("CI channels")
-                };
-                let s0 = src(0);
-                let s1 = src(1);
-                for (c, wv) in wc.chunks_exact(4).enumerate().take(CI) {
-                    let v0 = s0[c];
-                    let v1 = s1[c];
-                    a0_0 = mul_add(a0_0, v0, &wv[0]);
-                    a0_1 = mul_add(a0_1, v0, &wv[1]);
-                    a0_2 = mul_add(a0_2, v0, &wv[2]);
-                    a0_3 = mul_add(a0_3, v0, &wv[3]);
-                    a1_0 = mul_add(a1_0, v1, &wv[0]);
-                    a1_1 = mul_add(a1_1, v1, &wv[1]);
-                    a1_2 = mul_add(a1_2, v1, &wv[2]);
-                    a1_3 = mul_add(a1_3, v1, &wv[3]);
-                }
-            }
-        }
-        let acc = [[a0_0, a0_1, a0_2, a0_3], [a1_0, a1_1, a1_2, a1_3]];
-        for (q, a) in acc.iter().enumerate() {
-            let out = &mut dst[(ox + q) * 64..][..64];
-            for (j, lanes) in a.iter().enumerate() {
-                for (d, v) in out[16 * j..16 * j + 16].iter_mut().zip(lanes) {
-                    *d = v.max(0.0);
-                }
-            }
-        }
-    }
-
-    /// The block kernel for `CI` input and 32 output channels and 4 pixels,
-    /// its 8 accumulators of 16 lanes named one by one, so that each
-    /// stays in a register.
-    #[inline(always)]
-    fn block32x4<const CI: usize>(
-        &self,
-        img: &[f32],
-        n: usize,
-        iys: &[Option<usize>; KERNEL],
-        ox: usize,
-        dst: &mut [f32],
-    ) {
-        let s = self.spec;
-        let b: [[f32; 16]; 2] =
-            std::array::from_fn(|j| std::array::from_fn(|l| self.bias[16 * j + l]));
-        let (mut a0_0, mut a0_1) = (b[0], b[1]);
-        let (mut a1_0, mut a1_1) = (b[0], b[1]);
-        let (mut a2_0, mut a2_1) = (b[0], b[1]);
-        let (mut a3_0, mut a3_1) = (b[0], b[1]);
-        for (ky, iy) in iys.iter().enumerate() {
-            let Some(iy) = *iy else { continue };
-            for kx in 0..KERNEL {
-                let w = &self.weights[(ky * KERNEL + kx) * CI * 32..][..CI * 32];
-                let (wc, _) = w.as_chunks::<16>();
-                let src = |q: usize| -> &[f32; CI] {
-                    let ix = (ox + q) * s.stride + kx * s.dilation - s.dilation;
-                    img[(iy * n + ix) * CI..][..CI]
-                        .try_into()
-                        .expect("CI channels")
-                };
-                let s0 = src(0);
-                let s1 = src(1);
-                let s2 = src(2);
-                let s3 = src(3);
-                for (c, wv) in wc.chunks_exact(2).enumerate().take(CI) {
-                    let v0 = s0[c];
-                    let v1 = s1[c];
-                    let v2 = s2[c];
-                    let v3 = s3[c];
-                    a0_0 = mul_add(a0_0, v0, &wv[0]);
-                    a0_1 = mul_add(a0_1, v0, &wv[1]);
-                    a1_0 = mul_add(a1_0, v1, &wv[0]);
-                    a1_1 = mul_add(a1_1, v1, &wv[1]);
-                    a2_0 = mul_add(a2_0, v2, &wv[0]);
-                    a2_1 = mul_add(a2_1, v2, &wv[1]);
-                    a3_0 = mul_add(a3_0, v3, &wv[0]);
-                    a3_1 = mul_add(a3_1, v3, &wv[1]);
-                }
-            }
-        }
-        let acc = [[a0_0, a0_1], [a1_0, a1_1], [a2_0, a2_1], [a3_0, a3_1]];
-        for (q, a) in acc.iter().enumerate() {
-            let out = &mut dst[(ox + q) * 32..][..32];
-            for (j, lanes) in a.iter().enumerate() {
-                for (d, v) in out[16 * j..16 * j + 16].iter_mut().zip(lanes) {
-                    *d = v.max(0.0);
-                }
-            }
-        }
-    }
-
-    /// The block kernel for `CI` input and 16 output channels and 8 pixels,
-    /// its 8 accumulators of 16 lanes named one by one, so that each
-    /// stays in a register.
-    #[inline(always)]
-    fn block16x8<const CI: usize>(
-        &self,
-        img: &[f32],
-        n: usize,
-        iys: &[Option<usize>; KERNEL],
-        ox: usize,
-        dst: &mut [f32],
-    ) {
-        let s = self.spec;
-        let b: [[f32; 16]; 1] =
-            std::array::from_fn(|j| std::array::from_fn(|l| self.bias[16 * j + l]));
-        let mut a0_0 = b[0];
-        let mut a1_0 = b[0];
-        let mut a2_0 = b[0];
-        let mut a3_0 = b[0];
-        let mut a4_0 = b[0];
-        let mut a5_0 = b[0];
-        let mut a6_0 = b[0];
-        let mut a7_0 = b[0];
-        for (ky, iy) in iys.iter().enumerate() {
-            let Some(iy) = *iy else { continue };
-            for kx in 0..KERNEL {
-                let w = &self.weights[(ky * KERNEL + kx) * CI * 16..][..CI * 16];
-                let (wc, _) = w.as_chunks::<16>();
-                let src = |q: usize| -> &[f32; CI] {
-                    let ix = (ox + q) * s.stride + kx * s.dilation - s.dilation;
-                    img[(iy * n + ix) * CI..][..CI]
-                        .try_into()
-                        .expect("CI channels")
-                };
-                let s0 = src(0);
-                let s1 = src(1);
-                let s2 = src(2);
-                let s3 = src(3);
-                let s4 = src(4);
-                let s5 = src(5);
-                let s6 = src(6);
-                let s7 = src(7);
-                for (c, wv) in wc.chunks_exact(1).enumerate().take(CI) {
-                    let v0 = s0[c];
-                    let v1 = s1[c];
-                    let v2 = s2[c];
-                    let v3 = s3[c];
-                    let v4 = s4[c];
-                    let v5 = s5[c];
-                    let v6 = s6[c];
-                    let v7 = s7[c];
-                    a0_0 = mul_add(a0_0, v0, &wv[0]);
-                    a1_0 = mul_add(a1_0, v1, &wv[0]);
-                    a2_0 = mul_add(a2_0, v2, &wv[0]);
-                    a3_0 = mul_add(a3_0, v3, &wv[0]);
-                    a4_0 = mul_add(a4_0, v4, &wv[0]);
-                    a5_0 = mul_add(a5_0, v5, &wv[0]);
-                    a6_0 = mul_add(a6_0, v6, &wv[0]);
-                    a7_0 = mul_add(a7_0, v7, &wv[0]);
-                }
-            }
-        }
-        let acc = [
-            [a0_0],
-            [a1_0],
-            [a2_0],
-            [a3_0],
-            [a4_0],
-            [a5_0],
-            [a6_0],
-            [a7_0],
-        ];
-        for (q, a) in acc.iter().enumerate() {
-            let out = &mut dst[(ox + q) * 16..][..16];
-            for (j, lanes) in a.iter().enumerate() {
-                for (d, v) in out[16 * j..16 * j + 16].iter_mut().zip(lanes) {
-                    *d = v.max(0.0);
-                }
-            }
-        }
     }
 
     /// Output pixels `cols` of one row one at a time, each pixel's channels
