@@ -277,36 +277,70 @@ impl InferTrunk {
         timed: &mut dyn FnMut(&'static str, f64),
     ) -> Vec<f32> {
         let t = std::time::Instant::now();
-        let c0 = INPUT_CHANNELS;
-        const { assert!(INPUT_CHANNELS == 4) };
-        assert_eq!(x.len(), batch * c0 * n * n, "input is not B x C x n x n");
-        let plane = n * n;
-        let mut h = vec![0.0f32; x.len()];
-        h.par_chunks_mut(plane * c0)
-            .zip(x.par_chunks(plane * c0))
-            .for_each(|(dst, src)| {
-                // Pixel by pixel, so the writes run straight through memory.
-                let (r, g, b, d) = (
-                    &src[..plane],
-                    &src[plane..2 * plane],
-                    &src[2 * plane..3 * plane],
-                    &src[3 * plane..4 * plane],
-                );
-                for (p, out) in dst.chunks_exact_mut(4).enumerate() {
-                    out.copy_from_slice(&[r[p], g[p], b[p], d[p]]);
-                }
-            });
+        let h = channels_last(x, batch, n);
         timed("layout", t.elapsed().as_secs_f64() * 1e3);
+        self.forward_layers(&h, batch, n, timed)
+    }
+
+    /// [`Self::forward`] of inputs already laid out channels last (`batch x
+    /// n x n x C`, [`channels_last`]): what a decision runs for each of its
+    /// policies on the one rotated scene ([`crate::SceneInput`]).
+    pub fn forward_channels_last(&self, h: &[f32], batch: usize, n: usize) -> Vec<f32> {
+        assert_eq!(
+            h.len(),
+            batch * INPUT_CHANNELS * n * n,
+            "input is not B x n x n x C"
+        );
+        self.forward_layers(h, batch, n, &mut |_, _| {})
+    }
+
+    fn forward_layers(
+        &self,
+        x: &[f32],
+        batch: usize,
+        n: usize,
+        timed: &mut dyn FnMut(&'static str, f64),
+    ) -> Vec<f32> {
+        let mut h = Vec::new();
         let mut side = n;
-        for layer in &self.layers {
+        for (i, layer) in self.layers.iter().enumerate() {
             let t = std::time::Instant::now();
-            let (out, m) = layer.forward(&h, batch, side);
+            let (out, m) = layer.forward(if i == 0 { x } else { &h }, batch, side);
             timed(layer.spec.name, t.elapsed().as_secs_f64() * 1e3);
             h = out;
             side = m;
         }
         h
     }
+}
+
+/// `batch` inputs of `C x n x n` (channels first, as `rotate_input_batch`
+/// lays them out) laid out channels last, `batch x n x n x C`, as the trunk
+/// reads them.
+///
+/// # Panics
+/// If `x` is not `batch x C x n x n`.
+pub fn channels_last(x: &[f32], batch: usize, n: usize) -> Vec<f32> {
+    let c0 = INPUT_CHANNELS;
+    const { assert!(INPUT_CHANNELS == 4) };
+    assert_eq!(x.len(), batch * c0 * n * n, "input is not B x C x n x n");
+    let plane = n * n;
+    let mut h = vec![0.0f32; x.len()];
+    h.par_chunks_mut(plane * c0)
+        .zip(x.par_chunks(plane * c0))
+        .for_each(|(dst, src)| {
+            // Pixel by pixel, so the writes run straight through memory.
+            let (r, g, b, d) = (
+                &src[..plane],
+                &src[plane..2 * plane],
+                &src[2 * plane..3 * plane],
+                &src[3 * plane..4 * plane],
+            );
+            for (p, out) in dst.chunks_exact_mut(4).enumerate() {
+                out.copy_from_slice(&[r[p], g[p], b[p], d[p]]);
+            }
+        });
+    h
 }
 
 impl Layer {

@@ -72,7 +72,8 @@ pub struct PolicyNet {
     pub nets: [QNet; 2],
 }
 
-/// One scene's network input and its 16 rotations (`R x C x N x N`): what
+/// One scene's network input and its 16 rotations (`R x N x N x C`, laid
+/// out channels last as the trunk reads them): what
 /// every policy's trunk reads, so a decision that embeds the scene with
 /// several policies computes it once ([`PolicyNet::embed_cells_with`]).
 #[derive(Clone, Debug)]
@@ -86,6 +87,7 @@ impl SceneInput {
         let input = NetInput::from_heightmaps(hm);
         let rotations: Vec<usize> = (0..NUM_ROTATIONS).collect();
         let rotated = rotate_input_batch(&input, &rotations);
+        let rotated = crate::infer::channels_last(&rotated, NUM_ROTATIONS, input.n);
         Self { input, rotated }
     }
 }
@@ -134,7 +136,7 @@ impl PolicyNet {
         primitive: Primitive,
     ) -> Result<RotatedFeatures, PolicyError> {
         let trunk = crate::infer::InferTrunk::new(self.net(primitive))?;
-        let features = trunk.forward(&scene.rotated, NUM_ROTATIONS, NET_RESOLUTION);
+        let features = trunk.forward_channels_last(&scene.rotated, NUM_ROTATIONS, NET_RESOLUTION);
         Ok(RotatedFeatures {
             features,
             input: scene.input.clone(),
