@@ -23,92 +23,9 @@ fn mul_add(mut acc: [f32; 16], v: f32, w: &[f32; 16]) -> [f32; 16] {
     acc
 }
 
-crate::simd::kernel! {
-/// `count` blocks of [`Layer::block16x8`] from column `ox` on.
-fn run16x8_4 / run16x8_4_lanes(
-    layer: &Layer,
-    img: &[f32],
-    n: usize,
-    iys: &[Option<usize>; KERNEL],
-    ox: usize,
-    count: usize,
-    dst: &mut [f32],
-) {
-    for k in 0..count {
-        layer.block16x8::<4>(img, n, iys, ox + 8 * k, dst);
-    }
-}
-}
-
-crate::simd::kernel! {
-/// `count` blocks of [`Layer::block32x4`] from column `ox` on.
-fn run32x4_16 / run32x4_16_lanes(
-    layer: &Layer,
-    img: &[f32],
-    n: usize,
-    iys: &[Option<usize>; KERNEL],
-    ox: usize,
-    count: usize,
-    dst: &mut [f32],
-) {
-    for k in 0..count {
-        layer.block32x4::<16>(img, n, iys, ox + 4 * k, dst);
-    }
-}
-}
-
-crate::simd::kernel! {
-/// `count` blocks of [`Layer::block32x4`] from column `ox` on.
-fn run32x4_32 / run32x4_32_lanes(
-    layer: &Layer,
-    img: &[f32],
-    n: usize,
-    iys: &[Option<usize>; KERNEL],
-    ox: usize,
-    count: usize,
-    dst: &mut [f32],
-) {
-    for k in 0..count {
-        layer.block32x4::<32>(img, n, iys, ox + 4 * k, dst);
-    }
-}
-}
-
-crate::simd::kernel! {
-/// `count` blocks of [`Layer::block64x4`] from column `ox` on.
-fn run64x4_32 / run64x4_32_lanes(
-    layer: &Layer,
-    img: &[f32],
-    n: usize,
-    iys: &[Option<usize>; KERNEL],
-    ox: usize,
-    count: usize,
-    dst: &mut [f32],
-) {
-    for k in 0..count {
-        layer.block64x4::<32>(img, n, iys, ox + 4 * k, dst);
-    }
-}
-}
-
-crate::simd::kernel! {
-/// `count` blocks of [`Layer::block64x2`] from column `ox` on.
-fn run64x2_32 / run64x2_32_lanes(
-    layer: &Layer,
-    img: &[f32],
-    n: usize,
-    iys: &[Option<usize>; KERNEL],
-    ox: usize,
-    count: usize,
-    dst: &mut [f32],
-) {
-    for k in 0..count {
-        layer.block64x2::<32>(img, n, iys, ox + 2 * k, dst);
-    }
-}
-}
-
-/// Defines a block kernel: method `$name::<CI>` of [`Layer`] computes output
+/// Defines a block kernel and the functions `$run` that run it along a row
+/// for `$ci` input channels, each compiled on its own for the CPU's widest
+/// vectors ([`crate::simd::kernel!`]): method `$name::<CI>` of [`Layer`] computes output
 /// pixels `ox..ox + P` of one row (every tap inside the image along x; `iys`
 /// the rows the kernel reads, `None` in the padding) for `$co` output
 /// channels, each channel summed in the order of [`Layer::columns`]: bias,
@@ -118,8 +35,28 @@ fn run64x2_32 / run64x2_32_lanes(
 /// each stays in a register (an array of them was also kept in memory), and
 /// each weight row loaded serves every pixel of the block.
 macro_rules! block_kernel {
-    ($name:ident, $co:literal, $v_per:literal,
+    ($name:ident, $co:literal, $v_per:literal, $p:literal,
+     runs [$(($run:ident / $lanes:ident, $ci:literal)),+ $(,)?],
      [$(($q:literal, $s:ident, $v:ident, [$($a:ident @ $j:literal),+ $(,)?])),+ $(,)?]) => {
+        $(
+            crate::simd::kernel! {
+                /// `count` blocks of the block kernel from column `ox` on, for
+                #[doc = concat!(stringify!($ci), " input channels.")]
+                fn $run / $lanes(
+                    layer: &Layer,
+                    img: &[f32],
+                    n: usize,
+                    iys: &[Option<usize>; KERNEL],
+                    ox: usize,
+                    count: usize,
+                    dst: &mut [f32],
+                ) {
+                    for k in 0..count {
+                        layer.$name::<$ci>(img, n, iys, ox + $p * k, dst);
+                    }
+                }
+            }
+        )+
         impl Layer {
             #[inline(always)]
             fn $name<const CI: usize>(
@@ -166,6 +103,8 @@ block_kernel!(
     block64x4,
     64,
     4,
+    4,
+    runs[(run64x4_32 / run64x4_32_lanes, 32)],
     [
         (0, s0, v0, [a00 @ 0, a01 @ 1, a02 @ 2, a03 @ 3]),
         (1, s1, v1, [a10 @ 0, a11 @ 1, a12 @ 2, a13 @ 3]),
@@ -177,6 +116,8 @@ block_kernel!(
     block64x2,
     64,
     4,
+    2,
+    runs[(run64x2_32 / run64x2_32_lanes, 32)],
     [
         (0, s0, v0, [a00 @ 0, a01 @ 1, a02 @ 2, a03 @ 3]),
         (1, s1, v1, [a10 @ 0, a11 @ 1, a12 @ 2, a13 @ 3]),
@@ -186,6 +127,8 @@ block_kernel!(
     block32x4,
     32,
     2,
+    4,
+    runs [(run32x4_16 / run32x4_16_lanes, 16), (run32x4_32 / run32x4_32_lanes, 32)],
     [
         (0, s0, v0, [a00 @ 0, a01 @ 1]),
         (1, s1, v1, [a10 @ 0, a11 @ 1]),
@@ -197,6 +140,8 @@ block_kernel!(
     block16x8,
     16,
     1,
+    8,
+    runs[(run16x8_4 / run16x8_4_lanes, 4)],
     [
         (0, s0, v0, [a0 @ 0]),
         (1, s1, v1, [a1 @ 0]),
@@ -501,6 +446,30 @@ impl Layer {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Runs `$check::<CO>(layer, x, n, m)` for every layer of a random net
+    /// (seed `$seed`) on an input of side `n` for each of `$sizes`.
+    macro_rules! each_layer {
+        ($seed:expr, $sizes:expr, $offset:expr, $check:ident) => {
+            let trunk = InferTrunk::new(&QNet::new($seed).expect("net")).expect("infer");
+            for n in $sizes {
+                for l in &trunk.layers {
+                    let ci = l.spec.in_channels;
+                    let x: Vec<f32> = (0..n * n * ci)
+                        .map(|i| ((i * 7919) % 1000) as f32 / 1000.0 - $offset)
+                        .collect();
+                    let s = l.spec;
+                    let m = (n + 2 * s.dilation - s.dilation * (KERNEL - 1) - 1) / s.stride + 1;
+                    match s.out_channels {
+                        16 => $check::<16>(l, &x, n, m),
+                        32 => $check::<32>(l, &x, n, m),
+                        64 => $check::<64>(l, &x, n, m),
+                        c => panic!("no const path for {c} channels"),
+                    }
+                }
+            }
+        };
+    }
     use crate::input::NET_RESOLUTION;
     use crate::net::FEATURE_RESOLUTION;
     use candle_core::{Device, Tensor};
@@ -522,22 +491,7 @@ mod tests {
                 );
             }
         }
-        let trunk = InferTrunk::new(&QNet::new(11).expect("net")).expect("infer");
-        let n = 23;
-        for l in &trunk.layers {
-            let ci = l.spec.in_channels;
-            let x: Vec<f32> = (0..n * n * ci)
-                .map(|i| ((i * 7919) % 1000) as f32 / 1000.0 - 0.2)
-                .collect();
-            let s = l.spec;
-            let m = (n + 2 * s.dilation - s.dilation * (KERNEL - 1) - 1) / s.stride + 1;
-            match s.out_channels {
-                16 => both::<16>(l, &x, n, m),
-                32 => both::<32>(l, &x, n, m),
-                64 => both::<64>(l, &x, n, m),
-                c => panic!("no const path for {c} channels"),
-            }
-        }
+        each_layer!(11, [23], 0.2, both);
     }
 
     /// The blocked kernel gives every output pixel the bits of the
@@ -567,23 +521,7 @@ mod tests {
                 );
             }
         }
-        let trunk = InferTrunk::new(&QNet::new(13).expect("net")).expect("infer");
-        for n in [NET_RESOLUTION, 57, 30] {
-            for l in &trunk.layers {
-                let ci = l.spec.in_channels;
-                let x: Vec<f32> = (0..n * n * ci)
-                    .map(|i| ((i * 7919) % 1000) as f32 / 1000.0 - 0.3)
-                    .collect();
-                let s = l.spec;
-                let m = (n + 2 * s.dilation - s.dilation * (KERNEL - 1) - 1) / s.stride + 1;
-                match s.out_channels {
-                    16 => both::<16>(l, &x, n, m),
-                    32 => both::<32>(l, &x, n, m),
-                    64 => both::<64>(l, &x, n, m),
-                    c => panic!("no const path for {c} channels"),
-                }
-            }
-        }
+        each_layer!(13, [NET_RESOLUTION, 57, 30], 0.3, both);
     }
 
     /// The inference pass gives candle's trunk to float rounding, on a net of
