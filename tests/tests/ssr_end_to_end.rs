@@ -547,7 +547,11 @@ fn committed_records_carry_the_checksums_of_the_shipped_files() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let mut known = std::collections::BTreeMap::<String, String>::new();
     let (mut records, mut files_checked) = (0, 0);
-    for dir in ["results/trials", "results/pure-rl/trials"] {
+    for dir in [
+        "results/trials",
+        "results/pure-rl/trials",
+        "results/paper-scale/trials",
+    ] {
         for m in std::fs::read_dir(root.join(dir)).expect("trials") {
             for f in std::fs::read_dir(m.expect("method").path()).expect("method dir") {
                 let path = f.expect("file").path();

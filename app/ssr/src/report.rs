@@ -132,6 +132,8 @@ pub fn display_method(id: &str) -> String {
         "ssrccdloopbreak" => "Extension: SSR CCD + loop breaking".into(),
         "ssrccdnoisy" => "SSR CCD, sensor noise".into(),
         "ssrl2cdplain" => "SSR L2CD, plain correspondence".into(),
+        "ssrccdglobalrematch" => "SSR CCD, the reference runner's global rematch".into(),
+        "ssrl2cdglobalrematch" => "SSR L2CD, the reference runner's global rematch".into(),
         "spotq" => "SPOT-Q".into(),
         "goodrobotfinetuned" => "Good Robot finetuned".into(),
         "transporternet" | "transporter" => "TransporterNet".into(),
