@@ -70,12 +70,53 @@ pub fn write(
     {
         std::fs::create_dir_all(dir).map_err(|e| PolicyError::io(dir, e))?;
     }
-    let tmp = path.with_extension("tmp");
-    safetensors::serialize_to_file(views, Some(meta), &tmp).map_err(|e| PolicyError::Format {
+    let bad = |reason: String| PolicyError::Format {
         path: path.to_path_buf(),
-        reason: format!("cannot write safetensors: {e}"),
-    })?;
+        reason,
+    };
+    let bytes = safetensors::serialize(views, Some(meta))
+        .map_err(|e| bad(format!("cannot write safetensors: {e}")))?;
+    let bytes = canonical_header(bytes).map_err(bad)?;
+    let tmp = path.with_extension("tmp");
+    std::fs::write(&tmp, bytes).map_err(|e| PolicyError::io(&tmp, e))?;
     std::fs::rename(&tmp, path).map_err(|e| PolicyError::io(path, e))
+}
+
+/// A safetensors file with its JSON header's keys in sorted order (the
+/// crate writes the metadata in a hash map's order, which changes from one
+/// process to the next), so the same tensors and metadata always give the
+/// same bytes and the same checksum. The header keeps its length: the same
+/// keys and values, reordered, padded with spaces to a multiple of 8.
+fn canonical_header(bytes: Vec<u8>) -> Result<Vec<u8>, String> {
+    fn sorted(v: serde_json::Value) -> serde_json::Value {
+        match v {
+            serde_json::Value::Object(m) => {
+                let mut entries: Vec<(String, serde_json::Value)> = m.into_iter().collect();
+                entries.sort_by(|a, b| a.0.cmp(&b.0));
+                serde_json::Value::Object(
+                    entries.into_iter().map(|(k, v)| (k, sorted(v))).collect(),
+                )
+            }
+            other => other,
+        }
+    }
+    let len = bytes
+        .get(..8)
+        .and_then(|b| b.try_into().ok())
+        .map(u64::from_le_bytes)
+        .ok_or("no header length")? as usize;
+    let header = bytes.get(8..8 + len).ok_or("header past the end")?;
+    let value: serde_json::Value =
+        serde_json::from_slice(header).map_err(|e| format!("header: {e}"))?;
+    let mut text = serde_json::to_string(&sorted(value)).map_err(|e| e.to_string())?;
+    while text.len() % 8 != 0 {
+        text.push(' ');
+    }
+    let mut out = Vec::with_capacity(bytes.len());
+    out.extend_from_slice(&(text.len() as u64).to_le_bytes());
+    out.extend_from_slice(text.as_bytes());
+    out.extend_from_slice(&bytes[8 + len..]);
+    Ok(out)
 }
 
 /// A file read back: its metadata (checksums removed) and tensors.

@@ -45,3 +45,42 @@ fn issue_10_tensor_shape_with_a_negative_or_non_numeric_entry_is_refused() {
         vec![0]
     );
 }
+
+/// The same tensors and metadata always give the same bytes (the
+/// safetensors crate writes metadata in a hash map's order, which differs
+/// from one map to the next), and the file reads back.
+#[test]
+fn the_same_tensors_give_the_same_bytes() {
+    use seespot_policy::tensor_file::{F32Tensor, write};
+    use std::collections::BTreeMap;
+    let tensors: BTreeMap<String, F32Tensor> = (0..6)
+        .map(|i| {
+            let t = F32Tensor {
+                shape: vec![2, i + 1],
+                data: (0..2 * (i + 1))
+                    .map(|k| k as f32 * 0.5 - i as f32)
+                    .collect(),
+            };
+            (format!("t{i}"), t)
+        })
+        .collect();
+    let meta: BTreeMap<String, String> = (0..12)
+        .map(|i| (format!("key{i}"), format!("value {i}")))
+        .collect();
+    let dir = tempfile::tempdir().expect("dir");
+    let files: Vec<Vec<u8>> = (0..8)
+        .map(|i| {
+            let p = dir.path().join(format!("{i}.safetensors"));
+            write(&p, &tensors, &meta).expect("write");
+            std::fs::read(&p).expect("read")
+        })
+        .collect();
+    assert!(files.iter().all(|f| f == &files[0]));
+    let back = read(&dir.path().join("0.safetensors")).expect("read back");
+    assert_eq!(
+        back.metadata.get("key3").map(String::as_str),
+        Some("value 3")
+    );
+    assert_eq!(back.tensors["t2"].data, tensors["t2"].data);
+    assert_eq!(files[0].len() % 8, 0);
+}
