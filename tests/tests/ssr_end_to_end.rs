@@ -348,6 +348,26 @@ fn noisy_and_extension_runs_have_their_own_record_names() {
         EvalMethod::Oracle.record_name_with(0, normalized, false),
         "oracle"
     );
+    // Combined departures keep every one in the name, so no two settings
+    // share a record file.
+    use seespot_ssr::correspond::Rematch;
+    let both = CorrespondOptions {
+        smoothing: Smoothing::Normalized,
+        demo_features: DemoFeatures::Real,
+        ..Default::default()
+    };
+    assert_eq!(
+        EvalMethod::SsrCcd.record_name_with(0, both, false),
+        "ssr-ccd-normalized-demo-real"
+    );
+    let all = CorrespondOptions {
+        rematch: Rematch::Global,
+        ..both
+    };
+    assert_eq!(
+        EvalMethod::SsrCcd.record_name_with(333, all, true),
+        "ssr-ccd-normalized-demo-real-global-rematch-finetuned-noisy"
+    );
 }
 
 #[test]
@@ -578,4 +598,44 @@ fn committed_records_carry_the_checksums_of_the_shipped_files() {
     // Eleven methods of 200 trials, and SSR CCD with the pure-RL policies.
     assert!(records >= 12 * 200, "{records} records");
     assert!(files_checked > 0);
+}
+
+/// Re-recording every shipped demonstration (`demos/` and
+/// `demos/paper-scale/`) from its seed gives exactly the shipped bytes: the
+/// oracle, the physics and the PNG encoding are all deterministic, so the
+/// README's re-record commands leave `git status` clean.
+#[test]
+fn every_shipped_demo_re_records_to_the_same_bytes() {
+    use seespot_ssr::correspond::reference::record_demo;
+    let mut checked = 0;
+    for root in [demos_dir(), demos_dir().join("paper-scale")] {
+        for task in TaskId::ALL {
+            for dir in demo_dirs(&root, task) {
+                let shipped = Demo::read(&dir).expect("shipped demo");
+                let config = seespot_sim::WorldConfig {
+                    grid: seespot_sim::Grid::new(shipped.meta.resolution),
+                    ..Default::default()
+                };
+                let again = record_demo(task, shipped.meta.seed, config).expect("record");
+                let files = again.files(&dir).expect("encode");
+                let mut on_disk: Vec<String> = std::fs::read_dir(&dir)
+                    .expect("demo dir")
+                    .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+                    .collect();
+                on_disk.sort();
+                let mut names: Vec<String> = files.iter().map(|(n, _)| n.clone()).collect();
+                names.sort();
+                assert_eq!(names, on_disk, "{}: the files", dir.display());
+                for (name, bytes) in &files {
+                    let there = std::fs::read(dir.join(name)).expect("shipped file");
+                    assert!(&there == bytes, "{}: {name} has other bytes", dir.display());
+                }
+                checked += 1;
+            }
+        }
+    }
+    assert_eq!(
+        checked, 16,
+        "two demonstrations per task, at 112 and 224 px"
+    );
 }

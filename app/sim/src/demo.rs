@@ -14,7 +14,7 @@
 //! written; heights over 0.65535 m, never reached by four 5 cm blocks, saturate).
 
 use std::fs::File;
-use std::io::{BufReader, BufWriter};
+use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -186,14 +186,27 @@ impl Demo {
             path: dir.to_owned(),
             source,
         })?;
-        for (i, step) in self.steps.iter().enumerate() {
-            write_heightmaps(dir, &format!("{i:03}"), &step.heightmaps)?;
+        for (name, bytes) in self.files(dir)? {
+            let path = dir.join(name);
+            std::fs::write(&path, bytes).map_err(|source| DemoError::Io { path, source })?;
         }
-        write_heightmaps(dir, "final", &self.final_heightmaps)?;
-        let path = dir.join("meta.json");
-        let json =
-            serde_json::to_string_pretty(&self.meta).map_err(|e| invalid(&path, e.to_string()))?;
-        std::fs::write(&path, json).map_err(|source| DemoError::Io { path, source })
+        Ok(())
+    }
+
+    /// Every file [`Demo::write`] writes, by name, with its exact bytes (the
+    /// same demonstration always gives the same bytes: the PNG encoder's
+    /// settings are fixed and the `png` crate's version is pinned). `dir`
+    /// only names the files in errors.
+    pub fn files(&self, dir: &Path) -> Result<Vec<(String, Vec<u8>)>, DemoError> {
+        let mut out = Vec::with_capacity(2 * self.steps.len() + 3);
+        for (i, step) in self.steps.iter().enumerate() {
+            out.extend(heightmap_files(dir, &format!("{i:03}"), &step.heightmaps)?);
+        }
+        out.extend(heightmap_files(dir, "final", &self.final_heightmaps)?);
+        let json = serde_json::to_string_pretty(&self.meta)
+            .map_err(|e| invalid(&dir.join("meta.json"), e.to_string()))?;
+        out.push(("meta.json".to_owned(), json.into_bytes()));
+        Ok(out)
     }
 
     /// Reads and validates a demonstration directory.
@@ -385,30 +398,40 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> DemoError + '_ {
     }
 }
 
-fn write_png(
+/// One PNG's bytes, with the encoder's settings spelled out so that a change
+/// of the `png` crate's defaults cannot change a shipped file's bytes.
+fn encode_png(
     path: &Path,
     n: usize,
     color: png::ColorType,
     depth: png::BitDepth,
     data: &[u8],
-) -> Result<(), DemoError> {
-    let file = File::create(path).map_err(io(path))?;
-    let mut enc = png::Encoder::new(BufWriter::new(file), n as u32, n as u32);
+) -> Result<Vec<u8>, DemoError> {
+    let mut bytes = Vec::new();
+    let mut enc = png::Encoder::new(&mut bytes, n as u32, n as u32);
     enc.set_color(color);
     enc.set_depth(depth);
+    enc.set_compression(png::Compression::Balanced);
+    enc.set_filter(png::Filter::Adaptive);
     let mut w = enc
         .write_header()
         .map_err(|e| invalid(path, e.to_string()))?;
     w.write_image_data(data)
         .map_err(|e| invalid(path, e.to_string()))?;
-    w.finish().map_err(|e| invalid(path, e.to_string()))
+    w.finish().map_err(|e| invalid(path, e.to_string()))?;
+    Ok(bytes)
 }
 
-/// Writes `{stem}_color.png` and `{stem}_depth.png`.
-pub fn write_heightmaps(dir: &Path, stem: &str, hm: &Heightmaps) -> Result<(), DemoError> {
+/// `{stem}_color.png` and `{stem}_depth.png` of one state, as bytes.
+fn heightmap_files(
+    dir: &Path,
+    stem: &str,
+    hm: &Heightmaps,
+) -> Result<[(String, Vec<u8>); 2], DemoError> {
     let n = hm.resolution();
-    write_png(
-        &dir.join(format!("{stem}_color.png")),
+    let color_name = format!("{stem}_color.png");
+    let color = encode_png(
+        &dir.join(&color_name),
         n,
         png::ColorType::Rgb,
         png::BitDepth::Eight,
@@ -419,13 +442,24 @@ pub fn write_heightmaps(dir: &Path, stem: &str, hm: &Heightmaps) -> Result<(), D
         let v = (d / DEPTH_UNIT).round().clamp(0.0, u16::MAX as f32) as u16;
         depth.extend_from_slice(&v.to_be_bytes());
     }
-    write_png(
-        &dir.join(format!("{stem}_depth.png")),
+    let depth_name = format!("{stem}_depth.png");
+    let depth = encode_png(
+        &dir.join(&depth_name),
         n,
         png::ColorType::Grayscale,
         png::BitDepth::Sixteen,
         &depth,
-    )
+    )?;
+    Ok([(color_name, color), (depth_name, depth)])
+}
+
+/// Writes `{stem}_color.png` and `{stem}_depth.png`.
+pub fn write_heightmaps(dir: &Path, stem: &str, hm: &Heightmaps) -> Result<(), DemoError> {
+    for (name, bytes) in heightmap_files(dir, stem, hm)? {
+        let path = dir.join(name);
+        std::fs::write(&path, bytes).map_err(|source| DemoError::Io { path, source })?;
+    }
+    Ok(())
 }
 
 fn read_png(

@@ -92,35 +92,35 @@ impl EvalMethod {
         )
     }
 
-    /// [`Self::record_name`] with every Correspond option: the
-    /// `--demo-features real` departure carries `-demo-real`.
+    /// [`Self::record_name`] with every Correspond option: the departures
+    /// from the reference's Correspond carry `-normalized` (`--smoothing
+    /// normalized`), `-demo-real` (`--demo-features real`) and
+    /// `-global-rematch` (`--rematch global`), in that order when combined.
     pub fn record_name_with(
         self,
         finetune_steps: usize,
         correspond: CorrespondOptions,
         noisy: bool,
     ) -> String {
-        let correspondence = correspond.mode;
-        let plain = if self.is_ssr() && correspondence == Correspondence::Plain {
-            "-plain"
-        } else if self.is_ssr()
-            && correspondence == Correspondence::Reference
-            && correspond.demo_features == DemoFeatures::Real
-        {
-            "-demo-real"
-        } else if self.is_ssr()
-            && correspondence == Correspondence::Reference
-            && correspond.smoothing == Smoothing::Normalized
-        {
-            "-normalized"
-        } else if self.is_ssr()
-            && correspondence == Correspondence::Reference
-            && correspond.rematch == Rematch::Global
-        {
-            "-global-rematch"
-        } else {
-            ""
-        };
+        // The departures compose, in a fixed order, so every combination
+        // has its own name.
+        let mut plain = String::new();
+        if self.is_ssr() {
+            match correspond.mode {
+                Correspondence::Plain => plain.push_str("-plain"),
+                Correspondence::Reference => {
+                    if correspond.smoothing == Smoothing::Normalized {
+                        plain.push_str("-normalized");
+                    }
+                    if correspond.demo_features == DemoFeatures::Real {
+                        plain.push_str("-demo-real");
+                    }
+                    if correspond.rematch == Rematch::Global {
+                        plain.push_str("-global-rematch");
+                    }
+                }
+            }
+        }
         let noise = if noisy { "-noisy" } else { "" };
         match (self, finetune_steps) {
             (_, 0) => format!("{}{plain}{noise}", self.as_str()),
