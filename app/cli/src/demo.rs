@@ -1,6 +1,6 @@
 //! `seespot demo record|show`.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::Subcommand;
@@ -15,12 +15,21 @@ pub enum DemoCommand {
         /// World seed (demonstration seeds are even by convention).
         #[arg(long)]
         seed: u64,
-        /// Output directory, e.g. demos/row/0.
+        /// Output directory (default `runs/demos/<task>/<seed>`). A directory
+        /// that holds another demonstration, such as a shipped one under
+        /// `demos/`, is replaced only with `--overwrite`; one that holds the
+        /// same bytes is left untouched.
         #[arg(long)]
-        out: PathBuf,
+        out: Option<PathBuf>,
+        /// Replace the demonstration in `--out` when it differs.
+        #[arg(long)]
+        overwrite: bool,
         /// Heightmap pixels per side.
         #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 112)]
         resolution: usize,
+        /// Print one machine-readable summary object on stdout.
+        #[arg(long)]
+        json: bool,
     },
     /// Print a readable summary of a demonstration.
     Show {
@@ -36,24 +45,66 @@ pub fn run(cmd: DemoCommand) -> anyhow::Result<()> {
             task,
             seed,
             out,
+            overwrite,
             resolution,
+            json,
         } => {
+            let out = out.unwrap_or_else(|| PathBuf::from(format!("runs/demos/{task}/{seed}")));
             let config = WorldConfig {
                 grid: Grid::new(resolution),
                 ..Default::default()
             };
             let demo = seespot_ssr::correspond::reference::record_demo(task, seed, config)?;
-            let last = demo.steps.last().map_or(0, |s| s.meta.progress_after);
-            demo.write(&out)
-                .with_context(|| format!("writing {}", out.display()))?;
-            // Read it back: what was written must validate.
-            Demo::read(&out)?;
+            let files = demo.files(&out)?;
+            let differing = differing_files(&out, &files)?;
+            let written = match &differing {
+                Some(names) if names.is_empty() => false,
+                Some(names) if !overwrite => anyhow::bail!(
+                    "{}: holds another demonstration ({} of its files differ, first {}); \
+                     pass --overwrite to replace it, or --out to record elsewhere",
+                    out.display(),
+                    names.len(),
+                    names[0]
+                ),
+                Some(_) => {
+                    remove_demo_files(&out)?;
+                    true
+                }
+                None => true,
+            };
+            if written {
+                demo.write(&out)
+                    .with_context(|| format!("writing {}", out.display()))?;
+                // Read it back: what was written must validate.
+                Demo::read(&out)?;
+            }
+            let (before, after) = (
+                demo.steps.first().map_or(0, |s| s.meta.progress_before),
+                demo.steps.last().map_or(0, |s| s.meta.progress_after),
+            );
+            let what = if written {
+                "wrote"
+            } else {
+                "unchanged (the same bytes are there)"
+            };
             eprintln!(
-                "wrote {} ({} steps, progress {} -> {last})",
+                "{what}: {} ({} steps, progress {before} -> {after})",
                 out.display(),
                 demo.steps.len(),
-                demo.steps[0].meta.progress_before
             );
+            if json {
+                return crate::print_json(&serde_json::json!({
+                    "out": out.display().to_string(),
+                    "task": task.as_str(),
+                    "seed": seed,
+                    "resolution": resolution,
+                    "steps": demo.steps.len(),
+                    "progress_before": before,
+                    "progress_after": after,
+                    "files": files.len(),
+                    "written": written,
+                }));
+            }
             Ok(())
         }
         DemoCommand::Show { dir, json } => {
@@ -91,4 +142,64 @@ pub fn run(cmd: DemoCommand) -> anyhow::Result<()> {
             Ok(())
         }
     }
+}
+
+/// Whether `dir` holds a demonstration, and which of `files` differ from
+/// it (a file missing there, or with other bytes; a demonstration file there
+/// that `files` lacks counts too). `None` when `dir` holds no demonstration.
+fn differing_files(dir: &Path, files: &[(String, Vec<u8>)]) -> anyhow::Result<Option<Vec<String>>> {
+    let existing = demo_file_names(dir)?;
+    if existing.is_empty() {
+        return Ok(None);
+    }
+    let mut differ = Vec::new();
+    for (name, bytes) in files {
+        match std::fs::read(dir.join(name)) {
+            Ok(there) if &there == bytes => {}
+            Ok(_) => differ.push(name.clone()),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => differ.push(name.clone()),
+            Err(e) => {
+                return Err(e).with_context(|| format!("reading {}", dir.join(name).display()));
+            }
+        }
+    }
+    differ.extend(
+        existing
+            .into_iter()
+            .filter(|n| !files.iter().any(|(f, _)| f == n)),
+    );
+    Ok(Some(differ))
+}
+
+/// The names of the demonstration files in `dir` (`meta.json` and the
+/// heightmap PNGs); empty when `dir` does not exist.
+fn demo_file_names(dir: &Path) -> anyhow::Result<Vec<String>> {
+    let entries = match std::fs::read_dir(dir) {
+        Ok(e) => e,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e) => return Err(e).with_context(|| format!("reading {}", dir.display())),
+    };
+    let mut names = Vec::new();
+    for e in entries {
+        let name = e
+            .with_context(|| format!("reading {}", dir.display()))?
+            .file_name()
+            .to_string_lossy()
+            .into_owned();
+        if name == "meta.json" || name.ends_with("_color.png") || name.ends_with("_depth.png") {
+            names.push(name);
+        }
+    }
+    names.sort();
+    Ok(names)
+}
+
+/// Removes the demonstration files of `dir`, so a replacement with fewer
+/// steps leaves none of the old ones behind.
+fn remove_demo_files(dir: &Path) -> anyhow::Result<()> {
+    for name in demo_file_names(dir)? {
+        let path = dir.join(name);
+        std::fs::remove_file(&path).with_context(|| format!("removing {}", path.display()))?;
+    }
+    Ok(())
 }

@@ -66,6 +66,24 @@ fn main() -> anyhow::Result<()> {
     }
 }
 
+/// Refuses to replace an existing `path` (a shipped model or card, or an
+/// earlier run's) unless `overwrite`: the message names the flag and how to
+/// write elsewhere (`elsewhere`, e.g. "--out").
+pub fn refuse_to_replace(
+    path: &std::path::Path,
+    overwrite: bool,
+    elsewhere: &str,
+) -> anyhow::Result<()> {
+    if !overwrite && path.exists() {
+        anyhow::bail!(
+            "{} exists (a shipped file, or an earlier run's); pass --overwrite to replace it, \
+             or {elsewhere} to write elsewhere",
+            path.display()
+        );
+    }
+    Ok(())
+}
+
 /// Prints `value` as one JSON object on stdout.
 pub fn print_json(value: &serde_json::Value) -> anyhow::Result<()> {
     println!("{}", serde_json::to_string(value)?);

@@ -24,10 +24,15 @@ pub struct TrainArgs {
     /// (default `runs/train-<task>`); an existing run there is resumed.
     #[arg(long)]
     pub run_dir: Option<PathBuf>,
-    /// Output weights (default `models/<task>.safetensors`); the model card goes
-    /// next to it with extension .md.
+    /// Output weights (default `runs/models/<task>.safetensors`, so the
+    /// shipped `models/` stay as they are; `view --models runs/models` uses
+    /// them); the model card and learning curve go next to it.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Replace the weights and model card at `--out` when they exist (a
+    /// shipped policy, or an earlier run's).
+    #[arg(long)]
+    pub overwrite: bool,
     /// Heightmap resolution of the training worlds, pixels.
     #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 112)]
     pub resolution: usize,
@@ -40,7 +45,7 @@ pub struct TrainArgs {
     /// Pretrain by reinforcement learning alone, as the paper's SPOT-Q does: no
     /// oracle actions, exploration epsilon-greedy under the common-sense masks.
     /// The run directory and weights default to `runs/train-pure-rl-<task>` and
-    /// `models/pure-rl/<task>.safetensors`.
+    /// `runs/models/pure-rl/<task>.safetensors`.
     #[arg(long)]
     pub pure_rl: bool,
     /// Hide the progress bar.
@@ -66,9 +71,9 @@ fn bar(len: u64, quiet: bool, template: &str) -> indicatif::ProgressBar {
 pub fn run(args: TrainArgs) -> anyhow::Result<()> {
     let task = args.task;
     let (runs, models) = if args.pure_rl {
-        ("runs/train-pure-rl-", "models/pure-rl/")
+        ("runs/train-pure-rl-", "runs/models/pure-rl/")
     } else {
-        ("runs/train-", "models/")
+        ("runs/train-", "runs/models/")
     };
     let run_dir = args
         .run_dir
@@ -78,6 +83,9 @@ pub fn run(args: TrainArgs) -> anyhow::Result<()> {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from(format!("{models}{task}.safetensors")));
+    // Refused before any training, so no time is lost.
+    crate::refuse_to_replace(&out, args.overwrite, "--out")?;
+    crate::refuse_to_replace(&out.with_extension("md"), args.overwrite, "--out")?;
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }

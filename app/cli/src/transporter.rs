@@ -40,11 +40,19 @@ pub struct TrainArgs {
     run_dir: Option<PathBuf>,
     #[arg(long, default_value = "demos")]
     demos: PathBuf,
-    /// Where `transporter/<task>.safetensors` and its model card go.
-    #[arg(long, default_value = "models")]
+    /// Where `transporter/<task>.safetensors` and its model card go (the
+    /// default keeps the shipped `models/transporter/` as they are).
+    #[arg(long, default_value = "runs/models")]
     models: PathBuf,
+    /// Replace the weights and model card there when they exist (a shipped
+    /// TransporterNet, or an earlier run's).
+    #[arg(long)]
+    overwrite: bool,
     #[arg(long)]
     quiet: bool,
+    /// Print one machine-readable summary object on stdout.
+    #[arg(long)]
+    json: bool,
 }
 
 pub fn run(c: TransporterCommand) -> anyhow::Result<()> {
@@ -59,6 +67,10 @@ fn train(args: TrainArgs) -> anyhow::Result<()> {
         .run_dir
         .clone()
         .unwrap_or_else(|| PathBuf::from(format!("runs/transporter-{task}")));
+    let out = transporter_path(&args.models, task);
+    // Refused before any training, so no time is lost.
+    crate::refuse_to_replace(&out, args.overwrite, "--models")?;
+    crate::refuse_to_replace(&out.with_extension("md"), args.overwrite, "--models")?;
     let dirs = demo_dirs(&args.demos, task);
     let demos = dirs
         .iter()
@@ -97,7 +109,9 @@ fn train(args: TrainArgs) -> anyhow::Result<()> {
             )
         })?;
     pb.finish_and_clear();
-    let out = transporter_path(&args.models, task);
+    if let Some(dir) = out.parent() {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
     outcome
         .net
         .save(&out)
@@ -129,6 +143,23 @@ fn train(args: TrainArgs) -> anyhow::Result<()> {
         out.display(),
         card.display()
     );
+    if args.json {
+        let last = outcome.state.curve.last();
+        return crate::print_json(&serde_json::json!({
+            "task": task.as_str(),
+            "weights": out.display().to_string(),
+            "model_card": card.display().to_string(),
+            "run_dir": run_dir.display().to_string(),
+            "iterations": outcome.state.iteration,
+            "wall_seconds": outcome.state.wall_seconds,
+            "validation": last.map(|c| serde_json::json!({
+                "iteration": c.iteration,
+                "successes": c.successes,
+                "trials": c.trials,
+                "progress": c.progress,
+            })),
+        }));
+    }
     Ok(())
 }
 
@@ -162,8 +193,13 @@ fn model_card(
     let _ = writeln!(
         md,
         "\nRemake: `seespot transporter train --task {task} --iterations {} --seed {} \
-         --curve-every {} --curve-trials {}` (resumes from `runs/transporter-{task}`).\n",
-        s.iteration, s.config.seed, s.config.curve_every, s.config.curve_trials
+         --curve-every {} --curve-trials {} --models {} --overwrite` (resumes from \
+         `runs/transporter-{task}`).\n",
+        s.iteration,
+        s.config.seed,
+        s.config.curve_every,
+        s.config.curve_trials,
+        args.models.display()
     );
     let _ = writeln!(
         md,
