@@ -27,6 +27,21 @@ from typing import Any
 from seespot._core import METHODS, TASKS, Evaluator, record_name, records_path, test_seeds
 
 
+RAY_MISSING = (
+    "seespot.dist runs the evaluation on Ray, which is not installed: "
+    "pip install 'seespot[ray]' (or pip install ray)"
+)
+
+
+def _import_ray() -> Any:
+    """Ray, or an error that names the extra that installs it."""
+    try:
+        import ray
+    except ImportError as e:
+        raise ImportError(RAY_MISSING) from e
+    return ray
+
+
 def init_local_ray(num_workers: int, threads_per_worker: int) -> None:
     """Starts a local Ray on 127.0.0.1 (no dashboard, no usage statistics).
 
@@ -36,7 +51,7 @@ def init_local_ray(num_workers: int, threads_per_worker: int) -> None:
     set too when Ray is already imported."""
     os.environ["RAY_USAGE_STATS_ENABLED"] = "0"
     os.environ["RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"] = "0"
-    import ray
+    ray = _import_ray()
     import ray._private.ray_constants as ray_constants
 
     ray_constants.ENABLE_RAY_CLUSTER = False
@@ -105,7 +120,7 @@ def evaluate(
     """Runs (or resumes) the evaluation of ``methods`` on ``tasks`` over the
     seeds ``seed, seed + 2, ...`` (``trials`` of them) with ``num_workers`` Ray
     actors; returns every (method, task)'s records sorted by seed."""
-    import ray
+    ray = _import_ray()
 
     tasks = list(tasks)
     seeds = test_seeds(seed, trials)
@@ -173,6 +188,10 @@ def main(argv: Sequence[str] | None = None) -> None:
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--address", default=None, help="a Ray cluster's address (default: local)")
     a = p.parse_args(argv)
+    try:
+        _import_ray()
+    except ImportError as e:
+        p.exit(2, f"{p.prog}: error: {e}\n")
     tasks = TASKS if a.task == "all" else [a.task]
     result = evaluate(
         a.method or ["ssr-ccd"],

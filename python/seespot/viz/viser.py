@@ -153,7 +153,13 @@ class ViserView:
     def __init__(self, page_url: str, host: str = "127.0.0.1", port: int = 8081):
         if host not in LOOPBACK:
             raise ValueError(f"host: the 3-D view binds to loopback only, not {host!r}")
-        import viser
+        try:
+            import viser
+        except ImportError as e:
+            raise ImportError(
+                "the 3-D view needs viser, which is not installed: "
+                "pip install 'seespot[viser]' (or pip install viser==1.1.1)"
+            ) from e
 
         self.client = DebuggerClient(page_url)
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
@@ -251,9 +257,9 @@ class ViserView:
             h = state["history"]
             where = "live" if h["viewing"] is None else f"history {h['viewing'] + 1}/{h['len']}"
             self.gui_status.content = (
-                f"**{state['task']}** seed {state['seed']} · action {state['action_index']} · "
+                f"**{state['task']}** seed {state['seed']} · action {state['action_number']} · "
                 f"phase {state['phase'] or '–'} · progress {state['progress']}/4 · {where}"
-                + (f" · **{state['end']}**" if state["end"] else "")
+                + (f" · **{state['end_words']}**" if state["end"] else "")
             )
 
     def _draw_blocks(self, state: dict[str, Any]) -> None:
