@@ -71,11 +71,11 @@ function onState(s) {
     const i = PHASES.indexOf(li.dataset.phase);
     li.className = i === k ? 'current' : (i < k ? 'done' : '');
   }
-  $('action-index').textContent = s.phase ? `#${s.action_index + (s.phase === 'act' ? 0 : 1)}` : `#${s.action_index + 1}`;
+  $('action-index').textContent = `${s.action_number} of at most 30`;
   $('progress').textContent = `${s.progress} / 4`;
   $('progress-bar').style.width = `${(s.progress / 4) * 100}%`;
   $('primitive').textContent = s.holding !== null ? `place (holding)` : s.primitive;
-  $('end').textContent = s.end ? (s.succeeded ? 'success ✓' : s.end) : (app.running ? 'running…' : 'in progress');
+  $('end').textContent = s.end ? (s.succeeded ? 'success ✓' : s.end_words) : (app.running ? 'running to the end…' : 'waiting for Next phase');
   $('method').textContent = s.method ? s.method.toUpperCase() : '';
   $('decider').textContent = (s.replay ? `${s.replay[0].toUpperCase()}${s.replay.slice(1)}. ` : '')
     + `${s.decider}. ${s.decider_note}` + (s.recording ? ` Recording to ${s.recording}.` : '');
@@ -151,7 +151,7 @@ function renderHistory(s) {
 }
 
 // Time travel: one slider position per phase shown in this trial.
-function actionLabel(at) { return `#${at.action_index + (at.phase === 'act' ? 0 : 1)} · ${at.phase}`; }
+function actionLabel(at) { return `action ${at.action_index + (at.phase === 'act' ? 0 : 1)} · ${at.phase}`; }
 
 function renderTimeline(s) {
   const h = s.history || { len: 0, viewing: null, phases: [] };

@@ -40,7 +40,8 @@ function drawCounts(d) {
       td.dataset.kind = k.key;
       if (n) td.onclick = () => setFilter({ method: c.method, task: c.task, kind: k.key, label: k.label });
     }
-    cell(tr, c.replay.ok ? 'yes' : 'no', c.replay.ok ? 'ok' : 'refused').title = c.replay.ok
+    // The reason is shown, not only in a tooltip.
+    cell(tr, c.replay.ok ? 'yes' : `no: ${c.replay.reason}`, c.replay.ok ? 'ok' : 'refused why').title = c.replay.ok
       ? 'the records were made with today\'s models and demonstrations'
       : c.replay.reason;
     return tr;
@@ -91,6 +92,12 @@ function drawTrials() {
       a.download = `${t.method}-${t.task}-${t.seed}.rrd`;
     } else a.hidden = true;
     td.append(b, ' ', a);
+    if (!r.ok) {
+      const why = document.createElement('small');
+      why.className = 'why'; why.dataset.testid = 'replay-why';
+      why.textContent = ` ${r.reason}`;
+      td.append(why);
+    }
     return tr;
   });
   $('trials-body').replaceChildren(...rows);

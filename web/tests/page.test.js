@@ -130,7 +130,21 @@ test('the page loads and shows the trial the backend runs', async () => {
   assert.equal(await page.getByTestId('progress').textContent(), `${s.progress} / 4`);
   assert.equal(await page.getByTestId('task').inputValue(), s.task);
   assert.match(await page.getByTestId('conn').textContent(), /connected/);
+  // Actions count from 1, as the rerun timeline and the viser view do.
+  assert.equal(s.action_number, 1);
+  assert.equal(await page.getByTestId('action-index').textContent(), '1 of at most 30');
+  assert.equal(await page.getByTestId('end').textContent(), 'waiting for Next phase');
   await page.screenshot({ path: join(shots, 'page-start.png') });
+});
+
+test('the "?" beside the phases opens the glossary of the page\'s words', async () => {
+  const g = page.getByTestId('glossary');
+  assert.ok(!(await g.locator('dl').isVisible()));
+  await g.locator('summary').click();
+  const text = await g.locator('dl').textContent();
+  for (const word of ['SSR', 'SPOT-Q', 'ASE', 'L2CD', 'fold', 'demo n·s']) assert.ok(text.includes(word), word);
+  await g.locator('summary').click();
+  assert.ok(!(await g.locator('dl').isVisible()));
 });
 
 test('stepping phase by phase reveals L, then C, then the chosen pair, as in the explanation record', async () => {
@@ -346,6 +360,10 @@ test('a tab closed mid-run stops nothing; the run finishes and every tab sees it
   await page.waitForFunction(() => window.seespot.frameVersion === window.seespot.state.version);
   const s = await api('/api/state');
   assert.ok(s.end);
+  // How it ended, in words (not the record's key).
+  const said = await page.getByTestId('end').textContent();
+  assert.equal(said, s.succeeded ? 'success ✓' : s.end_words);
+  assert.ok(!said.includes('-'), said);
   // The table shows the last decision's pairs (the placeholder row is not one).
   const d = await api('/api/decision');
   assert.ok(d && d.pairs.length > 0, 'no explanation record at the end of the run');
@@ -437,6 +455,9 @@ test('the review lists the evaluation with the JSONL\'s counts, sorted by failur
   assert.ok(order.length > 0);
   assert.ok(order.every((k, i) => k >= 0 && (i === 0 || k >= order[i - 1])), `kinds out of order: ${order}`);
   await review.screenshot({ path: join(shots, 'review.png'), fullPage: false });
+  // A method that cannot be replayed says why on the page, not only in a tooltip.
+  const refused = review.locator('[data-testid=counts] tbody tr[data-method=good-robot-finetuned] td.refused').first();
+  if (await refused.count()) assert.match(await refused.textContent(), /^no: .*cannot be replayed/);
 
   // A count narrows the list to its trials.
   const cellsOfKind = review.locator('[data-testid=counts] tbody tr[data-method=ssr-ccd] td.count');
@@ -492,6 +513,39 @@ test('the review lists the evaluation with the JSONL\'s counts, sorted by failur
   const bad = await fetch(new URL('/api/replay.rrd?method=..%2Fmodels&task=stack&seed=1', urls.page));
   assert.equal(bad.status, 409);
   assert.match(await bad.text(), /no records of method/);
+});
+
+test('view --replay opens the trial marked as a replay, as the review\'s Replay button does', async () => {
+  if (process.env.SEESPOT_MODELS) return; // the records were made with the shipped models
+  const [rec] = committedRecords().get('ssr-ccd/unstack');
+  const file = join('results', 'trials', 'ssr-ccd', 'unstack.jsonl');
+  const child = spawn(BIN, ['view', '--port', '0', '--no-viewer', '--replay', file, '--seed', String(rec.seed)],
+    { cwd: root, stdio: ['ignore', 'pipe', 'pipe'] });
+  try {
+    const url = await new Promise((ok, fail) => {
+      let out = '';
+      const timer = setTimeout(() => fail(new Error(`no URL in 120 s:\n${out}`)), 120_000);
+      const onData = (d) => {
+        out += d.toString();
+        const m = out.match(/seespot page:\s+(\S+)/);
+        if (m) { clearTimeout(timer); ok(m[1]); }
+      };
+      child.stdout.on('data', onData);
+      child.stderr.on('data', (d) => { out += d.toString(); });
+      child.on('exit', (code) => { clearTimeout(timer); fail(new Error(`view --replay exited with ${code}:\n${out}`)); });
+    });
+    const p = await context.newPage();
+    p.on('pageerror', (e) => pageErrors.push(String(e)));
+    await p.goto(url);
+    await p.waitForFunction(() => window.seespot && window.seespot.state && window.seespot.state.replay, null, { timeout: 120_000 });
+    assert.match(await p.getByTestId('replay-banner').textContent(), new RegExp(`replay of ssr-ccd on unstack seed ${rec.seed}`));
+    assert.ok(await p.getByTestId('replay-banner').isVisible());
+    await p.close();
+  } finally {
+    const exited = new Promise((r) => child.once('exit', r));
+    child.kill('SIGINT');
+    await exited;
+  }
 });
 
 test('the page raised no script errors', () => {

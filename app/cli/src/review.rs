@@ -2,6 +2,7 @@
 //! kinds (see `seespot_ssr::review`), with the command that replays each
 //! failure in the debugger.
 
+use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use anyhow::Context;
@@ -21,6 +22,39 @@ pub struct ReviewArgs {
     /// Print one machine-readable object on stdout: the counts and every trial.
     #[arg(long)]
     json: bool,
+    /// The policies a replay decides with (checked against each record's).
+    #[arg(long, default_value = "models")]
+    models: PathBuf,
+    /// The demonstrations a replay decides with (checked against each record's).
+    #[arg(long, default_value = "demos")]
+    demos: PathBuf,
+}
+
+/// Whether the trials of each records file can be replayed in the debugger
+/// with today's files, and why not (one record stands for its file: a file
+/// never mixes provenances).
+fn replayable(
+    trials: &[seespot_ssr::review::ReviewedTrial],
+    args: &ReviewArgs,
+) -> BTreeMap<PathBuf, Result<(), String>> {
+    let mut out = BTreeMap::new();
+    for t in trials {
+        out.entry(t.file.clone())
+            .or_insert_with(|| replay_check(t, args));
+    }
+    out
+}
+
+#[cfg(feature = "viewer")]
+fn replay_check(t: &seespot_ssr::review::ReviewedTrial, args: &ReviewArgs) -> Result<(), String> {
+    seespot_viz::review::replay(&t.file, t.seed, &args.models, &args.demos)
+        .map(|_| ())
+        .map_err(|e| e.root_cause().to_string())
+}
+
+#[cfg(not(feature = "viewer"))]
+fn replay_check(_: &seespot_ssr::review::ReviewedTrial, _: &ReviewArgs) -> Result<(), String> {
+    Err("this seespot was built without the debugger (feature `viewer`)".into())
 }
 
 pub fn run(args: ReviewArgs) -> anyhow::Result<()> {
@@ -33,13 +67,24 @@ pub fn run(args: ReviewArgs) -> anyhow::Result<()> {
         }
     }
     let table = counts(&trials);
+    let replays = replayable(&trials, &args);
     if args.json {
         let rows: Vec<_> = table
             .iter()
             .map(|(m, t, n, ok, kinds)| {
+                let file = trials
+                    .iter()
+                    .find(|r| &r.method == m && r.task == *t)
+                    .map(|r| &r.file);
+                let replay = match file.and_then(|f| replays.get(f)) {
+                    Some(Ok(())) => serde_json::json!({"ok": true, "reason": null}),
+                    Some(Err(why)) => serde_json::json!({"ok": false, "reason": why}),
+                    None => serde_json::json!({"ok": false, "reason": "no records"}),
+                };
                 serde_json::json!({
                     "method": m, "task": t, "trials": n, "successes": ok,
                     "failures": failures_json(kinds),
+                    "replay": replay,
                 })
             })
             .collect();
@@ -56,22 +101,29 @@ pub fn run(args: ReviewArgs) -> anyhow::Result<()> {
         let cells: Vec<String> = kinds.iter().map(|c| c.to_string()).collect();
         println!("| {m} | {t} | {n} | {ok} | {} |", cells.join(" | "));
     }
+    let can =
+        |t: &&seespot_ssr::review::ReviewedTrial| matches!(replays.get(&t.file), Some(Ok(())));
     for kind in FailureKind::ALL {
-        let of_kind: Vec<_> = trials.iter().filter(|t| t.failure == Some(kind)).collect();
+        // The ones that replay first: the first command listed works.
+        let mut of_kind: Vec<_> = trials.iter().filter(|t| t.failure == Some(kind)).collect();
         if of_kind.is_empty() {
             continue;
         }
+        of_kind.sort_by_key(|t| !can(t));
         println!("\n{} ({} trials):", kind.as_str(), of_kind.len());
         for t in of_kind.iter().take(args.list) {
+            let how = match replays.get(&t.file) {
+                Some(Ok(())) => format!(
+                    "seespot view --replay {} --seed {}",
+                    t.file.display(),
+                    t.seed
+                ),
+                Some(Err(why)) => format!("no replay: {why}"),
+                None => "no replay".to_owned(),
+            };
             println!(
-                "  {} {} seed {} ({} actions, max progress {}): seespot view --replay {} --seed {}",
-                t.method,
-                t.task,
-                t.seed,
-                t.actions,
-                t.max_progress,
-                t.file.display(),
-                t.seed
+                "  {} {} seed {} ({} actions, max progress {}): {how}",
+                t.method, t.task, t.seed, t.actions, t.max_progress,
             );
         }
         if of_kind.len() > args.list {

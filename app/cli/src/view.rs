@@ -96,18 +96,21 @@ pub struct ViewArgs {
 fn replay(
     args: &ViewArgs,
     path: &std::path::Path,
-) -> anyhow::Result<(TaskId, usize, seespot_viz::session::DeciderFactory)> {
+) -> anyhow::Result<(TaskId, usize, seespot_viz::session::DeciderFactory, String)> {
     let r =
         seespot_viz::review::replay(path, args.seed, &args.decider.models, &args.decider.demos)?;
     println!("{}: the files it was made with match today's", r.summary);
-    Ok((r.task, r.resolution, r.factory))
+    Ok((r.task, r.resolution, r.factory, r.summary))
 }
 
 /// Runs `seespot view` until Ctrl-C.
 pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
-    let (mut task, mut resolution, factory) = match &args.replay {
-        Some(path) => replay(&args, path)?,
-        None => (args.task, args.resolution, args.decider.factory()?),
+    let (mut task, mut resolution, factory, replay_summary) = match &args.replay {
+        Some(path) => {
+            let (task, resolution, factory, summary) = replay(&args, path)?;
+            (task, resolution, factory, Some(summary))
+        }
+        None => (args.task, args.resolution, args.decider.factory()?, None),
     };
     let (mut seed, mut layout) = (args.seed, None);
     if let Some(path) = &args.scene {
@@ -142,6 +145,7 @@ pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
             models: args.decider.models.clone(),
             demos: args.decider.demos.clone(),
         }),
+        replay: replay_summary,
     };
     if !args.bind.is_loopback() && args.allow_remote {
         eprintln!(
@@ -195,6 +199,10 @@ pub struct RecordArgs {
     pub out: PathBuf,
     #[command(flatten)]
     pub decider: DeciderArgs,
+    /// Print one machine-readable summary object on stdout (every recording
+    /// with its trial's outcome); the progress goes to stderr.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Runs `seespot record`; Ctrl-C finishes the current file and stops.
@@ -222,13 +230,29 @@ pub fn run_record(args: RecordArgs) -> anyhow::Result<()> {
     })?;
     bar.finish_and_clear();
     let total: u64 = done.iter().map(|r| r.bytes).sum();
-    println!(
-        "wrote {} recordings to {} ({:.2} MB per trial); open one with `rerun FILE.rrd` (pip install rerun-sdk==0.36.3)",
-        done.len(),
-        args.out.display(),
-        total as f64 / 1e6 / done.len().max(1) as f64
-    );
-    if stop.load(std::sync::atomic::Ordering::SeqCst) {
+    let interrupted = stop.load(std::sync::atomic::Ordering::SeqCst);
+    if args.json {
+        crate::print_json(&serde_json::json!({
+            "task": args.task.as_str(),
+            "out": args.out.display().to_string(),
+            "interrupted": interrupted,
+            "recordings": done.iter().map(|r| serde_json::json!({
+                "path": r.path.display().to_string(),
+                "actions": r.actions,
+                "success": r.succeeded,
+                "max_progress": r.max_progress,
+                "bytes": r.bytes,
+            })).collect::<Vec<_>>(),
+        }))?;
+    } else {
+        println!(
+            "wrote {} recordings to {} ({:.2} MB per trial); open one with `rerun FILE.rrd` (pip install rerun-sdk==0.36.3)",
+            done.len(),
+            args.out.display(),
+            total as f64 / 1e6 / done.len().max(1) as f64
+        );
+    }
+    if interrupted {
         anyhow::bail!(
             "interrupted: wrote {} of {} recordings (the last one finished cleanly)",
             done.len(),

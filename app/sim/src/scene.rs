@@ -204,15 +204,18 @@ impl Scene {
     }
 
     /// The scene file text of `task` starting from `poses` (e.g. the current
-    /// layout of a trial, to reproduce it with `seespot view --scene`).
+    /// layout of a trial, to reproduce it with `seespot view --scene`);
+    /// `what` says in its first comment line which layout it is (e.g. "The
+    /// layout after action 3 of stack seed 7").
     pub fn layout_toml(
         task: TaskId,
         resolution: usize,
         seed: u64,
         poses: &[BlockPose; NUM_BLOCKS],
+        what: &str,
     ) -> String {
         let mut out = format!(
-            "# A start layout saved from seespot: `seespot view --scene FILE` starts from it.\n\
+            "# {what}, saved from seespot: `seespot view --scene FILE` starts a trial from it.\n\
              # Blocks in id order (red, blue, green, yellow): centre position in metres\n\
              # (workspace frame, table at z = 0) and orientation (a unit quaternion).\n\
              task = \"{task}\"\nresolution = {resolution}\n\n[seeds]\nstart = {seed}\ncount = 1\n"

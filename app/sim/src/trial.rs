@@ -18,6 +18,18 @@ pub enum TrialEnd {
     OutOfWorkspace,
 }
 
+impl TrialEnd {
+    /// How the trial ended, in plain words for people (the page, saved
+    /// layouts); records keep the kebab-case key.
+    pub fn words(self) -> &'static str {
+        match self {
+            Self::Success => "success",
+            Self::ActionLimit => "failed: action limit reached",
+            Self::OutOfWorkspace => "failed: a block left the workspace",
+        }
+    }
+}
+
 /// One executed action and what it did to the task's progress.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct StepRecord {

@@ -107,7 +107,7 @@ fn bad_layouts_name_the_file_and_the_field() {
 fn a_saved_layout_reads_back_as_the_same_start() {
     let trial = seespot_sim::Trial::new(Default::default(), TaskId::Stack, 7);
     let poses = trial.world().block_poses();
-    let text = Scene::layout_toml(TaskId::Stack, 112, 7, &poses);
+    let text = Scene::layout_toml(TaskId::Stack, 112, 7, &poses, "A start layout");
     let scene = Scene::parse(&text, Path::new("saved.toml")).expect("saved layout parses");
     let from_file = scene.trial(7).world().block_poses();
     for (a, b) in poses.iter().zip(&from_file) {

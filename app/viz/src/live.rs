@@ -131,6 +131,10 @@ pub struct ViewOptions {
     pub layout: Option<[seespot_sim::BlockPose; seespot_sim::NUM_BLOCKS]>,
     /// The evaluation the page's `/review` lists and replays.
     pub review: Option<crate::review::ReviewSource>,
+    /// The summary of the evaluation trial this session replays (`view
+    /// --replay`), shown as the page's replay banner, as after its **Replay**
+    /// button; `factory` must then be the replay's.
+    pub replay: Option<String>,
 }
 
 /// The URLs a running `view` serves.
@@ -231,10 +235,14 @@ pub async fn serve_view(
         world,
     };
     let layout = opts.layout;
+    let replay = opts.replay.clone();
     let session = tokio::task::spawn_blocking(move || {
         let mut s = Session::new(factory, config, recorder)?;
         if let Some(poses) = layout {
             s.set_layout(poses);
+        }
+        if let Some(summary) = replay {
+            s.mark_replay(summary);
         }
         anyhow::Ok(s)
     })

@@ -293,7 +293,8 @@ impl Recorder {
 
     /// Logs one phase of the decision for action `action` (0-based) of `trial`
     /// (the trial of the last [`Recorder::begin_trial`]). `hm` is the scene the
-    /// decision was made on.
+    /// decision was made on. The `action` timeline counts from 1 as the page
+    /// and the viser view do (0 is the trial's start).
     pub fn log_phase(
         &mut self,
         trial: &Trial,
@@ -303,7 +304,7 @@ impl Recorder {
         decision: Option<&Decision>,
         demos: &[Demo],
     ) {
-        self.tick(action);
+        self.tick(action + 1);
         match phase {
             Phase::Embed => {
                 self.log_test(hm);

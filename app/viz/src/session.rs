@@ -232,6 +232,14 @@ impl Session {
         self.reset(r.task, r.seed)
     }
 
+    /// Marks the current trial as the replay of an evaluation trial whose
+    /// decider this session already runs (`view --replay`), so the page shows
+    /// the same banner as after [`Self::load_replay`].
+    pub fn mark_replay(&mut self, summary: String) {
+        self.replay_of = Some((self.config.task, self.config.seed, summary));
+        self.version += 1;
+    }
+
     /// Restarts the current trial (same task and seed) from the block poses
     /// `poses` (a scene file's `[[blocks]]`, settled by the physics); a later
     /// reset to the same task and seed starts from them again.
@@ -267,16 +275,32 @@ impl Session {
     }
 
     /// The current layout as a scene file (`seespot view --scene` starts from
-    /// it); refused while a block is in the gripper, out of the workspace.
+    /// it), its header saying which layout it is (the start, or the layout
+    /// after action n, and how a finished trial ended); refused while a block
+    /// is in the gripper, out of the workspace.
     pub fn layout_toml(&self) -> anyhow::Result<String> {
         if self.trial.world().held_block().is_some() {
             bail!("a block is in the gripper: save the layout after the place");
         }
+        let (t, n) = (&self.trial, self.trial.actions());
+        let mut what = if n == 0 {
+            format!("The start layout of {} seed {}", t.task(), t.seed())
+        } else {
+            format!(
+                "The layout after action {n} of {} seed {} (not its start)",
+                t.task(),
+                t.seed()
+            )
+        };
+        if let Some(end) = t.end() {
+            what.push_str(&format!("; the trial had ended ({})", end.words()));
+        }
         Ok(seespot_sim::Scene::layout_toml(
-            self.trial.task(),
+            t.task(),
             self.config.world.grid.resolution,
-            self.trial.seed(),
-            &self.trial.world().block_poses(),
+            t.seed(),
+            &t.world().block_poses(),
+            &what,
         ))
     }
 
@@ -565,12 +589,17 @@ impl Session {
             "policies": self.decider.policies().iter().map(|p| p.as_str()).collect::<Vec<_>>(),
             "phase": phase.map(Phase::as_str),
             "action_index": t.actions(),
+            // The action this phase belongs to, counted from 1 as the page,
+            // the rerun timeline and the viser view show it: the one being
+            // decided, or at Act the one just executed.
+            "action_number": if phase == Some(Phase::Act) { t.actions() } else { t.actions() + 1 },
             "progress": t.progress(),
             "max_progress": t.max_progress(),
             "primitive": t.world().next_primitive(),
             "holding": t.world().held_block(),
             "blocks": t.world().block_poses(),
             "end": t.end(),
+            "end_words": t.end().map(seespot_sim::TrialEnd::words),
             "succeeded": t.succeeded(),
             "had_reversal": t.had_reversal(),
             "method": self.decision.as_ref().map(|d| d.method),

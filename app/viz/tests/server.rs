@@ -362,6 +362,7 @@ async fn issue_10_non_loopback_bind_is_refused_without_allow_remote() {
         no_viewer: true,
         layout: None,
         review: None,
+        replay: None,
     };
     let factory = live::factory(
         DeciderKind::Features,
