@@ -71,11 +71,11 @@ function onState(s) {
     const i = PHASES.indexOf(li.dataset.phase);
     li.className = i === k ? 'current' : (i < k ? 'done' : '');
   }
-  $('action-index').textContent = `${s.action_number} of at most 30`;
+  $('action-index').textContent = String(s.action_number);
   $('progress').textContent = `${s.progress} / 4`;
   $('progress-bar').style.width = `${(s.progress / 4) * 100}%`;
   $('primitive').textContent = s.holding !== null ? `place (holding)` : s.primitive;
-  $('end').textContent = s.end ? (s.succeeded ? 'success ✓' : s.end_words) : (app.running ? 'running to the end…' : 'waiting for Next phase');
+  $('end').textContent = s.end ? (s.succeeded ? 'success ✓' : s.end_words) : (app.running ? 'in progress, running…' : 'in progress');
   $('method').textContent = s.method ? s.method.toUpperCase() : '';
   $('decider').textContent = (s.replay ? `${s.replay[0].toUpperCase()}${s.replay.slice(1)}. ` : '')
     + `${s.decider}. ${s.decider_note}` + (s.recording ? ` Recording to ${s.recording}.` : '');
