@@ -1,12 +1,17 @@
-//! A lock file on an evaluation's output folder, so that two runs can never
+//! The lock on an evaluation's output folder, so that two runs can never
 //! write the same trial records (issue 10: two concurrent `eval` runs into one
-//! folder wrote every trial twice).
+//! folder wrote every trial twice; issue 27: a lock file that named no process
+//! was "taken over" by every run that found it).
 //!
-//! [`OutputLock::acquire`] creates `<dir>/.seespot-eval.lock` atomically
-//! (`create_new`) holding the holder's pid, host and start time. A second run
-//! is refused with an error naming that pid; a lock whose pid is no longer
-//! alive (a run killed with `kill -9`) is stale and taken over, with a note on
-//! stderr. The lock is removed when the guard is dropped.
+//! [`OutputLock::acquire`] opens `<dir>/.seespot-eval.lock` and takes an
+//! exclusive advisory lock on it that the operating system holds
+//! ([`std::fs::File::try_lock`], `flock` on Linux) and drops when the process
+//! ends however it ends, `kill -9` included: there is no stale lock to take
+//! over, and no check-then-delete gap. The file's text (the holder's pid, host
+//! and start time) only names the holder in a refusal. The guard removes the
+//! file while it still holds the lock; a run that opened the old file then
+//! finds, after locking it, that the path no longer leads to it, and starts
+//! again.
 //!
 //! ```no_run
 //! use seespot_sim::lock::OutputLock;
@@ -25,7 +30,7 @@ pub const LOCK_FILE: &str = ".seespot-eval.lock";
 #[derive(Debug, thiserror::Error)]
 pub enum LockError {
     #[error(
-        "{path}: another seespot run (pid {pid}{host}, started {started}) is writing to this folder; wait for it, or remove the lock file if that process is gone"
+        "{path}: another seespot run (pid {pid}{host}, started {started}) is writing to this folder; wait for it to finish (the operating system releases its lock when it ends)"
     )]
     Held {
         path: PathBuf,
@@ -41,10 +46,13 @@ pub enum LockError {
     },
 }
 
-/// The lock on one folder; removes its file on drop.
+/// The lock on one folder, held by the operating system while this guard
+/// (and its open file) lives; removes the file on drop.
 #[derive(Debug)]
 pub struct OutputLock {
     path: PathBuf,
+    /// The locked file: closing it releases the lock.
+    _file: std::fs::File,
 }
 
 /// What a lock file says about its holder.
@@ -95,21 +103,11 @@ impl Holder {
             started: field("started").and_then(|t| t.parse().ok()),
         })
     }
-
-    /// Whether the holder may still be running: it is on another host (which
-    /// cannot be checked from here), or its pid is alive on this one.
-    fn may_be_alive(&self) -> bool {
-        if self.host.is_some() && self.host != host_name() {
-            return true;
-        }
-        pid_alive(self.pid)
-    }
 }
 
 impl OutputLock {
-    /// Locks `dir` (created if missing) for this process. Refuses while a live
-    /// process holds it; takes over a stale lock (its pid is gone) with a note
-    /// on stderr.
+    /// Locks `dir` (created if missing) for this process, or refuses while
+    /// another process holds it, naming that process when its file says.
     pub fn acquire(dir: &Path) -> Result<Self, LockError> {
         let path = dir.join(LOCK_FILE);
         let io = |source| LockError::Io {
@@ -117,65 +115,50 @@ impl OutputLock {
             source,
         };
         std::fs::create_dir_all(dir).map_err(io)?;
-        let me = Holder::this_process();
-        // Two rounds: the second follows the removal of a stale lock.
-        for _ in 0..2 {
-            match std::fs::OpenOptions::new()
+        // A few rounds: each one that loses a race with a releasing holder
+        // (the file removed under us) starts again.
+        for _ in 0..16 {
+            let mut file = std::fs::OpenOptions::new()
+                .read(true)
                 .write(true)
-                .create_new(true)
+                .create(true)
+                .truncate(false)
                 .open(&path)
-            {
-                Ok(mut f) => {
-                    f.write_all(me.to_text().as_bytes())
-                        .and_then(|()| f.sync_all())
-                        .map_err(io)?;
-                    return Ok(Self { path });
-                }
-                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
-                Err(e) => return Err(io(e)),
-            }
-            let holder = match read_holder(&path) {
-                Ok(h) => h,
-                // Released between our attempt and the read: try again.
-                Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
-                Err(e) => return Err(io(e)),
-            };
-            match holder {
-                Some(h) if h.may_be_alive() => {
+                .map_err(io)?;
+            match file.try_lock() {
+                Ok(()) => {}
+                Err(std::fs::TryLockError::WouldBlock) => {
+                    let h = read_holder(&path).map_err(io)?;
                     return Err(LockError::Held {
                         path,
-                        pid: h.pid,
-                        host: h.host.map(|h| format!(" on {h}")).unwrap_or_default(),
+                        pid: h.as_ref().map_or(0, |h| h.pid),
+                        host: h
+                            .as_ref()
+                            .and_then(|h| h.host.clone())
+                            .map(|h| format!(" on {h}"))
+                            .unwrap_or_default(),
                         started: h
-                            .started
+                            .and_then(|h| h.started)
                             .map_or("at an unknown time".into(), |t| format!("at {t} s (Unix)")),
                     });
                 }
-                Some(h) => eprintln!(
-                    "note: {}: taking over a stale lock (pid {} is no longer running)",
-                    path.display(),
-                    h.pid
-                ),
-                None => eprintln!(
-                    "note: {}: taking over a lock file that names no process",
-                    path.display()
-                ),
+                Err(std::fs::TryLockError::Error(e)) => return Err(io(e)),
             }
-            match std::fs::remove_file(&path) {
-                Ok(()) => {}
-                Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-                Err(e) => return Err(io(e)),
+            if !same_file(&file, &path) {
+                // The holder we waited on removed this file as it released
+                // it; the path now leads elsewhere (or nowhere).
+                continue;
             }
+            let me = Holder::this_process();
+            file.set_len(0)
+                .and_then(|()| file.write_all(me.to_text().as_bytes()))
+                .and_then(|()| file.sync_all())
+                .map_err(io)?;
+            return Ok(Self { path, _file: file });
         }
-        // Someone else took it over between our removal and our creation.
-        let text = std::fs::read_to_string(&path).unwrap_or_default();
-        let h = Holder::parse(&text);
-        Err(LockError::Held {
-            path,
-            pid: h.as_ref().map_or(0, |h| h.pid),
-            host: String::new(),
-            started: "just now".into(),
-        })
+        Err(io(std::io::Error::other(
+            "the lock file kept being replaced while taking the lock",
+        )))
     }
 
     /// The lock file.
@@ -186,8 +169,18 @@ impl OutputLock {
 
 impl Drop for OutputLock {
     fn drop(&mut self) {
-        // Nothing useful to do if it is already gone.
+        // Removed while still locked (the file closes after this); nothing
+        // useful to do if it is already gone.
         let _ = std::fs::remove_file(&self.path);
+    }
+}
+
+/// Whether `path` still names the open `file` (same device and inode).
+fn same_file(file: &std::fs::File, path: &Path) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    match (file.metadata(), std::fs::metadata(path)) {
+        (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
+        _ => false,
     }
 }
 
@@ -201,17 +194,6 @@ fn read_holder(path: &Path) -> std::io::Result<Option<Holder>> {
         std::thread::sleep(std::time::Duration::from_millis(50));
     }
     Ok(None)
-}
-
-/// Whether a process with this pid exists on this machine. Where that cannot
-/// be checked (no `/proc`), every pid counts as alive, so a lock is never taken
-/// over wrongly; the error tells the user which file to remove.
-pub fn pid_alive(pid: u32) -> bool {
-    let proc = Path::new("/proc");
-    if !proc.join("self").exists() {
-        return true;
-    }
-    pid != 0 && proc.join(pid.to_string()).exists()
 }
 
 /// This machine's host name (Linux: `/proc/sys/kernel/hostname`), if known.

@@ -1,5 +1,6 @@
-//! The evaluation output lock (`seespot_sim::lock`): one run per folder, stale
-//! locks of killed runs taken over, the file gone when the run ends.
+//! The evaluation output lock (`seespot_sim::lock`): one run per folder, held
+//! by the operating system, so a file left by a killed run or a damaged one
+//! does not stand in the way; the file gone when the run ends.
 
 use seespot_sim::lock::{LOCK_FILE, LockError, OutputLock};
 
@@ -42,7 +43,7 @@ fn issue_10_second_run_into_the_same_folder_is_refused() {
 }
 
 #[test]
-fn issue_10_stale_lock_of_a_killed_run_is_taken_over() {
+fn issue_10_the_file_of_a_killed_run_does_not_stand_in_the_way() {
     let dir = tempfile::tempdir().expect("tempdir");
     let pid = dead_pid();
     std::fs::write(
@@ -61,12 +62,19 @@ fn issue_10_stale_lock_of_a_killed_run_is_taken_over() {
 }
 
 #[test]
-fn issue_10_damaged_lock_file_is_taken_over() {
+fn issue_27_an_empty_or_garbage_lock_file_does_not_stand_in_the_way() {
     let dir = tempfile::tempdir().expect("tempdir");
-    std::fs::write(dir.path().join(LOCK_FILE), "").expect("write empty lock");
-    let lock = OutputLock::acquire(dir.path()).expect("empty lock taken over");
-    drop(lock);
-    assert!(!dir.path().join(LOCK_FILE).exists());
+    for text in ["", "garbage\n\0\x01"] {
+        std::fs::write(dir.path().join(LOCK_FILE), text).expect("write the lock file");
+        let lock = OutputLock::acquire(dir.path()).expect("locked despite the file");
+        // And held: a second one is refused while it lives.
+        assert!(matches!(
+            OutputLock::acquire(dir.path()),
+            Err(LockError::Held { .. })
+        ));
+        drop(lock);
+        assert!(!dir.path().join(LOCK_FILE).exists());
+    }
 }
 
 #[test]
