@@ -70,7 +70,7 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
             if json {
                 return crate::print_json(&report);
             }
-            println!("{}", serde_json::to_string_pretty(&report)?);
+            outln!("{}", serde_json::to_string_pretty(&report)?)?;
             Ok(())
         }
         BenchCommand::Ssr {
@@ -89,14 +89,14 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
                 return crate::print_json(&r);
             }
             let part = |k: &str| r["ms_per_action"][k].as_f64().unwrap_or(f64::NAN);
-            println!(
+            outln!(
                 "train {task} at {resolution} px: {:.1} actions/s (per action: choose {:.1} ms, simulate {:.1} ms, learn {:.1} ms, other {:.1} ms)",
                 r["actions_per_s"].as_f64().unwrap_or(f64::NAN),
                 part("choose"),
                 part("simulate"),
                 part("learn"),
                 part("other"),
-            );
+            )?;
             Ok(())
         }
         #[cfg(feature = "viewer")]
@@ -142,12 +142,12 @@ fn bench_sim(actions: usize, resolution: usize, json: bool) -> anyhow::Result<()
     if json {
         return crate::print_json(&report);
     }
-    println!(
+    outln!(
         "sim at {resolution} px: {:.0} drop+settle+render actions/s ({per_action_ms:.2} ms, {:.0} physics steps each), render alone {:.3} ms",
         report["actions_per_second"].as_f64().unwrap_or(0.0),
         report["physics_steps_per_action"].as_f64().unwrap_or(0.0),
         report["render_ms"].as_f64().unwrap_or(0.0),
-    );
+    )?;
     Ok(())
 }
 
@@ -208,6 +208,6 @@ fn bench_ssr(resolution: usize, iterations: usize, json: bool) -> anyhow::Result
     if json {
         return crate::print_json(&report);
     }
-    println!("{}", serde_json::to_string_pretty(&report)?);
+    outln!("{}", serde_json::to_string_pretty(&report)?)?;
     Ok(())
 }

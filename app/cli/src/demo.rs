@@ -113,7 +113,7 @@ pub fn run(cmd: DemoCommand) -> anyhow::Result<()> {
                 return crate::print_json(&serde_json::to_value(&demo.meta)?);
             }
             let m = &demo.meta;
-            println!(
+            outln!(
                 "{}: task {}, seed {}, {} px ({:.1} mm/px), seespot {}",
                 dir.display(),
                 m.task,
@@ -121,14 +121,19 @@ pub fn run(cmd: DemoCommand) -> anyhow::Result<()> {
                 m.resolution,
                 Grid::new(m.resolution).pixel_size() * 1000.0,
                 m.seespot_version
-            );
-            println!(
+            )?;
+            outln!(
                 "{:>4}  {:<7} {:>3} {:>4} {:>4}   {:>24}   progress",
-                "step", "action", "r", "y", "x", "world x, y, z (m), yaw"
-            );
+                "step",
+                "action",
+                "r",
+                "y",
+                "x",
+                "world x, y, z (m), yaw"
+            )?;
             for (i, s) in m.steps.iter().enumerate() {
                 let [x, y, z, yaw] = s.world_pose;
-                println!(
+                outln!(
                     "{i:>4}  {:<7} {:>3} {:>4} {:>4}   {x:>6.3} {y:>6.3} {z:>5.3} {:>5.1}°   {} -> {}",
                     s.action.primitive.as_str(),
                     s.action.rotation,
@@ -137,7 +142,7 @@ pub fn run(cmd: DemoCommand) -> anyhow::Result<()> {
                     yaw.to_degrees(),
                     s.progress_before,
                     s.progress_after
-                );
+                )?;
             }
             Ok(())
         }

@@ -199,7 +199,7 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         }));
     }
     for s in ours {
-        println!(
+        outln!(
             "{name} {}: success {}/{} ({:.0}%), progress {:.0}% ± {:.0}%, action efficiency {}",
             s.task.map(|t| t.as_str()).unwrap_or("mean"),
             s.successes,
@@ -209,9 +209,9 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
             100.0 * s.progress_se,
             s.action_efficiency
                 .map_or("-".into(), |e| format!("{:.0}%", 100.0 * e)),
-        );
+        )?;
     }
-    println!("report: {}", args.out.join("summary.md").display());
+    outln!("report: {}", args.out.join("summary.md").display())?;
     Ok(())
 }
 

@@ -1,5 +1,15 @@
 //! `seespot`: every user command of the See-SPOT-Run toolkit.
 
+/// `println!` that returns the error (a full disk, a closed pipe) as an
+/// `anyhow::Result` instead of panicking.
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout().lock(), $($arg)*)
+            .map_err(|e| anyhow::Error::new(e).context("writing to standard output"))
+    }};
+}
+
 mod bench;
 mod demo;
 mod eval;
@@ -49,8 +59,36 @@ enum Command {
     Bench(bench::BenchCommand),
 }
 
-fn main() -> anyhow::Result<()> {
+fn main() -> std::process::ExitCode {
+    // Like other command-line tools, end quietly when the reader of our
+    // output goes away (`seespot review | head`): the default action of
+    // SIGPIPE, which Rust's runtime sets to ignore.
+    // SAFETY: setting a signal's disposition to its default at startup,
+    // before any thread exists.
+    #[allow(unsafe_code)]
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        // Where SIGPIPE stays ignored (a parent's choice), the same ending.
+        Err(e) if broken_pipe(&e) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("Error: {e:?}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Demo(c) => demo::run(c),
         Command::Sim(c) => sim::run(c),
@@ -86,8 +124,7 @@ pub fn refuse_to_replace(
 
 /// Prints `value` as one JSON object on stdout.
 pub fn print_json(value: &serde_json::Value) -> anyhow::Result<()> {
-    println!("{}", serde_json::to_string(value)?);
-    Ok(())
+    outln!("{}", serde_json::to_string(value)?)
 }
 
 /// A progress bar on stderr for `n` items, hidden when `quiet`.

@@ -90,16 +90,16 @@ pub fn run(args: ReviewArgs) -> anyhow::Result<()> {
             .collect();
         return crate::print_json(&serde_json::json!({"counts": rows, "trials": trials}));
     }
-    println!(
+    outln!(
         "{} trials in {}\n\n| method | fold | trials | success | {} |\n|---|---|---|---|{}",
         trials.len(),
         args.dir.display(),
         FailureKind::ALL.map(|k| k.as_str()).join(" | "),
         "---|".repeat(FailureKind::ALL.len())
-    );
+    )?;
     for (m, t, n, ok, kinds) in &table {
         let cells: Vec<String> = kinds.iter().map(|c| c.to_string()).collect();
-        println!("| {m} | {t} | {n} | {ok} | {} |", cells.join(" | "));
+        outln!("| {m} | {t} | {n} | {ok} | {} |", cells.join(" | "))?;
     }
     let can =
         |t: &&seespot_ssr::review::ReviewedTrial| matches!(replays.get(&t.file), Some(Ok(())));
@@ -110,7 +110,7 @@ pub fn run(args: ReviewArgs) -> anyhow::Result<()> {
             continue;
         }
         of_kind.sort_by_key(|t| !can(t));
-        println!("\n{} ({} trials):", kind.as_str(), of_kind.len());
+        outln!("\n{} ({} trials):", kind.as_str(), of_kind.len())?;
         for t in of_kind.iter().take(args.list) {
             let how = match replays.get(&t.file) {
                 Some(Ok(())) => format!(
@@ -121,13 +121,17 @@ pub fn run(args: ReviewArgs) -> anyhow::Result<()> {
                 Some(Err(why)) => format!("no replay: {why}"),
                 None => "no replay".to_owned(),
             };
-            println!(
+            outln!(
                 "  {} {} seed {} ({} actions, max progress {}): {how}",
-                t.method, t.task, t.seed, t.actions, t.max_progress,
-            );
+                t.method,
+                t.task,
+                t.seed,
+                t.actions,
+                t.max_progress,
+            )?;
         }
         if of_kind.len() > args.list {
-            println!("  … {} more (--list N)", of_kind.len() - args.list);
+            outln!("  … {} more (--list N)", of_kind.len() - args.list)?;
         }
     }
     Ok(())

@@ -97,7 +97,7 @@ fn run_trials(args: RunArgs) -> anyhow::Result<()> {
             "results": records,
         }));
     }
-    println!(
+    outln!(
         "{task} with {}: trial success {}/{} ({:.0}%), {:.2} actions per trial, progress {:.0}% ± {:.0}%",
         args.policy,
         summary.successes,
@@ -106,6 +106,6 @@ fn run_trials(args: RunArgs) -> anyhow::Result<()> {
         summary.mean_actions,
         100.0 * summary.progress,
         100.0 * summary.progress_se,
-    );
+    )?;
     Ok(())
 }

@@ -99,7 +99,7 @@ fn replay(
 ) -> anyhow::Result<(TaskId, usize, seespot_viz::session::DeciderFactory, String)> {
     let r =
         seespot_viz::review::replay(path, args.seed, &args.decider.models, &args.decider.demos)?;
-    println!("{}: the files it was made with match today's", r.summary);
+    outln!("{}: the files it was made with match today's", r.summary)?;
     Ok((r.task, r.resolution, r.factory, r.summary))
 }
 
@@ -173,7 +173,7 @@ pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
         live::ctrl_c(),
     ))?;
     if let Some(s) = &args.save {
-        println!("wrote {}", s.display());
+        outln!("wrote {}", s.display())?;
     }
     Ok(())
 }
@@ -245,12 +245,12 @@ pub fn run_record(args: RecordArgs) -> anyhow::Result<()> {
             })).collect::<Vec<_>>(),
         }))?;
     } else {
-        println!(
+        outln!(
             "wrote {} recordings to {} ({:.2} MB per trial); open one with `rerun FILE.rrd` (pip install rerun-sdk==0.36.3)",
             done.len(),
             args.out.display(),
             total as f64 / 1e6 / done.len().max(1) as f64
-        );
+        )?;
     }
     if interrupted {
         anyhow::bail!(
@@ -293,29 +293,32 @@ pub fn run_bench_view(args: BenchViewArgs) -> anyhow::Result<()> {
         args.decider.factory()?,
     )?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&b)?);
+        outln!("{}", serde_json::to_string_pretty(&b)?)?;
         return Ok(());
     }
-    println!(
+    outln!(
         "view latency at {} px ({}), {} phase steps:",
         b.resolution,
         b.decider,
         b.phases.len()
-    );
-    println!(
+    )?;
+    outln!(
         "  next phase -> page data ready: median {:.1} ms, p90 {:.1} ms, max {:.1} ms",
-        b.median_ms, b.p90_ms, b.max_ms
-    );
+        b.median_ms,
+        b.p90_ms,
+        b.max_ms
+    )?;
     for (phase, ms) in &b.median_by_phase {
-        println!("  {:<7} median {ms:.1} ms", phase.as_str());
+        outln!("  {:<7} median {ms:.1} ms", phase.as_str())?;
     }
-    println!(
+    outln!(
         "  debugger overhead (without the decider's own time): median {:.1} ms, max {:.1} ms",
-        b.overhead_median_ms, b.overhead_max_ms
-    );
-    println!(
+        b.overhead_median_ms,
+        b.overhead_max_ms
+    )?;
+    outln!(
         "  recording of the trial (in memory, uncompressed): {:.2} MB",
         b.recording_bytes as f64 / 1e6
-    );
+    )?;
     Ok(())
 }

@@ -43,10 +43,16 @@ fn race(out: &Path) {
         *seeds.entry(r["seed"].as_u64().expect("seed")).or_default() += 1;
     }
     assert_eq!(seeds.len() as u64, TRIALS, "{seeds:?}");
-    assert!(seeds.values().all(|&n| n == 1), "a seed recorded twice: {seeds:?}");
+    assert!(
+        seeds.values().all(|&n| n == 1),
+        "a seed recorded twice: {seeds:?}"
+    );
     // At least one ran; with 20 started together, some were refused.
     assert!(refused < RUNS, "every run was refused");
-    assert!(!out.join(".seespot-eval.lock").exists(), "the lock file outlived its runs");
+    assert!(
+        !out.join(".seespot-eval.lock").exists(),
+        "the lock file outlived its runs"
+    );
 }
 
 #[test]

@@ -486,11 +486,13 @@ pub fn bench_view(
     })
 }
 
-/// A future that resolves on Ctrl-C or SIGTERM (or never, if neither signal can
-/// be listened to), so both finish a `--save` recording; SIGKILL cannot be caught.
+/// A future that resolves on Ctrl-C, SIGTERM or SIGHUP (a closed terminal),
+/// or never if none can be listened to, so each finishes a `--save`
+/// recording; SIGKILL cannot be caught.
 pub async fn ctrl_c() {
-    let term = async {
-        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+    use tokio::signal::unix::{SignalKind, signal};
+    let on = |kind: SignalKind| async move {
+        match signal(kind) {
             Ok(mut s) => {
                 s.recv().await;
             }
@@ -503,11 +505,12 @@ pub async fn ctrl_c() {
                 std::future::pending::<()>().await;
             }
         }
-        () = term => {}
+        () = on(SignalKind::terminate()) => {}
+        () = on(SignalKind::hangup()) => {}
     }
 }
 
-/// Installs a Ctrl-C / SIGTERM handler that sets the returned flag (for blocking loops
+/// Installs a Ctrl-C / SIGTERM / SIGHUP handler that sets the returned flag (for blocking loops
 /// such as [`record_trials`]); runs the signal listener on its own thread.
 pub fn ctrl_c_flag() -> Arc<AtomicBool> {
     let flag = Arc::new(AtomicBool::new(false));

@@ -1,0 +1,102 @@
+//! Issue 27, items 2 and 5: output to a closed pipe or a full disk ends with
+//! an error or quietly, never a panic (exit 101); SIGHUP finishes a `view
+//! --save` recording as SIGTERM and Ctrl-C do.
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn seespot() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_seespot"));
+    c.current_dir(root()).env("RUST_BACKTRACE", "0");
+    c
+}
+
+/// `seespot demo show ... --json | true` and `seespot review | true`: the
+/// reader is gone before anything is written.
+#[test]
+fn issue_27_a_closed_pipe_ends_quietly() {
+    let commands: [&[&str]; 3] = [
+        &["demo", "show", "demos/stack/0", "--json"],
+        &["review", "results"],
+        &["sim", "run", "--task", "stack", "--trials", "1", "--json"],
+    ];
+    for args in commands {
+        let mut child = seespot()
+            .args(args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("spawn");
+        drop(child.stdout.take()); // the reader goes away at once
+        let out = child.wait_with_output().expect("wait");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_ne!(out.status.code(), Some(101), "{args:?} panicked: {err}");
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+        assert!(
+            out.status.success() || out.status.code().is_none(),
+            "{args:?} failed: {:?} {err}",
+            out.status
+        );
+    }
+}
+
+/// `seespot sim run --json > /dev/full`: an error naming standard output.
+#[test]
+fn issue_27_a_full_disk_is_an_error_not_a_panic() {
+    let Ok(full) = std::fs::OpenOptions::new().write(true).open("/dev/full") else {
+        return; // no /dev/full on this system
+    };
+    let out = seespot()
+        .args(["sim", "run", "--task", "stack", "--trials", "1", "--json"])
+        .stdout(full)
+        .output()
+        .expect("run");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("writing to standard output"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+/// SIGHUP (the terminal closed) finishes the recording: `view` exits 0 and
+/// says it wrote the file.
+#[test]
+fn issue_27_sighup_finishes_a_view_save_recording() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let rrd = dir.path().join("trial.rrd");
+    let mut child = seespot()
+        .args(["view", "--port", "0", "--no-viewer", "--save"])
+        .arg(&rrd)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("spawn view");
+    let mut lines = BufReader::new(child.stdout.take().expect("stdout")).lines();
+    let mut seen = String::new();
+    for line in lines.by_ref() {
+        let line = line.expect("line");
+        seen.push_str(&line);
+        seen.push('\n');
+        if line.starts_with("Press Ctrl-C") {
+            break;
+        }
+    }
+    assert!(seen.contains("recording to:"), "{seen}");
+    let hup = Command::new("kill")
+        .args(["-HUP", &child.id().to_string()])
+        .status()
+        .expect("kill -HUP");
+    assert!(hup.success());
+    let rest: Vec<String> = lines.map_while(Result::ok).collect();
+    let status = child.wait().expect("wait");
+    assert!(status.success(), "view ended with {status:?} on SIGHUP");
+    assert!(
+        rest.iter().any(|l| l.starts_with("wrote ")),
+        "no `wrote` after SIGHUP: {rest:?}"
+    );
+    assert!(std::fs::metadata(&rrd).expect("rrd").len() > 1000);
+}
