@@ -100,3 +100,31 @@ fn issue_27_sighup_finishes_a_view_save_recording() {
     );
     assert!(std::fs::metadata(&rrd).expect("rrd").len() > 1000);
 }
+
+/// An endless or huge file is refused with its path and the bound, not read
+/// until memory runs out (`view --replay /dev/zero` allocated 4 GiB and
+/// aborted).
+#[test]
+fn issue_27_endless_files_are_refused_with_the_bound() {
+    if !Path::new("/dev/zero").exists() {
+        return;
+    }
+    let cases: [&[&str]; 2] = [
+        &[
+            "view",
+            "--replay",
+            "/dev/zero",
+            "--seed",
+            "1",
+            "--no-viewer",
+        ],
+        &["view", "--scene", "/dev/zero", "--no-viewer"],
+    ];
+    for args in cases {
+        let out = seespot().args(args).output().expect("run");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+        assert!(err.contains("/dev/zero"), "{args:?}: {err}");
+        assert!(err.contains("larger than"), "{args:?}: {err}");
+    }
+}

@@ -129,7 +129,8 @@ pub struct TensorFile {
 /// Reads and verifies a file written by [`write()`]: header, dtypes (F32 only),
 /// offsets, checksums and finiteness of every tensor.
 pub fn read(path: &Path) -> Result<TensorFile, PolicyError> {
-    let buf = std::fs::read(path).map_err(|e| PolicyError::io(path, e))?;
+    let buf = seespot_sim::bounds::read_file(path, seespot_sim::bounds::files::WEIGHTS)
+        .map_err(|e| PolicyError::io(path, e))?;
     let format = |reason: String| PolicyError::Format {
         path: path.to_path_buf(),
         reason,

@@ -171,7 +171,8 @@ fn read_state(run_dir: &Path) -> Result<Option<TrainState>, PolicyError> {
     if !path.exists() {
         return Ok(None);
     }
-    let text = std::fs::read_to_string(&path).map_err(|e| PolicyError::io(&path, e))?;
+    let text = seespot_sim::bounds::read_text(&path, seespot_sim::bounds::files::TRAIN_STATE)
+        .map_err(|e| PolicyError::io(&path, e))?;
     serde_json::from_str(&text)
         .map(Some)
         .map_err(|e| PolicyError::Checkpoint {

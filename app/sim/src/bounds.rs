@@ -183,3 +183,69 @@ mod tests {
         }
     }
 }
+
+/// The largest file of each kind seespot reads: a file past its bound is
+/// refused with its path and the bound named, before it is held in memory
+/// (`view --replay /dev/zero` used to allocate until it aborted).
+pub mod files {
+    /// A JSONL file of trial records (50 trials take about 0.5 MB).
+    pub const RECORDS: u64 = 64 << 20;
+    /// A scene file (TOML).
+    pub const SCENE: u64 = 1 << 20;
+    /// A demonstration's `meta.json`.
+    pub const DEMO_META: u64 = 16 << 20;
+    /// A weights file (the largest shipped is 1 MB).
+    pub const WEIGHTS: u64 = 256 << 20;
+    /// A training run's state (about 120 bytes per action: 40 000 actions
+    /// take 5 MB).
+    pub const TRAIN_STATE: u64 = 1 << 30;
+    /// An evaluation lock file.
+    pub const LOCK: u64 = 64 << 10;
+    /// A file whose checksum a record carries (a model or a demonstration file).
+    pub const CHECKSUMMED: u64 = 256 << 20;
+}
+
+/// Reads `path` whole if it holds at most `max` bytes; a longer file (or an
+/// endless one such as `/dev/zero`) is an [`std::io::ErrorKind::FileTooLarge`]
+/// error stating the bound, read no further than one byte past it. Callers
+/// put the path in front, as for any read error.
+pub fn read_file(path: &std::path::Path, max: u64) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    let file = std::fs::File::open(path)?;
+    let meta = file.metadata()?;
+    if meta.is_file() && meta.len() > max {
+        return Err(too_large(max));
+    }
+    let mut buf = Vec::new();
+    file.take(max + 1).read_to_end(&mut buf)?;
+    if buf.len() as u64 > max {
+        return Err(too_large(max));
+    }
+    Ok(buf)
+}
+
+/// [`read_file`] as UTF-8 text.
+pub fn read_text(path: &std::path::Path, max: u64) -> std::io::Result<String> {
+    String::from_utf8(read_file(path, max)?)
+        .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))
+}
+
+/// The error of a file past its bound.
+pub fn too_large(max: u64) -> std::io::Error {
+    std::io::Error::new(
+        std::io::ErrorKind::FileTooLarge,
+        format!(
+            "larger than {}, the most seespot reads from a file of this kind",
+            human_bytes(max)
+        ),
+    )
+}
+
+fn human_bytes(n: u64) -> String {
+    match n {
+        n if n >= 1 << 30 && n % (1 << 30) == 0 => format!("{} GiB", n >> 30),
+        n if n >= 1 << 20 && n % (1 << 20) == 0 => format!("{} MiB", n >> 20),
+        n if n >= 1 << 10 && n % (1 << 10) == 0 => format!("{} KiB", n >> 10),
+        n => format!("{n} bytes"),
+    }
+}

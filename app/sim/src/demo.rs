@@ -212,10 +212,13 @@ impl Demo {
     /// Reads and validates a demonstration directory.
     pub fn read(dir: &Path) -> Result<Self, DemoError> {
         let path = dir.join("meta.json");
-        let text = std::fs::read_to_string(&path).map_err(|source| DemoError::Io {
-            path: path.clone(),
-            source,
-        })?;
+        let text =
+            crate::bounds::read_text(&path, crate::bounds::files::DEMO_META).map_err(|source| {
+                DemoError::Io {
+                    path: path.clone(),
+                    source,
+                }
+            })?;
         let meta: DemoMeta = serde_json::from_str(&text)
             .map_err(|e| invalid(&path, format!("bad metadata: {e}")))?;
         meta.validate(&path)?;

@@ -188,7 +188,8 @@ fn same_file(file: &std::fs::File, path: &Path) -> bool {
 /// created by another run that has not written it: read it again shortly.
 fn read_holder(path: &Path) -> std::io::Result<Option<Holder>> {
     for _ in 0..5 {
-        if let Some(h) = Holder::parse(&std::fs::read_to_string(path)?) {
+        if let Some(h) = Holder::parse(&crate::bounds::read_text(path, crate::bounds::files::LOCK)?)
+        {
             return Ok(Some(h));
         }
         std::thread::sleep(std::time::Duration::from_millis(50));

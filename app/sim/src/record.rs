@@ -5,7 +5,7 @@
 //! one record per line, appended and synced as each trial ends, so a killed run
 //! loses at most the trial in progress.
 
-use std::io::{BufRead, Write};
+use std::io::Write;
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
@@ -144,15 +144,12 @@ pub fn read_records(path: &Path) -> Result<Vec<TrialRecord>, RecordError> {
         path: path.display().to_string(),
         source,
     };
-    let file = match std::fs::File::open(path) {
-        Ok(f) => f,
+    let text = match crate::bounds::read_text(path, crate::bounds::files::RECORDS) {
+        Ok(t) => t,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
         Err(e) => return Err(io(e)),
     };
-    let lines: Vec<String> = std::io::BufReader::new(file)
-        .lines()
-        .collect::<Result<_, _>>()
-        .map_err(io)?;
+    let lines: Vec<&str> = text.lines().collect();
     let last = lines.iter().rposition(|l| !l.trim().is_empty());
     let mut out = Vec::new();
     for (i, line) in lines.iter().enumerate() {
@@ -183,7 +180,7 @@ pub fn append_record(path: &Path, record: &TrialRecord) -> Result<(), RecordErro
         path: path.display().to_string(),
         source,
     };
-    let keep = match std::fs::read(path) {
+    let keep = match crate::bounds::read_file(path, crate::bounds::files::RECORDS) {
         Ok(bytes) if bytes.last().is_some_and(|&b| b != b'\n') => {
             Some(bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1))
         }

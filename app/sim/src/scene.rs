@@ -88,10 +88,13 @@ pub enum SceneError {
 impl Scene {
     /// Reads and validates a scene file.
     pub fn load(path: &Path) -> Result<Self, SceneError> {
-        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
-            path: path.to_owned(),
-            source,
-        })?;
+        let text =
+            crate::bounds::read_text(path, crate::bounds::files::SCENE).map_err(|source| {
+                SceneError::Io {
+                    path: path.to_owned(),
+                    source,
+                }
+            })?;
         Self::parse(&text, path)
     }
 

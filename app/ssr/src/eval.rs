@@ -229,7 +229,7 @@ pub fn records_files(out_dir: &Path) -> Result<Vec<PathBuf>, RecordError> {
 /// sha256 (hex) of a file's bytes.
 pub fn sha256_file(path: &Path) -> Result<String, EvalError> {
     use sha2::{Digest, Sha256};
-    let bytes = std::fs::read(path)
+    let bytes = seespot_sim::bounds::read_file(path, seespot_sim::bounds::files::CHECKSUMMED)
         .map_err(|e| EvalError::Invalid(format!("{}: cannot read: {e}", path.display())))?;
     Ok(Sha256::digest(&bytes)
         .iter()

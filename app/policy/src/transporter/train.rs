@@ -382,7 +382,8 @@ fn load_checkpoint(
         path: sp.clone(),
         reason,
     };
-    let text = std::fs::read_to_string(&sp).map_err(|e| PolicyError::io(&sp, e))?;
+    let text = seespot_sim::bounds::read_text(&sp, seespot_sim::bounds::files::TRAIN_STATE)
+        .map_err(|e| PolicyError::io(&sp, e))?;
     let mut state: TransporterTrainState =
         serde_json::from_str(&text).map_err(|e| bad(format!("damaged: {e}")))?;
     let mut want = config.clone();
