@@ -70,6 +70,10 @@ fn main() -> std::process::ExitCode {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     let cli = Cli::parse();
+    if let Err(e) = seespot_policy::simd::cap_from_env() {
+        eprintln!("Error: {e}");
+        return std::process::ExitCode::from(2);
+    }
     match run(cli) {
         Ok(()) => std::process::ExitCode::SUCCESS,
         // Where SIGPIPE stays ignored (a parent's choice), the same ending.

@@ -98,6 +98,7 @@ pub fn bench(resolutions: &[usize], iters: usize) -> Result<serde_json::Value, P
     let step = time_ms(|| tr.train_step(&batch).map(|_| ()), iters)?;
     Ok(serde_json::json!({
         "threads": rayon::current_num_threads(),
+        "simd": crate::simd::level().as_str(),
         "trunk_both_primitives_16_rotations": trunk,
         "forward": rows,
         "train_step": step,

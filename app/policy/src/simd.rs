@@ -9,6 +9,89 @@
 //! for bit (tests compare the paths where it matters). The one `unsafe`
 //! of the workspace is here: calling a function compiled for an instruction
 //! set, right after checking that the CPU has it.
+//!
+//! `SEESPOT_SIMD` caps the instruction set: `baseline`, `avx2` or `avx512`
+//! (the default: the widest the CPU has). Trials are the same under every
+//! cap (a test runs SSR CCD trials under each and compares the records), so
+//! a user's results do not depend on their CPU; the cap is for checking
+//! exactly that, and for measuring what the wide paths buy.
+
+/// The instruction sets the hot loops may use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Level {
+    /// Baseline x86-64 (SSE2).
+    Baseline,
+    Avx2,
+    Avx512,
+}
+
+impl Level {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Baseline => "baseline",
+            Self::Avx2 => "avx2",
+            Self::Avx512 => "avx512",
+        }
+    }
+
+    /// Parses a `SEESPOT_SIMD` value.
+    pub fn parse(text: &str) -> Option<Self> {
+        match text.trim().to_ascii_lowercase().as_str() {
+            "baseline" | "sse2" => Some(Self::Baseline),
+            "avx2" => Some(Self::Avx2),
+            "avx512" | "avx512f" => Some(Self::Avx512),
+            _ => None,
+        }
+    }
+}
+
+/// The widest instruction set this CPU has.
+pub fn detected() -> Level {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            return Level::Avx512;
+        }
+        if std::arch::is_x86_feature_detected!("avx2") {
+            return Level::Avx2;
+        }
+    }
+    Level::Baseline
+}
+
+/// The cap `SEESPOT_SIMD` sets (none when unset or empty), or the error of
+/// a value that is not one (the `seespot` binary checks it at startup).
+pub fn cap_from_env() -> Result<Option<Level>, String> {
+    match std::env::var("SEESPOT_SIMD") {
+        Ok(v) if !v.trim().is_empty() => Level::parse(&v)
+            .map(Some)
+            .ok_or_else(|| format!("SEESPOT_SIMD={v:?}: not one of baseline, avx2, avx512")),
+        _ => Ok(None),
+    }
+}
+
+/// The instruction set in use: [`detected`], capped by `SEESPOT_SIMD` (read
+/// once). An unknown value is never ignored: the binary refuses it at
+/// startup ([`cap_from_env`]), and a library user gets a panic naming it.
+pub fn level() -> Level {
+    static LEVEL: std::sync::OnceLock<Level> = std::sync::OnceLock::new();
+    *LEVEL.get_or_init(|| match cap_from_env() {
+        Ok(cap) => detected().min(cap.unwrap_or(Level::Avx512)),
+        Err(e) => panic!("{e}"),
+    })
+}
+
+/// Whether the hot loops run in AVX-512F ([`level`]).
+#[inline]
+pub fn use_avx512() -> bool {
+    level() == Level::Avx512
+}
+
+/// Whether the hot loops run in AVX2 ([`level`]; false when AVX-512F runs).
+#[inline]
+pub fn use_avx2() -> bool {
+    level() == Level::Avx2
+}
 
 /// Evaluates `$body` (an expression) compiled for AVX-512F where the CPU has
 /// it, else for AVX2, else for the baseline. The body's hot calls should be
@@ -26,13 +109,13 @@ macro_rules! simd_dispatch {
             fn wide256<R>(f: impl FnOnce() -> R) -> R {
                 f()
             }
-            if ::std::arch::is_x86_feature_detected!("avx512f") {
+            if $crate::simd::use_avx512() {
                 // SAFETY: the CPU has AVX-512F (checked just above).
                 #[allow(unsafe_code)]
                 unsafe {
                     wide512(|| $body)
                 }
-            } else if ::std::arch::is_x86_feature_detected!("avx2") {
+            } else if $crate::simd::use_avx2() {
                 // SAFETY: the CPU has AVX2 (checked just above).
                 #[allow(unsafe_code)]
                 unsafe {
@@ -80,13 +163,13 @@ macro_rules! simd_kernel {
                 fn wide256($($arg: $ty),*) $(-> $ret)? {
                     $lanes($($arg),*)
                 }
-                if ::std::arch::is_x86_feature_detected!("avx512f") {
+                if $crate::simd::use_avx512() {
                     // SAFETY: the CPU has AVX-512F (checked just above).
                     #[allow(unsafe_code)]
                     unsafe {
                         wide512($($arg),*)
                     }
-                } else if ::std::arch::is_x86_feature_detected!("avx2") {
+                } else if $crate::simd::use_avx2() {
                     // SAFETY: the CPU has AVX2 (checked just above).
                     #[allow(unsafe_code)]
                     unsafe {
