@@ -29,8 +29,13 @@ pub struct EvalArgs {
     trials: u64,
     /// First seed; trial i uses seed + 2 i. 1 (the default) gives the test
     /// seeds 1, 3, ...; 10001 the validation seeds, for choosing settings.
+    /// Even seeds are training seeds: refused without --training-seeds.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Allow an even --seed: evaluate on the training and demonstration seeds
+    /// (never for a reported result).
+    #[arg(long)]
+    training_seeds: bool,
     /// Where trial records (`trials/<method>/<task>.jsonl`) and the report go.
     #[arg(long, default_value = "results")]
     out: PathBuf,
@@ -107,6 +112,20 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         vec![args.task.parse::<TaskId>().map_err(anyhow::Error::msg)?]
     };
     let seeds = Seeds::new(args.seed, args.trials)?;
+    if seeds.split() == seespot_sim::Split::Train && !args.training_seeds {
+        anyhow::bail!(
+            "--seed {}: an even seed starts the training and demonstration seeds; \
+             evaluate on odd seeds (1: test, 10001: validation), or pass --training-seeds",
+            args.seed
+        );
+    }
+    if args.finetune_steps > 0 && matches!(args.method, EvalMethod::Oracle | EvalMethod::Random) {
+        anyhow::bail!(
+            "--finetune-steps {}: method {} has no policy to finetune",
+            args.finetune_steps,
+            args.method.as_str()
+        );
+    }
     let mut world = world_config(args.resolution);
     if let Some(path) = &args.noise {
         let scene = seespot_sim::Scene::load(path)?;

@@ -67,6 +67,12 @@ fn train(args: TrainArgs) -> anyhow::Result<()> {
         .run_dir
         .clone()
         .unwrap_or_else(|| PathBuf::from(format!("runs/transporter-{task}")));
+    if args.curve_every > 0 && args.curve_trials == 0 {
+        anyhow::bail!(
+            "--curve-trials 0: a validation curve point needs at least one trial \
+             (or --curve-every 0 for no curve)"
+        );
+    }
     let out = transporter_path(&args.models, task);
     // Refused before any training, so no time is lost.
     crate::refuse_to_replace(&out, args.overwrite, "--models")?;

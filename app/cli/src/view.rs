@@ -37,14 +37,16 @@ impl DeciderArgs {
 /// `seespot view`: run a live SSR trial and debug it in the browser.
 #[derive(clap::Args, Debug, Clone)]
 pub struct ViewArgs {
-    /// Task to run (stack, row, unstack, vertical-square).
-    #[arg(long, default_value = "stack")]
+    /// Task to run (stack, row, unstack, vertical-square); a replay's comes
+    /// from its record.
+    #[arg(long, default_value = "stack", conflicts_with = "replay")]
     pub task: TaskId,
     /// Trial seed (test seeds are odd).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Heightmap resolution, pixels per side (224 = the paper's 2 mm/px).
-    #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 112)]
+    /// Heightmap resolution, pixels per side (224 = the paper's 2 mm/px); a
+    /// replay's comes from its record.
+    #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 112, conflicts_with = "replay")]
     pub resolution: usize,
     /// Address to serve the page on. A non-loopback address (e.g. `0.0.0.0`)
     /// needs `--allow-remote`.
@@ -107,6 +109,13 @@ fn replay(
 pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
     let (mut task, mut resolution, factory, replay_summary) = match &args.replay {
         Some(path) => {
+            if args.decider.decider != DeciderKind::Ssr {
+                anyhow::bail!(
+                    "--decider: a replay decides with the method of its record ({}); \
+                     leave --decider out",
+                    path.display()
+                );
+            }
             let (task, resolution, factory, summary) = replay(&args, path)?;
             (task, resolution, factory, Some(summary))
         }
