@@ -31,30 +31,29 @@ pub struct ReviewArgs {
 }
 
 /// Whether the trials of each records file can be replayed in the debugger
-/// with today's files, and why not (one record stands for its file: a file
-/// never mixes provenances).
+/// with today's files, and why not in a line (the root cause), by file
+/// (`seespot_viz::review::replay_status`).
+#[cfg(feature = "viewer")]
 fn replayable(
     trials: &[seespot_ssr::review::ReviewedTrial],
     args: &ReviewArgs,
 ) -> BTreeMap<PathBuf, Result<(), String>> {
-    let mut out = BTreeMap::new();
-    for t in trials {
-        out.entry(t.file.clone())
-            .or_insert_with(|| replay_check(t, args));
-    }
-    out
-}
-
-#[cfg(feature = "viewer")]
-fn replay_check(t: &seespot_ssr::review::ReviewedTrial, args: &ReviewArgs) -> Result<(), String> {
-    seespot_viz::review::replay(&t.file, t.seed, &args.models, &args.demos)
-        .map(|_| ())
-        .map_err(|e| e.root_cause().to_string())
+    seespot_viz::review::replay_status(trials, &args.models, &args.demos)
+        .into_iter()
+        .map(|(file, r)| (file, r.map_err(|e| e.root_cause().to_string())))
+        .collect()
 }
 
 #[cfg(not(feature = "viewer"))]
-fn replay_check(_: &seespot_ssr::review::ReviewedTrial, _: &ReviewArgs) -> Result<(), String> {
-    Err("this seespot was built without the debugger (feature `viewer`)".into())
+fn replayable(
+    trials: &[seespot_ssr::review::ReviewedTrial],
+    _: &ReviewArgs,
+) -> BTreeMap<PathBuf, Result<(), String>> {
+    let why = "this seespot was built without the debugger (feature `viewer`)";
+    trials
+        .iter()
+        .map(|t| (t.file.clone(), Err(why.to_owned())))
+        .collect()
 }
 
 pub fn run(args: ReviewArgs) -> anyhow::Result<()> {

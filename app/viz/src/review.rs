@@ -95,6 +95,27 @@ pub fn replay(path: &Path, seed: u64, models: &Path, demos: &Path) -> anyhow::Re
     })
 }
 
+/// Whether the trials of each records file among `trials` replay in the
+/// debugger with the models in `models` and demonstrations in `demos`, and
+/// why not, by file (one record stands for its file: a file never mixes
+/// provenances). The page's review and `seespot review` both say so.
+pub fn replay_status(
+    trials: &[seespot_ssr::review::ReviewedTrial],
+    models: &Path,
+    demos: &Path,
+) -> std::collections::BTreeMap<PathBuf, anyhow::Result<()>> {
+    let mut out = std::collections::BTreeMap::new();
+    for t in trials {
+        if !out.contains_key(&t.file) {
+            out.insert(
+                t.file.clone(),
+                replay(&t.file, t.seed, models, demos).map(|_| ()),
+            );
+        }
+    }
+    out
+}
+
 /// The evaluation the page reviews and the files replays decide with.
 #[derive(Clone, Debug)]
 pub struct ReviewSource {
@@ -134,16 +155,16 @@ impl ReviewSource {
     pub fn document(&self) -> anyhow::Result<Value> {
         let trials =
             review_dir(&self.dir).with_context(|| format!("reviewing {}", self.dir.display()))?;
+        let status = replay_status(&trials, &self.models, &self.demos);
         let rows: Vec<Value> = counts(&trials)
             .iter()
             .map(|(method, task, n, ok, kinds)| {
-                // One record stands for its file: a file never mixes provenances.
-                let first = trials
+                let file = trials
                     .iter()
-                    .find(|t| &t.method == method && t.task == *task);
-                let replay = match first.map(|t| replay(&t.file, t.seed, &self.models, &self.demos))
-                {
-                    Some(Ok(_)) => json!({"ok": true, "reason": null}),
+                    .find(|t| &t.method == method && t.task == *task)
+                    .map(|t| &t.file);
+                let replay = match file.and_then(|f| status.get(f)) {
+                    Some(Ok(())) => json!({"ok": true, "reason": null}),
                     Some(Err(e)) => json!({"ok": false, "reason": format!("{e:#}")}),
                     None => json!({"ok": false, "reason": "no records"}),
                 };
