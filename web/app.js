@@ -151,7 +151,7 @@ function renderHistory(s) {
 }
 
 // Time travel: one slider position per phase shown in this trial.
-function actionLabel(at) { return `action ${at.action_index + (at.phase === 'act' ? 0 : 1)} · ${at.phase}`; }
+function actionLabel(at) { return `action ${at.action_number} · ${at.phase}`; }
 
 function renderTimeline(s) {
   const h = s.history || { len: 0, viewing: null, phases: [] };

@@ -546,6 +546,7 @@ impl Session {
             "viewing": self.viewing,
             "phases": self.history.iter().map(|h| json!({
                 "action_index": h.state["action_index"],
+                "action_number": h.state["action_number"],
                 "phase": h.phase.as_str(),
             })).collect::<Vec<_>>(),
         });
