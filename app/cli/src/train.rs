@@ -25,8 +25,8 @@ pub struct TrainArgs {
     #[arg(long)]
     pub run_dir: Option<PathBuf>,
     /// Output weights (default `runs/models/<task>.safetensors`, so the
-    /// shipped `models/` stay as they are; `view --models runs/models` uses
-    /// them); the model card and learning curve go next to it.
+    /// shipped `models/` stay as they are); the model card and learning curve
+    /// go next to it.
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Replace the weights and model card at `--out` when they exist (a
@@ -163,8 +163,11 @@ pub fn run(args: TrainArgs) -> anyhow::Result<()> {
         None
     };
     let card = out.with_extension("md");
-    std::fs::write(&card, model_card(&outcome, &out, report.as_ref(), &args))
-        .with_context(|| format!("writing {}", card.display()))?;
+    std::fs::write(
+        &card,
+        model_card(&outcome, &out, &run_dir, report.as_ref(), &args),
+    )
+    .with_context(|| format!("writing {}", card.display()))?;
     eprintln!("wrote {}", card.display());
     if args.json {
         return crate::print_json(&serde_json::json!({
@@ -235,6 +238,7 @@ pub fn own_task_eval(
 fn model_card(
     outcome: &TrainOutcome,
     out: &Path,
+    run_dir: &Path,
     report: Option<&OwnTaskReport>,
     args: &TrainArgs,
 ) -> String {
@@ -302,12 +306,6 @@ fn model_card(
     if args.out.is_some() {
         retrain.push_str(&format!(" --out {}", out.display()));
     }
-    let run_dir = args.run_dir.clone().unwrap_or_else(|| {
-        PathBuf::from(format!(
-            "runs/train-{}{task}",
-            if args.pure_rl { "pure-rl-" } else { "" }
-        ))
-    });
     md.push_str("## Own-task success\n\n");
     match report {
         Some(r) => {

@@ -456,15 +456,6 @@ fn heightmap_files(
     Ok([(color_name, color), (depth_name, depth)])
 }
 
-/// Writes `{stem}_color.png` and `{stem}_depth.png`.
-pub fn write_heightmaps(dir: &Path, stem: &str, hm: &Heightmaps) -> Result<(), DemoError> {
-    for (name, bytes) in heightmap_files(dir, stem, hm)? {
-        let path = dir.join(name);
-        std::fs::write(&path, bytes).map_err(|source| DemoError::Io { path, source })?;
-    }
-    Ok(())
-}
-
 fn read_png(
     path: &Path,
     n: usize,
