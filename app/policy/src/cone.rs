@@ -72,6 +72,30 @@ fn tap(o: usize, k: usize, s: ConvSpec, n: usize) -> Option<usize> {
         .filter(|&i| i < n)
 }
 
+/// The taps of output pixel (`oy`, `ox`) of window `ow` that land inside the
+/// `n x n` input (the ones in the zero padding are skipped), in kernel order
+/// (`ky` outer, `kx` inner): each as the tap's index `ky * KERNEL + kx` and
+/// the input pixel's position in input window `iw`. The forward and backward
+/// passes walk the same taps in the same order.
+#[inline(always)]
+fn taps(
+    ow: Window,
+    oy: usize,
+    ox: usize,
+    iw: Window,
+    s: ConvSpec,
+    n: usize,
+) -> impl Iterator<Item = (usize, usize)> {
+    (0..KERNEL)
+        .filter_map(move |ky| tap(ow.y0 + oy, ky, s, n).map(|iy| (ky, iy)))
+        .flat_map(move |(ky, iy)| {
+            (0..KERNEL).filter_map(move |kx| {
+                tap(ow.x0 + ox, kx, s, n)
+                    .map(|ix| (ky * KERNEL + kx, (iy - iw.y0) * iw.w + (ix - iw.x0)))
+            })
+        })
+}
+
 /// Q of one action and its gradient with respect to every parameter.
 #[derive(Clone, Debug)]
 pub struct ConeGrad {
@@ -211,21 +235,12 @@ fn conv_forward(
         for ox in 0..ow.w {
             let acc = &mut out[(oy * ow.w + ox) * co..][..co];
             acc.copy_from_slice(bias);
-            for ky in 0..KERNEL {
-                let Some(iy) = tap(ow.y0 + oy, ky, s, n) else {
-                    continue;
-                };
-                for kx in 0..KERNEL {
-                    let Some(ix) = tap(ow.x0 + ox, kx, s, n) else {
-                        continue;
-                    };
-                    let p = (iy - iw.y0) * iw.w + (ix - iw.x0);
-                    let src = &input[p * ci..(p + 1) * ci];
-                    let wt = &w[(ky * KERNEL + kx) * ci * co..][..ci * co];
-                    for (v, row) in src.iter().zip(wt.chunks_exact(co)) {
-                        for (a, b) in acc.iter_mut().zip(row) {
-                            *a += v * b;
-                        }
+            for (t, p) in taps(ow, oy, ox, iw, s, n) {
+                let src = &input[p * ci..(p + 1) * ci];
+                let wt = &w[t * ci * co..][..ci * co];
+                for (v, row) in src.iter().zip(wt.chunks_exact(co)) {
+                    for (a, b) in acc.iter_mut().zip(row) {
+                        *a += v * b;
                     }
                 }
             }
@@ -278,29 +293,19 @@ fn conv_backward(
             for (b, p) in gb.iter_mut().zip(&pre) {
                 *b += p;
             }
-            for ky in 0..KERNEL {
-                let Some(iy) = tap(ow.y0 + oy, ky, s, n) else {
-                    continue;
-                };
-                for kx in 0..KERNEL {
-                    let Some(ix) = tap(ow.x0 + ox, kx, s, n) else {
-                        continue;
-                    };
-                    let p = (iy - iw.y0) * iw.w + (ix - iw.x0);
-                    let t = ky * KERNEL + kx;
-                    let src = &input[p * ci..(p + 1) * ci];
-                    let grow = &mut gt[t * ci * co..][..ci * co];
-                    for (v, row) in src.iter().zip(grow.chunks_exact_mut(co)) {
-                        for (a, b) in row.iter_mut().zip(&pre) {
-                            *a += v * b;
-                        }
+            for (t, p) in taps(ow, oy, ox, iw, s, n) {
+                let src = &input[p * ci..(p + 1) * ci];
+                let grow = &mut gt[t * ci * co..][..ci * co];
+                for (v, row) in src.iter().zip(grow.chunks_exact_mut(co)) {
+                    for (a, b) in row.iter_mut().zip(&pre) {
+                        *a += v * b;
                     }
-                    if need_input {
-                        let wt = &w[t * ci * co..][..ci * co];
-                        let dst = &mut gin[p * ci..(p + 1) * ci];
-                        for (d, row) in dst.iter_mut().zip(wt.chunks_exact(co)) {
-                            *d += row.iter().zip(&pre).map(|(a, b)| a * b).sum::<f32>();
-                        }
+                }
+                if need_input {
+                    let wt = &w[t * ci * co..][..ci * co];
+                    let dst = &mut gin[p * ci..(p + 1) * ci];
+                    for (d, row) in dst.iter_mut().zip(wt.chunks_exact(co)) {
+                        *d += row.iter().zip(&pre).map(|(a, b)| a * b).sum::<f32>();
                     }
                 }
             }

@@ -46,6 +46,17 @@ pub struct StepStats {
     pub predictions: Vec<f32>,
 }
 
+impl StepStats {
+    /// The stats of a step that learned nothing from a batch of `n` (no loss,
+    /// every prediction 0).
+    fn nothing(n: usize) -> Self {
+        Self {
+            loss: 0.0,
+            predictions: vec![0.0; n],
+        }
+    }
+}
+
 /// An experience made ready for the net: rotated input and bilinear taps.
 struct Prepared {
     input: Vec<f32>,
@@ -100,10 +111,7 @@ impl Learner {
     /// nets of the primitives in the batch.
     pub fn train_step(&mut self, batch: &[Experience]) -> Result<StepStats, PolicyError> {
         if batch.is_empty() {
-            return Ok(StepStats {
-                loss: 0.0,
-                predictions: Vec::new(),
-            });
+            return Ok(StepStats::nothing(0));
         }
         let params: Vec<Vec<Vec<f32>>> = self
             .policy
@@ -165,10 +173,7 @@ impl Learner {
     /// tested against. Same loss, same Adam update.
     pub fn train_step_candle(&mut self, batch: &[Experience]) -> Result<StepStats, PolicyError> {
         let Some((total, groups)) = candle_loss(&self.policy, batch)? else {
-            return Ok(StepStats {
-                loss: 0.0,
-                predictions: vec![0.0; batch.len()],
-            });
+            return Ok(StepStats::nothing(batch.len()));
         };
         let grads = total.backward()?;
         self.adam.t += 1;
@@ -397,10 +402,7 @@ impl CandleLearner {
     /// one update of candle's Adam (parameters without a gradient left alone).
     pub fn train_step(&mut self, batch: &[Experience]) -> Result<StepStats, PolicyError> {
         let Some((total, groups)) = candle_loss(&self.policy, batch)? else {
-            return Ok(StepStats {
-                loss: 0.0,
-                predictions: vec![0.0; batch.len()],
-            });
+            return Ok(StepStats::nothing(batch.len()));
         };
         let grads = total.backward()?;
         self.adam.step(&vars(&self.policy), &grads)?;
