@@ -7,13 +7,15 @@ use std::collections::BTreeMap;
 use std::path::Path;
 use std::process::{Command, Stdio};
 
+mod common;
+
 const RUNS: usize = 20;
 const TRIALS: u64 = 4;
 
 fn race(out: &Path) {
     let children: Vec<_> = (0..RUNS)
         .map(|_| {
-            Command::new(env!("CARGO_BIN_EXE_seespot"))
+            common::seespot()
                 .args(["eval", "--method", "oracle", "--task", "stack"])
                 .args(["--trials", &TRIALS.to_string(), "--out"])
                 .arg(out)

@@ -3,22 +3,10 @@
 //! (they used to panic, wrap around, or allocate gigabytes). All the checks
 //! live in `seespot_sim::bounds`; these tests pin that every command uses them.
 
-use std::process::Command;
+mod common;
+use common::run as seespot;
 
 const MAX: &str = "18446744073709551615";
-
-/// Runs `seespot args`; returns (exit code, stderr).
-fn seespot(args: &[&str]) -> (i32, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_seespot"))
-        .args(args)
-        .env("RUST_BACKTRACE", "0")
-        .output()
-        .expect("run seespot");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
 
 /// `args` must be refused as a usage error (exit 2) naming `flag` and `range`.
 fn refused(args: &[&str], flag: &str, range: &str) {

@@ -1,26 +1,8 @@
 //! Issue 27, item 4: flags that were silently ignored or accepted are refused
 //! with the flag named, before any work.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-/// Runs `seespot args` from the repository root; returns (exit code, stderr).
-fn seespot(args: &[&str]) -> (i32, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_seespot"))
-        .args(args)
-        .current_dir(root())
-        .env("RUST_BACKTRACE", "0")
-        .output()
-        .expect("run seespot");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+mod common;
+use common::run as seespot;
 
 fn refused(args: &[&str], names: &[&str]) {
     let (code, err) = seespot(args);

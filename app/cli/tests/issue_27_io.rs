@@ -3,18 +3,11 @@
 //! --save` recording as SIGTERM and Ctrl-C do.
 
 use std::io::{BufRead, BufReader};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn seespot() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_seespot"));
-    c.current_dir(root()).env("RUST_BACKTRACE", "0");
-    c
-}
+mod common;
+use common::seespot;
 
 /// `seespot demo show ... --json | true` and `seespot review | true`: the
 /// reader is gone before anything is written.

@@ -3,18 +3,13 @@
 //! this CPU goes) give records identical bit for bit (every action, L, C and
 //! outcome; the decision times aside). A bad cap is refused, not ignored.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+mod common;
+use common::seespot;
 
 /// The records of `seespot eval` under `cap`, less their timing fields.
 fn records_under(cap: &str, task: &str) -> Vec<serde_json::Value> {
     let out = tempfile::tempdir().expect("tempdir");
-    let o = Command::new(env!("CARGO_BIN_EXE_seespot"))
-        .current_dir(root())
+    let o = seespot()
         .env("SEESPOT_SIMD", cap)
         .args([
             "eval", "--method", "ssr-ccd", "--task", task, "--trials", "2", "--out",
@@ -74,10 +69,9 @@ fn issue_27_ssr_trials_are_identical_under_every_instruction_set_cap() {
 
 #[test]
 fn issue_27_an_unknown_instruction_set_cap_is_refused() {
-    let o = Command::new(env!("CARGO_BIN_EXE_seespot"))
+    let o = seespot()
         .env("SEESPOT_SIMD", "avx9000")
         .args(["demo", "show", "demos/stack/0"])
-        .current_dir(root())
         .output()
         .expect("run");
     let err = String::from_utf8_lossy(&o.stderr);
