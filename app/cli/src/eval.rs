@@ -137,6 +137,14 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
                 args.resolution
             );
         }
+        if scene.blocks.is_some() {
+            anyhow::bail!(
+                "{}: field `blocks`: --noise takes only the scene's noise, and an evaluation \
+                 starts every trial from its seed; use `seespot sim run --scene` or `seespot \
+                 view --scene` for an explicit start",
+                path.display()
+            );
+        }
         if scene.noise.is_none() {
             anyhow::bail!(
                 "{}: field `noise`: the scene has no sensor noise",

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use clap::Subcommand;
 use seespot_policy::{PolicyNet, RandomActor};
-use seespot_sim::{Actor, Grid, Oracle, Scene, Seeds, Split, TaskId, summarize};
+use seespot_sim::{Actor, Grid, Oracle, Scene, Seeds, Split, TaskId, Trial, summarize};
 
 #[derive(Subcommand, Debug)]
 pub enum SimCommand {
@@ -29,7 +29,8 @@ pub struct RunArgs {
     /// scene's first seed; 10001 starts the validation seeds).
     #[arg(long)]
     seed: Option<u64>,
-    /// A scene file (task, seeds, resolution, noise); flags override it.
+    /// A scene file (task, seeds, resolution, noise, and an explicit start in
+    /// `[[blocks]]`); flags override its task, seeds and resolution.
     #[arg(long)]
     scene: Option<PathBuf>,
     /// Heightmap pixels per side (default 112, or the scene's).
@@ -72,19 +73,17 @@ fn run_trials(args: RunArgs) -> anyhow::Result<()> {
     };
     let bar = crate::progress_bar(seeds.count(), false);
     let mut ok = 0;
-    let records = seespot_sim::run_trials(
-        config,
-        task,
-        seeds,
-        actor.as_mut(),
-        &args.policy,
-        &mut |r| {
+    let start = |seed| match &scene {
+        Some(scene) => scene.trial_as(config, task, seed),
+        None => Trial::new(config, task, seed),
+    };
+    let records =
+        seespot_sim::run_trials_from(&start, seeds, actor.as_mut(), &args.policy, &mut |r| {
             ok += usize::from(r.success);
             bar.set_message(format!("success {ok}/{}", r.trial + 1));
             bar.inc(1);
-        },
-    )
-    .map_err(|e| anyhow::anyhow!(e))?;
+        })
+        .map_err(|e| anyhow::anyhow!(e))?;
     bar.finish_and_clear();
     let summary = summarize(&records, task.ideal_actions(), 0, 0);
     if args.json {

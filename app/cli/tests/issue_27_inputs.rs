@@ -94,3 +94,77 @@ fn issue_27_a_validation_curve_of_zero_trials_is_refused() {
         &["--curve-trials"],
     );
 }
+
+/// A scene with an explicit start: red on blue in the middle, the other two
+/// apart, so a stack trial starts at progress 2 (a start drawn from a seed
+/// starts at 1).
+fn two_stacked_scene(dir: &std::path::Path) -> String {
+    let mut text =
+        String::from("task = \"stack\"\nresolution = 112\n[seeds]\nstart = 1\ncount = 2\n");
+    for (x, y, z) in [
+        (0.0, 0.0, 0.025),
+        (0.0, 0.0, 0.075),
+        (-0.12, 0.1, 0.025),
+        (0.12, -0.1, 0.025),
+    ] {
+        text += &format!("\n[[blocks]]\nposition = [{x}, {y}, {z}]\n");
+    }
+    let path = dir.join("two-stacked.toml");
+    std::fs::write(&path, text).expect("write scene");
+    path.to_str().expect("utf-8").to_owned()
+}
+
+#[test]
+fn issue_27_sim_run_starts_from_the_scenes_blocks() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let scene = two_stacked_scene(dir.path());
+    let (code, out, err) = common::run_in(
+        &common::root(),
+        &["sim", "run", "--scene", &scene, "--trials", "2", "--json"],
+    );
+    assert_eq!(code, 0, "{err}");
+    let json: serde_json::Value = serde_json::from_str(&out).expect("json");
+    let results = json["results"].as_array().expect("results");
+    assert_eq!(results.len(), 2);
+    for r in results {
+        assert_eq!(
+            r["start_progress"], 2,
+            "the scene's blocks were ignored: {r}"
+        );
+    }
+}
+
+#[test]
+fn issue_27_eval_noise_refuses_a_scene_with_blocks() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let scene = two_stacked_scene(dir.path());
+    let out = dir.path().join("out");
+    refused(
+        &[
+            "eval",
+            "--method",
+            "oracle",
+            "--noise",
+            &scene,
+            "--out",
+            out.to_str().expect("utf-8"),
+        ],
+        &["two-stacked.toml", "`blocks`"],
+    );
+    assert!(!out.join("trials").exists(), "it evaluated before refusing");
+}
+
+#[test]
+fn issue_27_review_refuses_a_trial_recorded_twice() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().to_str().expect("utf-8");
+    let (code, err) = seespot(&[
+        "eval", "--method", "oracle", "--task", "stack", "--trials", "2", "--out", out,
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let file = dir.path().join("trials/oracle/stack.jsonl");
+    let text = std::fs::read_to_string(&file).expect("records");
+    let first = text.lines().next().expect("a record");
+    std::fs::write(&file, format!("{text}{first}\n")).expect("write");
+    refused(&["review", out], &["stack.jsonl, line 3", "again"]);
+}

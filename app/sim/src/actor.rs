@@ -144,9 +144,27 @@ pub fn run_trials(
     method: &str,
     on_trial: &mut dyn FnMut(&TrialRecord),
 ) -> Result<Vec<TrialRecord>, ActorError> {
+    run_trials_from(
+        &|seed| Trial::new(config, task, seed),
+        seeds,
+        actor,
+        method,
+        on_trial,
+    )
+}
+
+/// [`run_trials`] with the start of each seed's trial made by `start` (a
+/// scene's explicit layout, see [`crate::Scene::trial`]).
+pub fn run_trials_from(
+    start: &dyn Fn(u64) -> Trial,
+    seeds: Seeds,
+    actor: &mut dyn Actor,
+    method: &str,
+    on_trial: &mut dyn FnMut(&TrialRecord),
+) -> Result<Vec<TrialRecord>, ActorError> {
     let mut out = Vec::new();
     for (index, seed) in seeds.iter().enumerate() {
-        let mut trial = Trial::new(config, task, seed);
+        let mut trial = start(seed);
         let record = run_trial(&mut trial, actor, method, index, &mut |_| {})?;
         on_trial(&record);
         out.push(record);

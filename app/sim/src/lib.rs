@@ -45,7 +45,7 @@ pub mod workspace;
 pub mod world;
 
 pub use action::{Action, NUM_ROTATIONS, Primitive};
-pub use actor::{Actor, ActorError, Choice, ChosenPair, run_trial, run_trials};
+pub use actor::{Actor, ActorError, Choice, ChosenPair, run_trial, run_trials, run_trials_from};
 pub use demo::{Demo, DemoError, DemoMeta, DemoStep, PlaceMask};
 pub use heightmap::Heightmaps;
 pub use metrics::{Summary, summarize};

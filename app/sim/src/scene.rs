@@ -16,8 +16,10 @@
 //! ```
 //!
 //! With `[[blocks]]` the trial starts from those poses (settled by the
-//! physics) instead of a start drawn from the seed; `seespot view --scene`
-//! and the debugger's "save layout" use it to reproduce a situation.
+//! physics) instead of a start drawn from the seed; `seespot view --scene`,
+//! `seespot sim run --scene` and the debugger's "save layout" use it to
+//! reproduce a situation. Without a height a block rests on the table, its
+//! tilt included.
 
 use std::path::{Path, PathBuf};
 
@@ -236,14 +238,21 @@ impl Scene {
     /// The trial of `seed` in this scene: from the explicit block poses when
     /// the file gives them, else the start drawn from the seed.
     pub fn trial(&self, seed: u64) -> crate::Trial {
+        self.trial_as(self.world_config(), self.task, seed)
+    }
+
+    /// [`Scene::trial`] with the world settings and task given instead of the
+    /// file's (the command line's flags override a scene's); the explicit
+    /// block poses, when the file gives them, still make the start.
+    pub fn trial_as(&self, config: WorldConfig, task: crate::TaskId, seed: u64) -> crate::Trial {
         match &self.blocks {
             Some(poses) => crate::Trial::from_world(
-                crate::World::from_poses(self.world_config(), poses, seed),
-                self.task,
+                crate::World::from_poses(config, poses, seed),
+                task,
                 seed,
                 crate::task::MAX_TRIAL_ACTIONS,
             ),
-            None => crate::Trial::new(self.world_config(), self.task, seed),
+            None => crate::Trial::new(config, task, seed),
         }
     }
 
@@ -308,7 +317,6 @@ fn parse_blocks(items: &[toml::Value], path: &Path) -> Result<[BlockPose; NUM_BL
             ));
         }
         let (x, y) = (pos[0] as f32, pos[1] as f32);
-        let z = pos.get(2).map_or(BLOCK_SIZE / 2.0, |z| *z as f32);
         let angle = |k: &str, limit: f64| -> Result<f32, SceneError> {
             match t.get(k) {
                 None => Ok(0.0),
@@ -336,8 +344,13 @@ fn parse_blocks(items: &[toml::Value], path: &Path) -> Result<[BlockPose; NUM_BL
                 }
                 let q: Vec<f64> = v
                     .as_array()
-                    .map(|a| a.iter().filter_map(number).collect())
-                    .unwrap_or_default();
+                    .and_then(|a| a.iter().map(number).collect::<Option<_>>())
+                    .ok_or_else(|| {
+                        field(
+                            name("rotation"),
+                            "must be an array of 4 numbers [x, y, z, w]".into(),
+                        )
+                    })?;
                 let norm = q.iter().map(|c| c * c).sum::<f64>().sqrt();
                 if q.len() != 4 || !norm.is_finite() || (norm - 1.0).abs() > 1e-3 {
                     return Err(field(
@@ -360,9 +373,13 @@ fn parse_blocks(items: &[toml::Value], path: &Path) -> Result<[BlockPose; NUM_BL
                     * rapier3d::math::Rotation::from_rotation_x(tilt)
             }
         };
+        let rotation = [q.x, q.y, q.z, q.w];
+        // Without a height the block rests on the table: its lowest corner
+        // (or edge, or face) touches it, whatever its tilt.
+        let z = pos.get(2).map_or(resting_height(rotation), |z| *z as f32);
         poses[i] = BlockPose {
             position: [x, y, z],
-            rotation: [q.x, q.y, q.z, q.w],
+            rotation,
         };
     }
     check_layout(&poses).map_err(|(i, message)| field(format!("blocks[{i}].position"), message))?;
@@ -391,12 +408,13 @@ pub fn check_layout(poses: &[BlockPose; NUM_BLOCKS]) -> Result<(), (usize, Strin
                 ),
             ));
         }
-        if !(BLOCK_SIZE / 2.0 - 1e-4..=0.3).contains(&z) {
+        let rest = resting_height(p.rotation);
+        if !(rest - 1e-4..=0.3).contains(&z) {
             return Err((
                 i,
                 format!(
-                    "z = {z} is below the table or above 0.3 m (a block on the table has z = {})",
-                    BLOCK_SIZE / 2.0
+                    "z = {z} puts the block into the table or above 0.3 m (turned as it is, \
+                     it rests on the table at z = {rest:.4})"
                 ),
             ));
         }
@@ -409,6 +427,21 @@ pub fn check_layout(poses: &[BlockPose; NUM_BLOCKS]) -> Result<(), (usize, Strin
         }
     }
     Ok(())
+}
+
+/// The height of a block's centre when it rests on the table turned by
+/// `rotation` (`[x, y, z, w]`): half the block's extent along the vertical,
+/// `BLOCK_SIZE / 2` upright, `BLOCK_SIZE / sqrt 2` on an edge.
+pub fn resting_height(rotation: [f32; 4]) -> f32 {
+    let [x, y, z, w] = rotation;
+    // The bottom row of the rotation matrix: how far each of the block's own
+    // axes reaches up or down.
+    let row = [
+        2.0 * (x * z - w * y),
+        2.0 * (y * z + w * x),
+        1.0 - 2.0 * (x * x + y * y),
+    ];
+    BLOCK_SIZE / 2.0 * row.iter().map(|c| c.abs()).sum::<f32>()
 }
 
 /// Whether two blocks' volumes overlap, judged on their footprints as squares

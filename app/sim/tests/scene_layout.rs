@@ -96,6 +96,17 @@ fn bad_layouts_name_the_file_and_the_field() {
             "position = [0.0, 0.1]\nrotation = [0, 0, 0, 0]",
             "blocks[3].rotation",
         ),
+        // Issue 27: junk beside four numbers was dropped.
+        (
+            "position = [0.0, 0.1]\nrotation = [0, 0, 0, 1, \"junk\"]",
+            "blocks[3].rotation",
+        ),
+        // Issue 27: a block on its edge at an upright block's height reaches
+        // 1 cm into the table.
+        (
+            "position = [0.0, 0.1, 0.025]\ntilt = 45",
+            "blocks[3].position",
+        ),
     ] {
         let text = format!("{}{}{}\n[[blocks]]\n{bad}\n", ok(0), ok(1), ok(2));
         let err = parse(&text).expect_err(bad);
@@ -118,4 +129,19 @@ fn a_saved_layout_reads_back_as_the_same_start() {
             );
         }
     }
+}
+
+#[test]
+fn a_tilted_block_without_a_height_rests_on_the_table() {
+    let ok = |i: usize| block(-0.15 + 0.1 * i as f32, 0.0, 0.0);
+    let text = format!(
+        "{}{}{}\n[[blocks]]\nposition = [0.0, 0.1]\ntilt = 45\n",
+        ok(0),
+        ok(1),
+        ok(2)
+    );
+    let scene = parse(&text).expect("a tilted block parses");
+    let z = scene.blocks.expect("blocks")[3].position[2];
+    let on_edge = seespot_sim::BLOCK_SIZE / 2.0 * std::f32::consts::SQRT_2;
+    assert!((z - on_edge).abs() < 1e-5, "z = {z}, not {on_edge}");
 }
