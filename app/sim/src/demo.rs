@@ -318,6 +318,28 @@ impl DemoMeta {
                 Primitive::Grasp => Primitive::Place,
                 Primitive::Place => Primitive::Grasp,
             };
+            // The gripper pose is the action's pixel centre and rotation (see
+            // `World::execute`), at a height near the table.
+            let grid = Grid::new(self.resolution);
+            let (px, py) = grid.pixel_to_world(a.y, a.x);
+            let [x, y, z, yaw] = s.world_pose;
+            let near = |v: f32, want: f32, tolerance: f32| (v - want).abs() <= tolerance;
+            let half_pixel = grid.pixel_size() / 2.0;
+            if !(near(x, px, half_pixel)
+                && near(y, py, half_pixel)
+                && (-0.1..=1.0).contains(&z)
+                && near(yaw, a.yaw(), 1e-3))
+            {
+                return Err(invalid(
+                    path,
+                    format!(
+                        "field `steps[{i}].world_pose`: {:?} is not the pose of {a} \
+                         (expected [{px:.4}, {py:.4}, z in -0.1..=1, {:.4}])",
+                        s.world_pose,
+                        a.yaw()
+                    ),
+                ));
+            }
             for (name, p) in [
                 ("progress_before", s.progress_before),
                 ("progress_after", s.progress_after),

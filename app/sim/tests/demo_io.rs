@@ -76,6 +76,22 @@ fn damaged_demos_are_refused_with_the_file_named() {
             "{field}: {err}"
         );
     }
+    // Issue 27: a gripper pose that is not the action's (1e39 was accepted).
+    for bad in [
+        serde_json::json!([1e39, 0.0, 0.0, 0.0]),
+        serde_json::json!([0.2, -0.2, 0.0, 0.0]),
+    ] {
+        let mut meta: serde_json::Value = serde_json::from_str(&good).expect("json");
+        meta["steps"][0]["world_pose"] = bad.clone();
+        std::fs::write(&meta_path, meta.to_string()).expect("write");
+        let err = Demo::read(dir.path())
+            .expect_err("bad world_pose")
+            .to_string();
+        assert!(
+            err.contains("meta.json") && err.contains("steps[0].world_pose"),
+            "{bad}: {err}"
+        );
+    }
     let mut meta: serde_json::Value = serde_json::from_str(&good).expect("json");
     meta["workspace"] = serde_json::json!([[1.0, -1.0], [-0.224, 0.224]]);
     std::fs::write(&meta_path, meta.to_string()).expect("write");
