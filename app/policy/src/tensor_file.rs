@@ -14,6 +14,12 @@ use crate::error::PolicyError;
 /// Metadata key prefix of a tensor's checksum (FNV-1a 64 of its bytes, hex).
 const CHECKSUM_PREFIX: &str = "checksum:";
 
+/// The largest magnitude a stored value may have. Trained seespot weights stay
+/// below 1 (the shipped ones: 0.46-0.77); a value beyond this bound says the
+/// file is damaged or is not a network's weights, and would overflow the
+/// first convolution's sums.
+pub const MAX_WEIGHT: f32 = 1e4;
+
 /// FNV-1a 64 of `bytes`.
 pub fn fnv1a(bytes: &[u8]) -> u64 {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
@@ -171,6 +177,8 @@ pub fn read(path: &Path) -> Result<TensorFile, PolicyError> {
         }
     }
     let mut tensors = BTreeMap::new();
+    // Each tensor's byte range, to refuse two tensors reading the same bytes.
+    let mut ranges: Vec<(usize, usize, &str)> = Vec::new();
     for (name, info) in &header {
         if name == "__metadata__" {
             continue;
@@ -226,6 +234,22 @@ pub fn read(path: &Path) -> Result<TensorFile, PolicyError> {
         if values.iter().any(|v| !v.is_finite()) {
             return Err(tensor_err(name, "damaged: non-finite values".into()));
         }
+        if let Some((i, v)) = values
+            .iter()
+            .enumerate()
+            .find(|(_, v)| v.abs() > MAX_WEIGHT)
+        {
+            return Err(tensor_err(
+                name,
+                format!(
+                    "value {v:e} at index {i} is beyond ±{MAX_WEIGHT:e}, larger than any \
+                     trained weight: the file is damaged or holds no network's weights"
+                ),
+            ));
+        }
+        if a < b {
+            ranges.push((a, b, name));
+        }
         tensors.insert(
             name.clone(),
             F32Tensor {
@@ -233,6 +257,20 @@ pub fn read(path: &Path) -> Result<TensorFile, PolicyError> {
                 data: values,
             },
         );
+    }
+    // Sorted by start, any overlap shows between neighbours.
+    ranges.sort();
+    for pair in ranges.windows(2) {
+        let [(a0, b0, first), (a1, b1, second)] = [pair[0], pair[1]];
+        if a1 < b0 {
+            return Err(tensor_err(
+                second,
+                format!(
+                    "its bytes {a1}..{b1} overlap those of tensor `{first}` ({a0}..{b0}): \
+                     each tensor must have bytes of its own"
+                ),
+            ));
+        }
     }
     Ok(TensorFile { metadata, tensors })
 }

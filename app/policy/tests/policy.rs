@@ -199,6 +199,43 @@ fn damaged_weights_name_the_file_and_tensor() {
     assert!(matches!(err, PolicyError::Format { .. }), "{err}");
     assert!(err.to_string().contains("stack.safetensors"));
 
+    // Issue 27: finite but absurd weights (all 3e38) loaded without a word.
+    use seespot_policy::tensor_file;
+    std::fs::write(&path, &bytes).unwrap();
+    let file = tensor_file::read(&path).unwrap();
+    let mut tensors = file.tensors.clone();
+    let t = tensors.get_mut("grasp.conv2.weight").unwrap();
+    t.data.iter_mut().for_each(|v| *v = 3e38);
+    tensor_file::write(&path, &tensors, &file.metadata).unwrap();
+    let msg = PolicyNet::load(&path).unwrap_err().to_string();
+    assert!(
+        msg.contains("stack.safetensors")
+            && msg.contains("grasp.conv2.weight")
+            && msg.contains("beyond"),
+        "{msg}"
+    );
+
+    // Issue 27: two tensors reading the same bytes (place.conv1 pointed at
+    // grasp.conv1's, its checksum copied so that only the sharing is wrong).
+    let n = u64::from_le_bytes(bytes[..8].try_into().unwrap()) as usize;
+    let mut header: serde_json::Value = serde_json::from_slice(&bytes[8..8 + n]).unwrap();
+    header["place.conv1.weight"]["data_offsets"] =
+        header["grasp.conv1.weight"]["data_offsets"].clone();
+    header["__metadata__"]["checksum:place.conv1.weight"] =
+        header["__metadata__"]["checksum:grasp.conv1.weight"].clone();
+    let text = serde_json::to_vec(&header).unwrap();
+    let mut shared = (text.len() as u64).to_le_bytes().to_vec();
+    shared.extend(&text);
+    shared.extend(&bytes[8 + n..]);
+    std::fs::write(&path, &shared).unwrap();
+    let msg = PolicyNet::load(&path).unwrap_err().to_string();
+    assert!(
+        msg.contains("stack.safetensors")
+            && msg.contains("overlap")
+            && msg.contains("conv1.weight"),
+        "{msg}"
+    );
+
     // Not a file at all.
     let err = PolicyNet::load(&dir.path().join("missing.safetensors")).unwrap_err();
     assert!(err.to_string().contains("missing.safetensors"), "{err}");
