@@ -227,11 +227,28 @@ pub fn open_run(
                 ),
             });
         }
-        let learner = Learner::load_checkpoint(&run_dir.join(&state.checkpoint))?;
         // The requested length may change between resumes (the decay schedule
-        // follows it); the rest stays.
+        // follows it), and so may the checkpoint interval; anything else
+        // would silently train under the run's old settings.
+        let mut asked = config.clone();
+        asked.actions = state.config.actions;
+        asked.decay_actions = state.config.decay_actions;
+        asked.checkpoint_every = state.config.checkpoint_every;
+        let differing = differing_fields(&state.config, &asked);
+        if !differing.is_empty() {
+            return Err(PolicyError::Checkpoint {
+                path,
+                reason: format!(
+                    "the run there was started with other settings ({}); resume it with \
+                     the same settings or train into another run directory",
+                    differing.join(", ")
+                ),
+            });
+        }
+        let learner = Learner::load_checkpoint(&run_dir.join(&state.checkpoint))?;
         state.config.actions = config.actions;
         state.config.decay_actions = config.decay_actions;
+        state.config.checkpoint_every = config.checkpoint_every;
         let resumed = state.actions;
         return Ok((learner, state, Some(resumed)));
     }
@@ -252,6 +269,25 @@ pub fn open_run(
         replay: Replay::new(config.replay_capacity),
     };
     Ok((learner, state, None))
+}
+
+/// The fields in which two configurations differ, each as `name: run's
+/// value, not asked value` (e.g. `resolution: 224, not 112`).
+fn differing_fields(run: &TrainConfig, asked: &TrainConfig) -> Vec<String> {
+    let (Ok(serde_json::Value::Object(a)), Ok(serde_json::Value::Object(b))) =
+        (serde_json::to_value(run), serde_json::to_value(asked))
+    else {
+        return Vec::new();
+    };
+    a.iter()
+        .filter(|(k, v)| b.get(*k) != Some(*v))
+        .map(|(k, v)| {
+            format!(
+                "{k}: {v}, not {}",
+                b.get(k).unwrap_or(&serde_json::Value::Null)
+            )
+        })
+        .collect()
 }
 
 /// How an action was chosen.

@@ -38,6 +38,24 @@ fn a_killed_run_resumes_from_its_checkpoint() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("state.json") && err.contains("row"), "{err}");
+
+    // Issue 27: a resume at another resolution, or without the oracle, kept
+    // the run's old settings without a word; it is refused, naming them.
+    let mut other = config.clone();
+    other.resolution = 224;
+    let err = train(&other, dir.path(), &mut |_| {})
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("state.json") && err.contains("resolution: 112, not 224"),
+        "{err}"
+    );
+    let mut other = config.clone();
+    other.oracle_start = 0.0;
+    let err = train(&other, dir.path(), &mut |_| {})
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("oracle_start"), "{err}");
 }
 
 /// A run killed at a checkpoint and resumed ends with the same weights, bit
