@@ -24,7 +24,17 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
-from seespot._core import METHODS, TASKS, Evaluator, record_name, records_path, test_seeds
+from seespot._core import (
+    METHODS,
+    TASKS,
+    Evaluator,
+    OutputLock,
+    append_record,
+    read_records,
+    record_name,
+    records_path,
+    test_seeds,
+)
 
 
 RAY_MISSING = (
@@ -80,26 +90,18 @@ class TrialRunner:
 
 
 def recorded(path: Path) -> dict[int, dict[str, Any]]:
-    """The records already in ``path`` by seed (none when it does not exist)."""
-    out: dict[int, dict[str, Any]] = {}
-    if path.exists():
-        for n, line in enumerate(path.read_text().splitlines(), 1):
-            if line.strip():
-                try:
-                    r = json.loads(line)
-                except json.JSONDecodeError as e:
-                    raise ValueError(f"{path}: line {n}: not a JSON record: {e}") from e
-                out[int(r["seed"])] = r
-    return out
+    """The records already in ``path`` by seed (none when it does not exist),
+    read as ``seespot eval`` reads them: a last line cut short by a kill is
+    dropped, and a damaged line, a seed recorded twice or another method's or
+    task's record raises ``ValueError`` naming the file and line."""
+    return {int(r["seed"]): r for r in map(json.loads, read_records(path))}
 
 
 def append(path: Path, line: str) -> None:
-    """Appends one record line and syncs it (a killed run loses no written trial)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("a") as f:
-        f.write(line.rstrip("\n") + "\n")
-        f.flush()
-        os.fsync(f.fileno())
+    """Appends one record line as ``seespot eval`` does: a fragment left by a
+    kill is cut off first, and the line is synced (a killed run loses no
+    written trial)."""
+    append_record(path, line)
 
 
 def evaluate(
@@ -119,7 +121,11 @@ def evaluate(
 ) -> dict[tuple[str, str], list[dict[str, Any]]]:
     """Runs (or resumes) the evaluation of ``methods`` on ``tasks`` over the
     seeds ``seed, seed + 2, ...`` (``trials`` of them) with ``num_workers`` Ray
-    actors; returns every (method, task)'s records sorted by seed."""
+    actors; returns every (method, task)'s records sorted by seed.
+
+    It holds ``seespot eval``'s lock on ``out_dir`` throughout: while another
+    evaluation writes there (either kind), it raises ``BlockingIOError``
+    naming the holder, before starting Ray."""
     ray = _import_ray()
 
     tasks = list(tasks)
@@ -130,6 +136,28 @@ def evaluate(
     if num_workers < 1:
         raise ValueError(f"num_workers: {num_workers} is not positive")
     threads = threads_per_worker or max(1, (os.cpu_count() or 1) // num_workers)
+    with OutputLock(out_dir):
+        return _evaluate_locked(
+            ray, methods, tasks, seeds, out_dir, models_dir, demos_dir, resolution,
+            correspond, num_workers, threads, address,
+        )
+
+
+def _evaluate_locked(
+    ray: Any,
+    methods: Sequence[str],
+    tasks: list[str],
+    seeds: list[int],
+    out_dir: str | os.PathLike[str],
+    models_dir: str,
+    demos_dir: str,
+    resolution: int,
+    correspond: str,
+    num_workers: int,
+    threads: int,
+    address: str | None,
+) -> dict[tuple[str, str], list[dict[str, Any]]]:
+    """:func:`evaluate` once the output folder is locked."""
     started = False
     if not ray.is_initialized():
         if address is None:

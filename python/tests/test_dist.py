@@ -70,3 +70,30 @@ def test_resume_skips_recorded_seeds(tmp_path: Path) -> None:
         ray.shutdown()
     seeds = [json.loads(x)["seed"] for x in path.read_text().splitlines()]
     assert seeds == [1, 3]
+
+
+def test_a_folder_another_evaluation_writes_to_is_refused(tmp_path: Path) -> None:
+    """Issue 27: seespot.dist took no lock, so it could write beside a running
+    ``seespot eval`` (or another seespot.dist) into one folder."""
+    with seespot.OutputLock(tmp_path) as held:
+        assert held.held
+        with pytest.raises(BlockingIOError, match=f"pid {os.getpid()}"):
+            dist.evaluate(["oracle"], ["stack"], seed=1, trials=1, out_dir=tmp_path, num_workers=1)
+    assert not held.held
+    assert not Path(seespot.records_path(tmp_path, "oracle", "stack")).exists()
+
+
+def test_a_seed_recorded_twice_is_refused(tmp_path: Path) -> None:
+    """The records are read as ``seespot eval`` reads them: a trial twice is
+    an error naming the file and line, not a silent overwrite."""
+    path = Path(seespot.records_path(tmp_path, "oracle", "stack"))
+    line = seespot.Evaluator("oracle", "stack").run(1, 0)
+    dist.append(path, line)
+    dist.append(path, line)
+    with pytest.raises(ValueError, match="stack.jsonl, line 2.*again"):
+        dist.recorded(path)
+    # A line cut short by a kill is dropped, and the next append cuts it off.
+    path.write_text(line + "\n" + line[:20])
+    assert list(dist.recorded(path)) == [1]
+    dist.append(path, seespot.Evaluator("oracle", "stack").run(3, 1))
+    assert [json.loads(x)["seed"] for x in path.read_text().splitlines()] == [1, 3]

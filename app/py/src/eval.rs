@@ -170,3 +170,85 @@ pub fn record_name(method: &str, correspond: &str) -> PyResult<String> {
     let config = crate::ssr::ssr_config("ssr-ccd", correspond)?;
     Ok(m.record_name(0, config.correspond.mode, false))
 }
+
+/// The lock `seespot eval` takes on its output folder
+/// ([`seespot_sim::lock::OutputLock`]), held by the operating system until
+/// `release()`, the end of a `with` block, or the process's end: while a
+/// `seespot eval` or another `seespot.dist` run holds it, taking it raises
+/// `BlockingIOError` naming the holder.
+#[pyclass(module = "seespot._core")]
+pub struct OutputLock {
+    lock: Option<seespot_sim::lock::OutputLock>,
+}
+
+#[pymethods]
+impl OutputLock {
+    #[new]
+    fn new(out_dir: PathBuf) -> PyResult<Self> {
+        match seespot_sim::lock::OutputLock::acquire(&out_dir) {
+            Ok(lock) => Ok(Self { lock: Some(lock) }),
+            Err(e @ seespot_sim::lock::LockError::Held { .. }) => {
+                Err(pyo3::exceptions::PyBlockingIOError::new_err(e.to_string()))
+            }
+            Err(e) => Err(pyo3::exceptions::PyOSError::new_err(e.to_string())),
+        }
+    }
+
+    /// Releases the lock (again: nothing).
+    fn release(&mut self) {
+        self.lock = None;
+    }
+
+    /// Whether the lock is still held.
+    #[getter]
+    fn held(&self) -> bool {
+        self.lock.is_some()
+    }
+
+    fn __enter__(slf: PyRef<'_, Self>) -> PyRef<'_, Self> {
+        slf
+    }
+
+    /// Releases the lock; an exception raised in the block goes on.
+    #[pyo3(signature = (*_exception))]
+    fn __exit__(&mut self, _exception: &Bound<'_, pyo3::types::PyTuple>) -> bool {
+        self.release();
+        false
+    }
+}
+
+fn record_error(e: seespot_sim::record::RecordError) -> PyErr {
+    match e {
+        seespot_sim::record::RecordError::Io { .. } => {
+            pyo3::exceptions::PyOSError::new_err(e.to_string())
+        }
+        _ => pyo3::exceptions::PyValueError::new_err(e.to_string()),
+    }
+}
+
+/// The records of a JSONL records file as `seespot eval` reads them (one JSON
+/// line each): none when it is missing, a last line cut short by a kill
+/// dropped, and a damaged line, a trial recorded twice or another method's
+/// or task's record in a `<method>/<task>.jsonl` file refused (`ValueError`).
+#[pyfunction]
+pub fn read_records(path: PathBuf) -> PyResult<Vec<String>> {
+    seespot_sim::record::read_records(&path)
+        .map_err(record_error)?
+        .iter()
+        .map(|r| r.to_json_line().map_err(|e| bad("path", e)))
+        .collect()
+}
+
+/// Appends one record (a JSON line as `Evaluator.run` returns it) to `path`
+/// as `seespot eval` does: a fragment left by a kill is cut off first, and
+/// the line is synced before this returns.
+#[pyfunction]
+pub fn append_record(path: PathBuf, line: &str) -> PyResult<()> {
+    let record: seespot_sim::TrialRecord =
+        serde_json::from_str(line).map_err(|e| bad("line", format!("not a trial record: {e}")))?;
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| pyo3::exceptions::PyOSError::new_err(format!("{}: {e}", dir.display())))?;
+    }
+    seespot_sim::record::append_record(&path, &record).map_err(record_error)
+}

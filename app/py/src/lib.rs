@@ -41,10 +41,13 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<policy::Policy>()?;
     m.add_class::<ssr::Ssr>()?;
     m.add_class::<eval::Evaluator>()?;
+    m.add_class::<eval::OutputLock>()?;
     m.add_function(wrap_pyfunction!(arrays::check_resolution, m)?)?;
     m.add_function(wrap_pyfunction!(eval::test_seeds, m)?)?;
     m.add_function(wrap_pyfunction!(eval::records_path, m)?)?;
     m.add_function(wrap_pyfunction!(eval::record_name, m)?)?;
+    m.add_function(wrap_pyfunction!(eval::read_records, m)?)?;
+    m.add_function(wrap_pyfunction!(eval::append_record, m)?)?;
     m.add_function(wrap_pyfunction!(correspond::match_queries, m)?)?;
     m.add_function(wrap_pyfunction!(correspond::rematch, m)?)?;
     m.add_function(wrap_pyfunction!(correspond::ccd, m)?)?;

@@ -133,12 +133,23 @@ pub enum RecordError {
         line: usize,
         source: serde_json::Error,
     },
+    /// A record that does not belong in the file: another method's or task's
+    /// in a `<method>/<task>.jsonl` file, or a trial recorded twice.
+    #[error("{path}, line {line}: {message}; a records file holds each trial of one run once")]
+    Foreign {
+        path: String,
+        line: usize,
+        message: String,
+    },
 }
 
 /// Reads a JSONL file of trial records. A missing file is no records. A malformed *last*
 /// line (a write cut short when the evaluation was killed) is dropped, so a
 /// resumed run re-does that trial; a malformed line elsewhere is an error naming
-/// the file and line.
+/// the file and line. So is a trial recorded twice (same method, task and
+/// seed), and, in a file named as `seespot eval` names them
+/// (`<method>/<task>.jsonl`), a record of another method or task: counted,
+/// either would change a result without a word.
 pub fn read_records(path: &Path) -> Result<Vec<TrialRecord>, RecordError> {
     let io = |source| RecordError::Io {
         path: path.display().to_string(),
@@ -151,13 +162,42 @@ pub fn read_records(path: &Path) -> Result<Vec<TrialRecord>, RecordError> {
     };
     let lines: Vec<&str> = text.lines().collect();
     let last = lines.iter().rposition(|l| !l.trim().is_empty());
-    let mut out = Vec::new();
+    // The method and task the file's name gives, when it is named that way.
+    let named: Option<(String, TaskId)> = (|| {
+        let task = path.file_stem()?.to_str()?.parse().ok()?;
+        let method = path.parent()?.file_name()?.to_str()?.to_owned();
+        Some((method, task))
+    })();
+    let mut first_line = std::collections::HashMap::new();
+    let mut out: Vec<TrialRecord> = Vec::new();
     for (i, line) in lines.iter().enumerate() {
         if line.trim().is_empty() {
             continue;
         }
-        match serde_json::from_str(line) {
-            Ok(r) => out.push(r),
+        let foreign = |message: String| RecordError::Foreign {
+            path: path.display().to_string(),
+            line: i + 1,
+            message,
+        };
+        match serde_json::from_str::<TrialRecord>(line) {
+            Ok(r) => {
+                if let Some((method, task)) = &named
+                    && (r.method != *method || r.task != *task)
+                {
+                    return Err(foreign(format!(
+                        "a record of {} on {} in the file of {method} on {task}",
+                        r.method, r.task
+                    )));
+                }
+                let key = (r.method.clone(), r.task, r.seed);
+                if let Some(first) = first_line.insert(key, i + 1) {
+                    return Err(foreign(format!(
+                        "{} on {} seed {} again (first on line {first})",
+                        r.method, r.task, r.seed
+                    )));
+                }
+                out.push(r);
+            }
             Err(_) if Some(i) == last => break,
             Err(source) => {
                 return Err(RecordError::Parse {
@@ -280,5 +320,42 @@ pub(crate) mod tests {
             .map(|e| e.to_string())
             .unwrap_or_default();
         assert!(msg.contains("trials.jsonl, line 2"), "{msg}");
+    }
+
+    /// Issue 27: `review` counted a trial recorded twice, and a record of
+    /// another task in a task's file.
+    #[test]
+    fn a_trial_twice_or_another_tasks_record_is_refused() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let path = dir.path().join("ssr-ccd").join("stack.jsonl");
+        std::fs::create_dir_all(path.parent().expect("dir")).expect("mkdir");
+        let r: Vec<TrialRecord> = (0..2).map(|k| example(k, true, 6, 4, false)).collect();
+        for x in [&r[0], &r[1], &r[0]] {
+            append_record(&path, x).expect("append");
+        }
+        let msg = read_records(&path).expect_err("twice").to_string();
+        assert!(
+            msg.contains("stack.jsonl, line 3") && msg.contains("seed 1 again (first on line 1)"),
+            "{msg}"
+        );
+        let mut row = r[1].clone();
+        row.task = TaskId::Row;
+        std::fs::remove_file(&path).expect("rm");
+        for x in [&r[0], &row] {
+            append_record(&path, x).expect("append");
+        }
+        let msg = read_records(&path).expect_err("row in stack").to_string();
+        assert!(
+            msg.contains("line 2")
+                && msg.contains("ssr-ccd on row in the file of ssr-ccd on stack"),
+            "{msg}"
+        );
+        let mut other = r[1].clone();
+        other.method = "ssr-l2cd".into();
+        std::fs::remove_file(&path).expect("rm");
+        for x in [&r[0], &other] {
+            append_record(&path, x).expect("append");
+        }
+        assert!(read_records(&path).is_err(), "another method's record");
     }
 }
