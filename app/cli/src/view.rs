@@ -169,15 +169,24 @@ pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
         opts,
         factory,
         |urls| {
-            println!("seespot page:       {}", urls.page);
-            println!("review of {}: {}", args.review.display(), urls.review);
+            let mut text = format!(
+                "seespot page:       {}\nreview of {}: {}\n",
+                urls.page,
+                args.review.display(),
+                urls.review
+            );
             if let Some(v) = &urls.viewer {
-                println!("rerun web viewer:   {v}");
+                text += &format!("rerun web viewer:   {v}\n");
             }
             if let Some(s) = &args.save {
-                println!("recording to:       {}", s.display());
+                text += &format!("recording to:       {}\n", s.display());
             }
-            println!("Press Ctrl-C to stop.");
+            text += "Press Ctrl-C to stop.\n";
+            // The addresses are a courtesy: with standard output full or
+            // gone (`> /dev/full`) the server goes on serving.
+            use std::io::Write as _;
+            let mut out = std::io::stdout().lock();
+            let _ = out.write_all(text.as_bytes()).and_then(|()| out.flush());
         },
         live::ctrl_c(),
     ))?;

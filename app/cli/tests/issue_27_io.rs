@@ -121,3 +121,38 @@ fn issue_27_endless_files_are_refused_with_the_bound() {
         assert!(err.contains("larger than"), "{args:?}: {err}");
     }
 }
+
+/// `seespot view > /dev/full`: printing its addresses panicked; the server
+/// now goes on serving (then ends on SIGTERM as usual).
+#[test]
+fn issue_27_view_serves_with_standard_output_full() {
+    let Ok(full) = std::fs::OpenOptions::new().write(true).open("/dev/full") else {
+        return;
+    };
+    let mut child = seespot()
+        .args(["view", "--port", "0", "--no-viewer"])
+        .stdout(full)
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn view");
+    // Long enough to load the policies, bind and print (about a second here).
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(8);
+    while std::time::Instant::now() < deadline {
+        if let Some(status) = child.try_wait().expect("try_wait") {
+            let mut err = String::new();
+            std::io::Read::read_to_string(&mut child.stderr.take().expect("stderr"), &mut err)
+                .expect("stderr");
+            panic!("view ended by itself ({status:?}): {err}");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(200));
+    }
+    let term = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .expect("kill -TERM");
+    assert!(term.success());
+    let out = child.wait_with_output().expect("wait");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(out.status.success(), "{:?}: {err}", out.status);
+}
