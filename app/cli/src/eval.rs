@@ -252,21 +252,21 @@ fn record_failed(
     records: &[seespot_sim::TrialRecord],
     bar: &indicatif::ProgressBar,
 ) -> anyhow::Result<()> {
-    use seespot_viz::live::{self, DeciderKind, RecordOptions};
-    let kind = match config.method {
-        EvalMethod::Oracle => DeciderKind::Oracle,
-        m if config.finetune_steps > 0 || !config.world.noise.is_none() => anyhow::bail!(
+    use seespot_viz::live::{self, RecordOptions};
+    use seespot_viz::registry::{DeciderKind, factory_with};
+    if config.method != EvalMethod::Oracle
+        && (config.finetune_steps > 0 || !config.world.noise.is_none())
+    {
+        anyhow::bail!(
             "--record failed records trials that are not finetuned and noiseless, not {name} ({})",
-            m.as_str()
-        ),
-        EvalMethod::Transporter => DeciderKind::Transporter,
-        m if m.is_ssr() => DeciderKind::Ssr,
-        _ => anyhow::bail!(
-            "--record failed records SSR, TransporterNet and oracle trials, not {name}"
-        ),
-    };
+            config.method.as_str()
+        );
+    }
+    let kind = DeciderKind::of_method(config.method).with_context(|| {
+        format!("--record failed records SSR, TransporterNet and oracle trials, not {name}")
+    })?;
     let ssr = config.ssr_config();
-    let factory = live::factory_with(
+    let factory = factory_with(
         kind,
         config.models_dir.clone(),
         config.demos_dir.clone(),

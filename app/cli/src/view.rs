@@ -5,7 +5,8 @@ use std::net::IpAddr;
 use std::path::PathBuf;
 
 use seespot_sim::TaskId;
-use seespot_viz::live::{self, DeciderKind, ViewOptions};
+use seespot_viz::live::{self, ViewOptions};
+use seespot_viz::registry::{self, DeciderFactory, DeciderKind};
 
 /// Where the decider comes from.
 #[derive(clap::Args, Debug, Clone)]
@@ -25,8 +26,8 @@ pub struct DeciderArgs {
 }
 
 impl DeciderArgs {
-    fn factory(&self) -> anyhow::Result<seespot_viz::session::DeciderFactory> {
-        Ok(live::factory(
+    fn factory(&self) -> anyhow::Result<DeciderFactory> {
+        Ok(registry::factory(
             self.decider,
             self.models.clone(),
             self.demos.clone(),
@@ -98,7 +99,7 @@ pub struct ViewArgs {
 fn replay(
     args: &ViewArgs,
     path: &std::path::Path,
-) -> anyhow::Result<(TaskId, usize, seespot_viz::session::DeciderFactory, String)> {
+) -> anyhow::Result<(TaskId, usize, DeciderFactory, String)> {
     let r =
         seespot_viz::review::replay(path, args.seed, &args.decider.models, &args.decider.demos)?;
     outln!("{}: the files it was made with match today's", r.summary)?;

@@ -2,7 +2,7 @@
 //! command takes has a [`Bound`] here, and every command (and, later, the
 //! Python bindings) parses it through that bound, so the allowed ranges are
 //! written once. The heightmap resolution, which scene files and model files
-//! carry too, is checked by [`check_resolution`] (re-exported from
+//! carry too, is checked by [`check_resolution`] (re-exported by
 //! [`crate::scene`]); seed ranges by [`crate::Seeds::new`].
 //!
 //! Errors state the value and the allowed range; clap puts the flag's name in
@@ -15,8 +15,6 @@
 //! assert!(TRIALS.check(0).is_err());
 //! assert!(bounds::parse_trials("18446744073709551615").is_err());
 //! ```
-
-pub use crate::scene::{RESOLUTION_RANGE, check_resolution, parse_resolution};
 
 /// An inclusive range of whole numbers, and what they count (for messages).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -147,6 +145,29 @@ pub fn parse_sigma(text: &str) -> Result<f32, String> {
             "{text} is out of range (0..={MAX_SMOOTH_SIGMA} pixels)"
         ))
     }
+}
+
+/// Smallest and largest heightmap resolution a scene, a model or a command may ask for, pixels.
+pub const RESOLUTION_RANGE: std::ops::RangeInclusive<usize> = 32..=448;
+
+/// The one check of a heightmap resolution (scene files, every command's
+/// `--resolution`): a multiple of 8 in [`RESOLUTION_RANGE`].
+pub fn check_resolution(resolution: usize) -> Result<usize, String> {
+    if RESOLUTION_RANGE.contains(&resolution) && resolution.is_multiple_of(8) {
+        Ok(resolution)
+    } else {
+        Err(format!(
+            "{resolution} is out of range (a multiple of 8 in 32..=448 pixels)"
+        ))
+    }
+}
+
+/// [`check_resolution`] of a command-line value.
+pub fn parse_resolution(text: &str) -> Result<usize, String> {
+    let r: usize = text.parse().map_err(|_| {
+        format!("`{text}` is not a whole number of pixels (a multiple of 8 in 32..=448)")
+    })?;
+    check_resolution(r)
 }
 
 #[cfg(test)]

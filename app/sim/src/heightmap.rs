@@ -3,8 +3,8 @@
 
 use rapier3d::prelude::Vector;
 
+use crate::pose::BlockPose;
 use crate::workspace::Grid;
-use crate::world::BlockPose;
 use crate::{BLOCK_COLORS, BLOCK_SIZE};
 
 /// A pair of top-down heightmaps over the workspace.

@@ -34,6 +34,7 @@ pub mod lock;
 pub mod metrics;
 pub mod noise;
 pub mod oracle;
+pub mod pose;
 pub mod progress;
 pub mod record;
 pub mod scene;

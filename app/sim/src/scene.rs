@@ -26,34 +26,14 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::noise::SensorNoise;
+use crate::pose::BlockPose;
 use crate::seeds::Seeds;
 use crate::task::TaskId;
 use crate::workspace::{Grid, WORKSPACE_SIZE};
-use crate::world::{BlockPose, WorldConfig};
+use crate::world::WorldConfig;
 use crate::{BLOCK_SIZE, NUM_BLOCKS};
 
-/// Smallest and largest heightmap resolution a scene may ask for, pixels.
-pub const RESOLUTION_RANGE: std::ops::RangeInclusive<usize> = 32..=448;
-
-/// The one check of a heightmap resolution (scene files, every command's
-/// `--resolution`): a multiple of 8 in [`RESOLUTION_RANGE`].
-pub fn check_resolution(resolution: usize) -> Result<usize, String> {
-    if RESOLUTION_RANGE.contains(&resolution) && resolution.is_multiple_of(8) {
-        Ok(resolution)
-    } else {
-        Err(format!(
-            "{resolution} is out of range (a multiple of 8 in 32..=448 pixels)"
-        ))
-    }
-}
-
-/// [`check_resolution`] of a command-line value.
-pub fn parse_resolution(text: &str) -> Result<usize, String> {
-    let r: usize = text.parse().map_err(|_| {
-        format!("`{text}` is not a whole number of pixels (a multiple of 8 in 32..=448)")
-    })?;
-    check_resolution(r)
-}
+pub use crate::bounds::{RESOLUTION_RANGE, check_resolution, parse_resolution};
 
 /// A validated scene.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -373,14 +353,14 @@ fn parse_blocks(items: &[toml::Value], path: &Path) -> Result<[BlockPose; NUM_BL
                     * rapier3d::math::Rotation::from_rotation_x(tilt)
             }
         };
-        let rotation = [q.x, q.y, q.z, q.w];
+        let mut pose = BlockPose {
+            position: [x, y, 0.0],
+            rotation: [q.x, q.y, q.z, q.w],
+        };
         // Without a height the block rests on the table: its lowest corner
         // (or edge, or face) touches it, whatever its tilt.
-        let z = pos.get(2).map_or(resting_height(rotation), |z| *z as f32);
-        poses[i] = BlockPose {
-            position: [x, y, z],
-            rotation,
-        };
+        pose.position[2] = pos.get(2).map_or(pose.half_height(), |z| *z as f32);
+        poses[i] = pose;
     }
     check_layout(&poses).map_err(|(i, message)| field(format!("blocks[{i}].position"), message))?;
     Ok(poses)
@@ -408,7 +388,7 @@ pub fn check_layout(poses: &[BlockPose; NUM_BLOCKS]) -> Result<(), (usize, Strin
                 ),
             ));
         }
-        let rest = resting_height(p.rotation);
+        let rest = p.half_height();
         if !(rest - 1e-4..=0.3).contains(&z) {
             return Err((
                 i,
@@ -427,21 +407,6 @@ pub fn check_layout(poses: &[BlockPose; NUM_BLOCKS]) -> Result<(), (usize, Strin
         }
     }
     Ok(())
-}
-
-/// The height of a block's centre when it rests on the table turned by
-/// `rotation` (`[x, y, z, w]`): half the block's extent along the vertical,
-/// `BLOCK_SIZE / 2` upright, `BLOCK_SIZE / sqrt 2` on an edge.
-pub fn resting_height(rotation: [f32; 4]) -> f32 {
-    let [x, y, z, w] = rotation;
-    // The bottom row of the rotation matrix: how far each of the block's own
-    // axes reaches up or down.
-    let row = [
-        2.0 * (x * z - w * y),
-        2.0 * (y * z + w * x),
-        1.0 - 2.0 * (x * x + y * y),
-    ];
-    BLOCK_SIZE / 2.0 * row.iter().map(|c| c.abs()).sum::<f32>()
 }
 
 /// Whether two blocks' volumes overlap, judged on their footprints as squares

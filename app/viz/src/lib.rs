@@ -3,6 +3,7 @@
 //! - [`paths`]: the one scheme of rerun entity paths and timelines;
 //! - [`recording`]: logging trials to rerun (`.rrd` files or a live gRPC stream);
 //! - [`decider`]: what picks actions in a viewed trial and explains them (SSR, a feature baseline, the oracle);
+//! - [`registry`]: which deciders there are, the factory that loads one, and a trial to replay;
 //! - [`session`]: a trial stepped phase by phase (embed, match, verify, act);
 //! - [`protocol`]: the WebSocket message types shared by the server and the page;
 //! - [`server`]: the local web server behind `web/` (assets, JSON API, WebSocket);
@@ -17,6 +18,7 @@ pub mod paths;
 pub mod phase;
 pub mod protocol;
 pub mod recording;
+pub mod registry;
 pub mod review;
 pub mod server;
 pub mod session;
@@ -25,9 +27,8 @@ pub mod token;
 pub mod transporter;
 
 pub use decider::{Decider, FeatureDecider};
-pub use live::{
-    DeciderKind, RecordOptions, ViewOptions, ViewUrls, bench_view, record_trials, serve_view,
-};
+pub use live::{RecordOptions, ViewOptions, ViewUrls, bench_view, record_trials, serve_view};
 pub use phase::Phase;
 pub use recording::Recorder;
+pub use registry::DeciderKind;
 pub use session::{Session, SessionConfig};

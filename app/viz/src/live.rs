@@ -9,99 +9,15 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use anyhow::Context;
-use seespot_sim::{Grid, Oracle, Seeds, TaskId, WorldConfig};
+use seespot_sim::{Grid, Seeds, TaskId, WorldConfig};
 use serde::Serialize;
 use serde_json::json;
 
-use crate::decider::{Decider, FeatureDecider, load_demos};
 use crate::recording::Recorder;
+use crate::registry::DeciderFactory;
 use crate::server::{self, AppState};
-use crate::session::{DeciderFactory, Phase, Session, SessionConfig};
+use crate::session::{Phase, Session, SessionConfig};
 use crate::token::AccessToken;
-
-/// Which decider drives the trial.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum DeciderKind {
-    /// See-SPOT-Run with the shipped policies (`<models>/<task>.safetensors`)
-    /// and demonstrations; an error naming the file if one is missing.
-    Ssr,
-    /// SSR's loop over handcrafted features: no trained weights needed (the
-    /// debugger's tests use it).
-    Features,
-    /// The scripted oracle (no explanation).
-    Oracle,
-    /// The TransporterNet baseline (`<models>/transporter/<task>.safetensors`),
-    /// its pick and place scores shown as the match map.
-    Transporter,
-}
-
-impl DeciderKind {
-    pub const ALL: [Self; 4] = [Self::Ssr, Self::Features, Self::Oracle, Self::Transporter];
-
-    /// The kebab-case name used on the command line.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Ssr => "ssr",
-            Self::Features => "features",
-            Self::Oracle => "oracle",
-            Self::Transporter => "transporter",
-        }
-    }
-}
-
-impl std::str::FromStr for DeciderKind {
-    type Err = String;
-
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Self::ALL
-            .into_iter()
-            .find(|k| k.as_str() == s)
-            .ok_or_else(|| {
-                format!("unknown decider '{s}' (expected ssr, features, oracle or transporter)")
-            })
-    }
-}
-
-/// The decider factory for `kind`, reading models from `models_dir` and
-/// demos from `demos_dir`.
-pub fn factory(kind: DeciderKind, models_dir: PathBuf, demos_dir: PathBuf) -> DeciderFactory {
-    factory_with(
-        kind,
-        models_dir,
-        demos_dir,
-        seespot_ssr::SsrConfig::default(),
-    )
-}
-
-/// [`factory`] whose SSR decider runs with `ssr` (method, correspondence, loop
-/// breaking).
-pub fn factory_with(
-    kind: DeciderKind,
-    models_dir: PathBuf,
-    demos_dir: PathBuf,
-    ssr: seespot_ssr::SsrConfig,
-) -> DeciderFactory {
-    Box::new(
-        move |task: TaskId, world: WorldConfig| -> anyhow::Result<(Box<dyn Decider>, String)> {
-            match kind {
-                DeciderKind::Oracle => {
-                    Ok((Box::new(Oracle::new(task)), "scripted oracle".to_owned()))
-                }
-                DeciderKind::Ssr => {
-                    crate::ssr::load_with(task, &models_dir, &demos_dir, world, ssr)
-                }
-                DeciderKind::Transporter => {
-                    crate::transporter::load(task, &models_dir, &demos_dir, world)
-                }
-                DeciderKind::Features => {
-                    let (demos, note) = load_demos(task, &demos_dir, world)?;
-                    Ok((Box::new(FeatureDecider::new(task, demos)), note))
-                }
-            }
-        },
-    )
-}
 
 /// Options of `seespot view`.
 #[derive(Clone, Debug)]

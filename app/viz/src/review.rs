@@ -12,32 +12,14 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use seespot_sim::{Grid, TaskId, WorldConfig};
-use seespot_ssr::eval::{EvalMethod, records_files, replay_config};
+use seespot_sim::TaskId;
+use seespot_ssr::eval::{records_files, replay_config};
 use seespot_ssr::review::{FailureKind, counts, review_dir};
 use serde_json::{Value, json};
 
-use crate::live::{DeciderKind, factory_with};
 use crate::recording::Recorder;
-use crate::session::{DeciderFactory, Session, SessionConfig};
-
-/// A trial of an evaluation, ready to be run again.
-pub struct Replay {
-    pub task: TaskId,
-    pub seed: u64,
-    pub resolution: usize,
-    pub factory: DeciderFactory,
-    /// What is replayed and how it ended, in one line.
-    pub summary: String,
-}
-
-impl std::fmt::Debug for Replay {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Replay")
-            .field("summary", &self.summary)
-            .finish_non_exhaustive()
-    }
-}
+use crate::registry::{DeciderKind, Replay, factory_with, world};
+use crate::session::{Session, SessionConfig};
 
 /// The replay of trial `seed` of the records file `path`, deciding with the
 /// models in `models` and demonstrations in `demos`; refused when they (or
@@ -58,16 +40,13 @@ pub fn replay(path: &Path, seed: u64, models: &Path, demos: &Path) -> anyhow::Re
     })?;
     let config = replay_config(record, models, demos)
         .with_context(|| format!("cannot replay {} seed {seed}", path.display()))?;
-    let kind = match config.method {
-        EvalMethod::Oracle => DeciderKind::Oracle,
-        EvalMethod::Transporter => DeciderKind::Transporter,
-        m if m.is_ssr() => DeciderKind::Ssr,
-        m => anyhow::bail!(
+    let kind = DeciderKind::of_method(config.method).with_context(|| {
+        format!(
             "{}: the debugger replays SSR, TransporterNet and oracle trials, not {}",
             path.display(),
-            m.as_str()
-        ),
-    };
+            config.method.as_str()
+        )
+    })?;
     let factory = factory_with(
         kind,
         models.to_owned(),
@@ -201,14 +180,6 @@ impl ReviewSource {
         storage
             .drain_as_bytes()
             .context("cannot encode the recording")
-    }
-}
-
-/// The world of a replay at `resolution`.
-pub fn world(resolution: usize) -> WorldConfig {
-    WorldConfig {
-        grid: Grid::new(resolution),
-        ..WorldConfig::default()
     }
 }
 

@@ -18,13 +18,9 @@ use serde_json::{Value, json};
 use crate::b64;
 use crate::decider::Decider;
 use crate::recording::Recorder;
+use crate::registry::{DeciderFactory, Replay};
 
 pub use crate::phase::Phase;
-
-/// Makes the decider for a task at a resolution; returns it and a note on
-/// what was loaded (shown on the page).
-pub type DeciderFactory =
-    Box<dyn Fn(TaskId, WorldConfig) -> anyhow::Result<(Box<dyn Decider>, String)> + Send>;
 
 /// How a session starts.
 #[derive(Clone, Debug)]
@@ -213,8 +209,8 @@ impl Session {
     /// Replays a trial of an evaluation (see [`crate::review`]): its decider
     /// and resolution replace this session's, and its trial starts from the
     /// beginning. Later resets keep that decider.
-    pub fn load_replay(&mut self, r: crate::review::Replay) -> anyhow::Result<()> {
-        let world = crate::review::world(r.resolution);
+    pub fn load_replay(&mut self, r: Replay) -> anyhow::Result<()> {
+        let world = crate::registry::world(r.resolution);
         let (decider, note) = (r.factory)(r.task, world)?;
         self.factory = r.factory;
         self.decider = decider;

@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use seespot_sim::{Scene, TaskId, WorldConfig};
-use seespot_viz::live::{self, DeciderKind};
+use seespot_viz::registry::{self, DeciderKind};
 use seespot_viz::session::{Session, SessionConfig};
 
 const SCENE: &str = r#"
@@ -28,7 +28,7 @@ yaw = 60
 #[test]
 fn a_session_starts_from_a_scene_layout_and_saves_it_back() {
     let scene = Scene::parse(SCENE, Path::new("layout.toml")).expect("scene");
-    let factory = live::factory(DeciderKind::Oracle, "models".into(), "demos".into());
+    let factory = registry::factory(DeciderKind::Oracle, "models".into(), "demos".into());
     let config = SessionConfig {
         task: scene.task,
         seed: scene.seeds.start(),
@@ -71,7 +71,7 @@ fn a_session_starts_from_a_scene_layout_and_saves_it_back() {
 
 #[test]
 fn a_what_if_edit_restarts_from_the_moved_blocks_and_decides_again() {
-    let factory = live::factory(DeciderKind::Features, "models".into(), "demos".into());
+    let factory = registry::factory(DeciderKind::Features, "models".into(), "demos".into());
     let config = SessionConfig {
         task: TaskId::Stack,
         seed: 1,

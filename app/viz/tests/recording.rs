@@ -4,12 +4,13 @@
 use std::sync::atomic::AtomicBool;
 
 use seespot_sim::TaskId;
-use seespot_viz::live::{self, DeciderKind};
+use seespot_viz::live;
+use seespot_viz::registry::{self, DeciderKind};
 
 #[test]
 fn one_rrd_per_trial_and_stop_ends_cleanly() {
     let out = std::env::temp_dir().join(format!("seespot-viz-rec-{}", std::process::id()));
-    let factory = live::factory(
+    let factory = registry::factory(
         DeciderKind::Features,
         "/nonexistent".into(),
         "/nonexistent".into(),

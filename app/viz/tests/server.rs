@@ -6,7 +6,8 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use seespot_sim::{Grid, TaskId, WorldConfig};
-use seespot_viz::live::{self, DeciderKind};
+use seespot_viz::live;
+use seespot_viz::registry::{self, DeciderKind};
 use seespot_viz::server::{self, AppState};
 use seespot_viz::session::{Session, SessionConfig};
 use seespot_viz::token::AccessToken;
@@ -35,7 +36,7 @@ async fn bind_session(addr: &str) -> (tokio::net::TcpListener, Arc<AppState>) {
             ..WorldConfig::default()
         },
     };
-    let factory = live::factory(
+    let factory = registry::factory(
         DeciderKind::Features,
         "/nonexistent/models".into(),
         "/nonexistent/demos".into(),
@@ -364,7 +365,7 @@ async fn issue_10_non_loopback_bind_is_refused_without_allow_remote() {
         review: None,
         replay: None,
     };
-    let factory = live::factory(
+    let factory = registry::factory(
         DeciderKind::Features,
         "/nonexistent/models".into(),
         "/nonexistent/demos".into(),

@@ -3,7 +3,7 @@
 
 use seespot_policy::PolicyNet;
 use seespot_sim::{Grid, TaskId, WorldConfig};
-use seespot_viz::live::{self, DeciderKind};
+use seespot_viz::registry::{self, DeciderKind};
 use seespot_viz::session::{Phase, Session, SessionConfig};
 
 #[test]
@@ -22,7 +22,7 @@ fn ssr_decider_explains_and_answers_queries() {
             .save(&models.join(format!("{}.safetensors", t.as_str())))
             .expect("save");
     }
-    let factory = live::factory(DeciderKind::Ssr, models.clone(), demos);
+    let factory = registry::factory(DeciderKind::Ssr, models.clone(), demos);
     let config = SessionConfig {
         task: TaskId::Stack,
         seed: 1,

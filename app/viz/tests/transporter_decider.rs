@@ -4,7 +4,7 @@
 
 use seespot_sim::{Grid, Primitive, TaskId, WorldConfig};
 use seespot_ssr::Method;
-use seespot_viz::live::{self, DeciderKind};
+use seespot_viz::registry::{self, DeciderKind};
 use seespot_viz::session::{Phase, Session, SessionConfig};
 
 #[test]
@@ -16,7 +16,7 @@ fn transporter_decider_shows_its_score_maps() {
         return;
     }
     let models = root.join("models");
-    let factory = live::factory(DeciderKind::Transporter, models, demos);
+    let factory = registry::factory(DeciderKind::Transporter, models, demos);
     let config = SessionConfig {
         task: TaskId::Stack,
         seed: 1,

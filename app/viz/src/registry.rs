@@ -1,0 +1,140 @@
+//! The decider registry: which deciders the debugger can run
+//! ([`DeciderKind`]), the factory that loads one for a task and resolution,
+//! and a trial of an evaluation ready to be run again ([`Replay`]). It sits
+//! below the session, the review and the server, which all take deciders
+//! from it.
+
+use std::path::PathBuf;
+
+use seespot_sim::{Grid, Oracle, TaskId, WorldConfig};
+use seespot_ssr::eval::EvalMethod;
+use serde::Serialize;
+
+use crate::decider::{Decider, FeatureDecider, load_demos};
+
+/// Makes the decider for a task at a resolution; returns it and a note on
+/// what was loaded (shown on the page).
+pub type DeciderFactory =
+    Box<dyn Fn(TaskId, WorldConfig) -> anyhow::Result<(Box<dyn Decider>, String)> + Send>;
+
+/// Which decider drives the trial.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DeciderKind {
+    /// See-SPOT-Run with the shipped policies (`<models>/<task>.safetensors`)
+    /// and demonstrations; an error naming the file if one is missing.
+    Ssr,
+    /// SSR's loop over handcrafted features: no trained weights needed (the
+    /// debugger's tests use it).
+    Features,
+    /// The scripted oracle (no explanation).
+    Oracle,
+    /// The TransporterNet baseline (`<models>/transporter/<task>.safetensors`),
+    /// its pick and place scores shown as the match map.
+    Transporter,
+}
+
+impl DeciderKind {
+    pub const ALL: [Self; 4] = [Self::Ssr, Self::Features, Self::Oracle, Self::Transporter];
+
+    /// The decider that runs an evaluation method's trials in the debugger
+    /// (replays, `eval --record failed`); `None` for the methods it cannot
+    /// run (SPOT-Q, random).
+    pub fn of_method(method: EvalMethod) -> Option<Self> {
+        match method {
+            EvalMethod::Oracle => Some(Self::Oracle),
+            EvalMethod::Transporter => Some(Self::Transporter),
+            m if m.is_ssr() => Some(Self::Ssr),
+            _ => None,
+        }
+    }
+
+    /// The kebab-case name used on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Ssr => "ssr",
+            Self::Features => "features",
+            Self::Oracle => "oracle",
+            Self::Transporter => "transporter",
+        }
+    }
+}
+
+impl std::str::FromStr for DeciderKind {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Self::ALL
+            .into_iter()
+            .find(|k| k.as_str() == s)
+            .ok_or_else(|| {
+                format!("unknown decider '{s}' (expected ssr, features, oracle or transporter)")
+            })
+    }
+}
+
+/// The decider factory for `kind`, reading models from `models_dir` and
+/// demos from `demos_dir`.
+pub fn factory(kind: DeciderKind, models_dir: PathBuf, demos_dir: PathBuf) -> DeciderFactory {
+    factory_with(
+        kind,
+        models_dir,
+        demos_dir,
+        seespot_ssr::SsrConfig::default(),
+    )
+}
+
+/// [`factory`] whose SSR decider runs with `ssr` (method, correspondence, loop
+/// breaking).
+pub fn factory_with(
+    kind: DeciderKind,
+    models_dir: PathBuf,
+    demos_dir: PathBuf,
+    ssr: seespot_ssr::SsrConfig,
+) -> DeciderFactory {
+    Box::new(
+        move |task: TaskId, world: WorldConfig| -> anyhow::Result<(Box<dyn Decider>, String)> {
+            match kind {
+                DeciderKind::Oracle => {
+                    Ok((Box::new(Oracle::new(task)), "scripted oracle".to_owned()))
+                }
+                DeciderKind::Ssr => {
+                    crate::ssr::load_with(task, &models_dir, &demos_dir, world, ssr)
+                }
+                DeciderKind::Transporter => {
+                    crate::transporter::load(task, &models_dir, &demos_dir, world)
+                }
+                DeciderKind::Features => {
+                    let (demos, note) = load_demos(task, &demos_dir, world)?;
+                    Ok((Box::new(FeatureDecider::new(task, demos)), note))
+                }
+            }
+        },
+    )
+}
+
+/// A trial of an evaluation, ready to be run again.
+pub struct Replay {
+    pub task: TaskId,
+    pub seed: u64,
+    pub resolution: usize,
+    pub factory: DeciderFactory,
+    /// What is replayed and how it ended, in one line.
+    pub summary: String,
+}
+
+impl std::fmt::Debug for Replay {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Replay")
+            .field("summary", &self.summary)
+            .finish_non_exhaustive()
+    }
+}
+
+/// The world of a replay at `resolution`.
+pub fn world(resolution: usize) -> WorldConfig {
+    WorldConfig {
+        grid: Grid::new(resolution),
+        ..WorldConfig::default()
+    }
+}
