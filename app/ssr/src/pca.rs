@@ -60,7 +60,7 @@ pub fn pca_rgb(planes: &[&[f32]], dim: usize) -> Vec<Vec<u8>> {
             cov[i * dim + j] = cov[j * dim + i];
         }
     }
-    let components = top_eigenvectors(&mut cov, dim, 3);
+    let components = top_eigenvectors(&cov, dim, 3);
     // Projections in f32 (a picture needs no more): `f . c_k - mean . c_k`.
     let axes: Vec<Vec<f32>> = components
         .iter()
@@ -179,50 +179,30 @@ seespot_policy::simd::kernel! {
     }
 }
 
-seespot_policy::simd::kernel! {
-    /// `m v` for a symmetric `dim x dim` matrix `m`: each entry summed over `j`
-    /// in order, as `sum_j m[i][j] v[j]`, but read by rows (`m[j][i]`), so the
-    /// entries are computed side by side in vector lanes.
-    fn symmetric_times_wide / symmetric_times(m: &[f64], v: &[f64], dim: usize) -> Vec<f64> {
-        let mut w = vec![0.0f64; dim];
-        for (row, &vj) in m.chunks_exact(dim).zip(v) {
-            for (a, mji) in w.iter_mut().zip(row) {
-                *a += mji * vj;
-            }
-        }
-        w
-    }
-}
-
-/// The `k` leading eigenvectors of the symmetric `dim x dim` matrix `m`, by
-/// power iteration with deflation (`m` is deflated in place).
-fn top_eigenvectors(m: &mut [f64], dim: usize, k: usize) -> Vec<Vec<f64>> {
-    let mut out = Vec::with_capacity(k);
-    for c in 0..k {
-        // A deterministic start that is not orthogonal to a typical eigenvector.
-        let mut v: Vec<f64> = (0..dim).map(|i| 1.0 + ((i + c) % 7) as f64 * 0.1).collect();
-        let mut lambda = 0.0;
-        for _ in 0..200 {
-            let w = symmetric_times_wide(m, &v, dim);
-            let norm = w.iter().map(|x| x * x).sum::<f64>().sqrt();
-            if norm < 1e-30 {
-                break;
-            }
-            lambda = norm;
-            v = w.into_iter().map(|x| x / norm).collect();
-        }
-        // Deflate, keeping `m` exactly symmetric (`symmetric_times` reads it
-        // by rows).
-        for i in 0..dim {
-            for j in i..dim {
-                let t = m[i * dim + j] - lambda * v[i] * v[j];
-                m[i * dim + j] = t;
-                m[j * dim + i] = t;
-            }
-        }
-        out.push(v);
-    }
-    out
+/// The `k` eigenvectors of the symmetric `dim x dim` matrix `m` (row-major)
+/// with the largest eigenvalues, largest first (nalgebra's symmetric
+/// eigendecomposition). Each is turned so that its largest-magnitude entry is
+/// positive, so the same matrix always gives the same colours. With fewer
+/// than `k` dimensions the missing components are zero.
+fn top_eigenvectors(m: &[f64], dim: usize, k: usize) -> Vec<Vec<f64>> {
+    let eig = nalgebra::DMatrix::from_row_slice(dim, dim, m).symmetric_eigen();
+    let mut order: Vec<usize> = (0..dim).collect();
+    order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
+    order
+        .into_iter()
+        .take(k)
+        .map(|i| {
+            let v: Vec<f64> = eig.eigenvectors.column(i).iter().copied().collect();
+            let largest = v
+                .iter()
+                .copied()
+                .fold(0.0f64, |a, x| if x.abs() > a.abs() { x } else { a });
+            let sign = if largest < 0.0 { -1.0 } else { 1.0 };
+            v.into_iter().map(|x| sign * x).collect()
+        })
+        .chain(std::iter::repeat(vec![0.0; dim]))
+        .take(k)
+        .collect()
 }
 
 #[cfg(test)]
