@@ -95,6 +95,19 @@ pub fn demo_dirs(demos_dir: &Path, task: TaskId) -> Vec<PathBuf> {
         .collect()
 }
 
+/// What click-to-query asks about: pixel `(y, x)` of demonstration `demo`'s
+/// step `step`, embedded by the policy of index `policy` (in
+/// [`SsrPolicy::policy_tasks`] order). Named fields, so a call cannot swap
+/// two of them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DemoQuery {
+    pub policy: usize,
+    pub demo: usize,
+    pub step: usize,
+    pub y: usize,
+    pub x: usize,
+}
+
 /// See-SPOT-Run for one test task.
 #[derive(Debug)]
 pub struct SsrPolicy {
@@ -509,18 +522,18 @@ impl SsrPolicy {
         excluded
     }
 
-    /// Click-to-query: the ASE of demo pixel `(y, x)` (at the demo step's action
-    /// rotation) under policy `policy`, compared with every live action of the
-    /// last decision's primitive. Returns the `H x W` map of distances, the
-    /// minimum over rotations (infinite where masked).
-    pub fn query(
-        &mut self,
-        policy: usize,
-        demo: usize,
-        step: usize,
-        y: usize,
-        x: usize,
-    ) -> Result<Vec<f32>, SsrError> {
+    /// Click-to-query: the ASE of the demo pixel `q` names (at the demo step's
+    /// action rotation) under its policy, compared with every live action of
+    /// the last decision's primitive. Returns the `H x W` map of distances,
+    /// the minimum over rotations (infinite where masked).
+    pub fn query(&mut self, q: DemoQuery) -> Result<Vec<f32>, SsrError> {
+        let DemoQuery {
+            policy,
+            demo,
+            step,
+            y,
+            x,
+        } = q;
         if policy >= self.policies.len()
             || demo >= self.demos.len()
             || step >= self.demos[demo].steps.len()
@@ -542,12 +555,12 @@ impl SsrPolicy {
         }
         let rotation = self.demos[demo].steps[step].meta.action.rotation;
         let demo_map = self.demo_map(policy, demo, step)?;
-        let q = demo_map.feature((rotation * n + y) * n + x);
+        let feature = demo_map.feature((rotation * n + y) * n + x);
         let mut best = vec![f32::INFINITY; n * n];
         for r in 0..live.rotations {
             for (b, v) in best
                 .iter_mut()
-                .zip(correspond::cells::distance_map_cells(&live, &q, r))
+                .zip(correspond::cells::distance_map_cells(&live, &feature, r))
             {
                 *b = b.min(v);
             }

@@ -12,7 +12,7 @@ use anyhow::Context;
 use seespot_sim::actor::{Actor, ActorError, Choice};
 use seespot_sim::{Action, Demo, Heightmaps, Oracle, Primitive, Seeds, TaskId, Trial, WorldConfig};
 use seespot_ssr::correspond::Correspondence;
-use seespot_ssr::policy::{DEMO_SEEDS, choose, chosen_pair, demo_step};
+use seespot_ssr::policy::{DEMO_SEEDS, DemoQuery, choose, chosen_pair, demo_step};
 use seespot_ssr::{Decision, Method, PairExplanation, SsrPolicy};
 
 /// An [`Actor`] the debugger can explain.
@@ -24,17 +24,9 @@ pub trait Decider: Actor + Send {
     /// The explanation record of the last [`Actor::act`], if the decider has one.
     fn decision(&self) -> Option<&Decision>;
     /// Click-to-query: the `H x W` distance map over the live scene `hm` of the
-    /// ASE of demo `demo`'s pixel `(y, x)` at step `demo_step`, under policy
-    /// index `policy`; `None` when the decider has no embedding.
-    fn query(
-        &mut self,
-        hm: &Heightmaps,
-        policy: usize,
-        demo: usize,
-        demo_step: usize,
-        y: usize,
-        x: usize,
-    ) -> anyhow::Result<Option<Vec<f32>>>;
+    /// ASE of the demo pixel `q` names, under its policy; `None` when the
+    /// decider has no embedding.
+    fn query(&mut self, hm: &Heightmaps, q: DemoQuery) -> anyhow::Result<Option<Vec<f32>>>;
 
     /// What policy index `policy` sees: its live embeddings of the last
     /// decision at `live_rotation` and its demo embeddings of demo `demo`'s step
@@ -65,15 +57,7 @@ impl Decider for Oracle {
         None
     }
 
-    fn query(
-        &mut self,
-        _: &Heightmaps,
-        _: usize,
-        _: usize,
-        _: usize,
-        _: usize,
-        _: usize,
-    ) -> anyhow::Result<Option<Vec<f32>>> {
+    fn query(&mut self, _: &Heightmaps, _: DemoQuery) -> anyhow::Result<Option<Vec<f32>>> {
         Ok(None)
     }
 }
@@ -92,16 +76,8 @@ impl Decider for SsrPolicy {
         self.last_decision()
     }
 
-    fn query(
-        &mut self,
-        _hm: &Heightmaps,
-        policy: usize,
-        demo: usize,
-        demo_step: usize,
-        y: usize,
-        x: usize,
-    ) -> anyhow::Result<Option<Vec<f32>>> {
-        Ok(Some(SsrPolicy::query(self, policy, demo, demo_step, y, x)?))
+    fn query(&mut self, _hm: &Heightmaps, q: DemoQuery) -> anyhow::Result<Option<Vec<f32>>> {
+        Ok(Some(SsrPolicy::query(self, q)?))
     }
 
     fn embedding_rgb(
@@ -401,15 +377,14 @@ impl Decider for FeatureDecider {
         self.last.as_ref()
     }
 
-    fn query(
-        &mut self,
-        hm: &Heightmaps,
-        policy: usize,
-        demo: usize,
-        demo_step: usize,
-        y: usize,
-        x: usize,
-    ) -> anyhow::Result<Option<Vec<f32>>> {
+    fn query(&mut self, hm: &Heightmaps, q: DemoQuery) -> anyhow::Result<Option<Vec<f32>>> {
+        let DemoQuery {
+            policy,
+            demo,
+            step: demo_step,
+            y,
+            x,
+        } = q;
         anyhow::ensure!(
             policy < self.policies.len(),
             "policy index {policy} is out of range 0..{}",

@@ -29,7 +29,7 @@ use tokio::sync::{broadcast, mpsc};
 
 use crate::protocol::{ClientMessage, ServerMessage};
 use crate::review::ReviewSource;
-use crate::session::Session;
+use crate::session::{PairQuery, Session};
 use crate::token::AccessToken;
 use seespot_sim::TaskId;
 
@@ -477,8 +477,10 @@ pub async fn handle(s: &Arc<AppState>, text: &str) -> Option<String> {
             .await
         }
         ClientMessage::Query { pair, policy, y, x } => {
-            let r =
-                tokio::task::spawn_blocking(move || st.session().query(pair, policy, y, x)).await;
+            let r = tokio::task::spawn_blocking(move || {
+                st.session().query(PairQuery { pair, policy, y, x })
+            })
+            .await;
             return Some(match r {
                 Ok(Ok(v)) => v.to_string(),
                 Ok(Err(e)) => error(format!("{e:#}"), Some(kind)),

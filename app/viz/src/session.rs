@@ -13,6 +13,7 @@ use anyhow::{Context, bail};
 use seespot_sim::task::MAX_TRIAL_ACTIONS;
 use seespot_sim::{Action, BlockPose, Heightmaps, NUM_BLOCKS, TaskId, Trial, World, WorldConfig};
 use seespot_ssr::Decision;
+use seespot_ssr::policy::DemoQuery;
 use serde_json::{Value, json};
 
 use crate::b64;
@@ -21,6 +22,16 @@ use crate::recording::Recorder;
 use crate::registry::{DeciderFactory, Replay};
 
 pub use crate::phase::Phase;
+
+/// A click on the page's demo picture: pixel `(y, x)` of the demo step of
+/// the decision's pair `pair`, embedded by the policy of index `policy`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PairQuery {
+    pub pair: usize,
+    pub policy: usize,
+    pub y: usize,
+    pub x: usize,
+}
 
 /// How a session starts.
 #[derive(Clone, Debug)]
@@ -434,17 +445,12 @@ impl Session {
         }
     }
 
-    /// Click-to-query: demo pixel `(y, x)` of pair `pair`'s demo step, under
-    /// policy `policy` (index into the decider's policies), over the live scene
-    /// of the current decision (or the current scene); while travelling in
-    /// time, of the decision being looked at.
-    pub fn query(
-        &mut self,
-        pair: usize,
-        policy: usize,
-        y: usize,
-        x: usize,
-    ) -> anyhow::Result<Value> {
+    /// Click-to-query: the demo pixel `q` names in its pair's demo step, under
+    /// its policy, over the live scene of the current decision (or the
+    /// current scene); while travelling in time, of the decision being
+    /// looked at.
+    pub fn query(&mut self, q: PairQuery) -> anyhow::Result<Value> {
+        let PairQuery { pair, policy, y, x } = q;
         let (decision, decided_on) = match self.viewed() {
             Some(snap) => (snap.decision.as_deref(), snap.decided_on.as_deref()),
             None => (self.decision.as_ref(), self.decided_on.as_ref()),
@@ -461,7 +467,16 @@ impl Session {
         };
         let map = self
             .decider
-            .query(&hm, policy, demo, demo_step, y, x)?
+            .query(
+                &hm,
+                DemoQuery {
+                    policy,
+                    demo,
+                    step: demo_step,
+                    y,
+                    x,
+                },
+            )?
             .context("this decider has no embedding to query")?;
         let best = map
             .iter()

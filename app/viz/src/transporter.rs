@@ -16,7 +16,7 @@ use seespot_policy::transporter::{TransporterMaps, from_grid, to_grid};
 use seespot_policy::{TransporterActor, TransporterNet};
 use seespot_sim::actor::{Actor, ActorError, Choice};
 use seespot_sim::{Action, Demo, Heightmaps, Primitive, TaskId, Trial, WorldConfig};
-use seespot_ssr::policy::demo_step;
+use seespot_ssr::policy::{DemoQuery, demo_step};
 use seespot_ssr::{Decision, Method, PairExplanation};
 
 use crate::decider::{Decider, load_demos};
@@ -155,15 +155,7 @@ impl Decider for TransporterDecider {
         self.decision.as_ref()
     }
 
-    fn query(
-        &mut self,
-        _: &Heightmaps,
-        _: usize,
-        _: usize,
-        _: usize,
-        _: usize,
-        _: usize,
-    ) -> anyhow::Result<Option<Vec<f32>>> {
+    fn query(&mut self, _: &Heightmaps, _: DemoQuery) -> anyhow::Result<Option<Vec<f32>>> {
         Ok(None)
     }
 }

@@ -9,7 +9,7 @@ use seespot_sim::{Grid, TaskId, WorldConfig};
 use seespot_viz::live;
 use seespot_viz::registry::{self, DeciderKind};
 use seespot_viz::server::{self, AppState};
-use seespot_viz::session::{Session, SessionConfig};
+use seespot_viz::session::{PairQuery, Session, SessionConfig};
 use seespot_viz::token::AccessToken;
 use serde_json::Value;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
@@ -227,7 +227,15 @@ async fn two_clients_see_the_same_trial_and_a_vanished_client_stops_nothing() {
         .await;
     let q = b.until("query").await;
     assert_eq!(q["policy"], 1);
-    let direct = state.session().query(0, 1, 30, 30).expect("query");
+    let direct = state
+        .session()
+        .query(PairQuery {
+            pair: 0,
+            policy: 1,
+            y: 30,
+            x: 30,
+        })
+        .expect("query");
     assert_eq!(q["map"], direct["map"]);
     // a starts a run to the end and disappears at once.
     a.send("{\"type\": \"run\"}").await;

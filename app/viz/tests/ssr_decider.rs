@@ -4,7 +4,7 @@
 use seespot_policy::PolicyNet;
 use seespot_sim::{Grid, TaskId, WorldConfig};
 use seespot_viz::registry::{self, DeciderKind};
-use seespot_viz::session::{Phase, Session, SessionConfig};
+use seespot_viz::session::{PairQuery, Phase, Session, SessionConfig};
 
 #[test]
 fn ssr_decider_explains_and_answers_queries() {
@@ -51,7 +51,14 @@ fn ssr_decider_explains_and_answers_queries() {
     );
     assert_eq!(s.trial().steps()[0].action, d.action);
     let a = d.pairs[0].demo_action;
-    let q = s.query(0, 2, a.y, a.x).expect("query");
+    let q = s
+        .query(PairQuery {
+            pair: 0,
+            policy: 2,
+            y: a.y,
+            x: a.x,
+        })
+        .expect("query");
     assert_eq!(q["policy_name"], d.pairs[4].policy.as_str());
     std::fs::remove_dir_all(&models).ok();
 }
