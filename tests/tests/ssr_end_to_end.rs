@@ -4,7 +4,7 @@ use seespot_policy::PolicyNet;
 use seespot_sim::{Demo, Primitive, Seeds, TaskId, TrialRecord};
 use seespot_ssr::correspond::Correspondence;
 use seespot_ssr::eval::{EvalConfig, EvalMethod, records_path, run_task, world_config};
-use seespot_ssr::policy::{SsrConfig, SsrPolicy, choose, chosen_pair, demo_dirs};
+use seespot_ssr::policy::{DemoQuery, SsrConfig, SsrPolicy, choose, chosen_pair, demo_dirs};
 use seespot_ssr::{CorrespondOptions, Method};
 
 fn demos_dir() -> std::path::PathBuf {
@@ -202,10 +202,17 @@ fn click_to_query_at_the_demo_action_is_zero_at_the_same_pixel() {
     ssr.decide(&s.heightmaps, s.meta.progress_before, Primitive::Grasp)
         .expect("decide");
     let a = s.meta.action;
-    let map = ssr.query(0, 1, 0, a.y, a.x).expect("query");
+    let q = DemoQuery {
+        policy: 0,
+        demo: 1,
+        step: 0,
+        y: a.y,
+        x: a.x,
+    };
+    let map = ssr.query(q).expect("query");
     assert_eq!(map.len(), 112 * 112);
     assert!(map[a.y * 112 + a.x] < 1e-3);
-    assert!(ssr.query(0, 1, 0, 500, 0).is_err());
+    assert!(ssr.query(DemoQuery { y: 500, x: 0, ..q }).is_err());
 }
 
 #[test]
