@@ -42,6 +42,7 @@ from seespot._core import (
     record_name,
     records_path,
     rematch,
+    run_spec,
     test_seeds,
 )
 from seespot.env import register_envs
@@ -67,6 +68,7 @@ __all__ = [
     "record_name",
     "records_path",
     "rematch",
+    "run_spec",
     "run_trial",
     "test_seeds",
 ]

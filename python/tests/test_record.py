@@ -39,3 +39,28 @@ def test_transporter_record_equals_cli(tmp_path: Path, seespot_bin: Path) -> Non
     assert r["provenance"]["files"]["models/transporter/unstack.safetensors"]
     py = seespot.run_trial("transporter", "unstack", 1, index=0)
     assert without_timing(py) == without_timing(r)
+
+
+def test_every_shipped_record_name_reads_as_a_run() -> None:
+    """Python reads a record name with the Rust RunSpec the report uses: every
+    records folder the project ships names a run, and names round-trip."""
+    from conftest import ROOT
+
+    names = {p.name for p in ROOT.glob("results/**/trials/*") if p.is_dir()}
+    assert "ssr-ccd" in names and "good-robot-finetuned" in names
+    for name in names:
+        assert seespot.run_spec(name)["name"] == name
+    gr = seespot.run_spec("good-robot-finetuned")
+    assert gr == {"name": "good-robot-finetuned", "method": "spot-q",
+                  "display_name": "Good Robot finetuned", "finetuned": True, "noisy": False,
+                  "correspond": None}
+    plain = seespot.run_spec(seespot.record_name("ssr-l2cd", "plain"))
+    assert (plain["name"], plain["correspond"]) == ("ssr-l2cd-plain", "plain")
+    assert seespot.run_spec("ssr-ccd-global-rematch")["correspond"] == "reference+global-rematch"
+    for bad in ["ssr-ccd-plian", "oracle-finetuned", ""]:
+        try:
+            seespot.run_spec(bad)
+        except ValueError as e:
+            assert "name" in str(e)
+        else:
+            raise AssertionError(f"{bad!r} was read as a run")

@@ -5,7 +5,8 @@ use seespot_sim::{Demo, Primitive, Seeds, TaskId, TrialRecord};
 use seespot_ssr::correspond::Correspondence;
 use seespot_ssr::eval::{EvalConfig, EvalMethod, records_path, run_task, world_config};
 use seespot_ssr::policy::{DemoQuery, SsrConfig, SsrPolicy, choose, chosen_pair, demo_dirs};
-use seespot_ssr::{CorrespondOptions, Method};
+use seespot_ssr::run::CorrespondName;
+use seespot_ssr::{CorrespondOptions, Method, RunSpec};
 
 fn demos_dir() -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../demos")
@@ -182,7 +183,10 @@ fn global_rematch_measures_c_from_the_live_match() {
         }
     }
     assert_eq!(
-        EvalMethod::SsrCcd.record_name_with(0, config.correspond, false),
+        RunSpec::new(EvalMethod::SsrCcd)
+            .with_correspond(CorrespondName::of(&config.correspond))
+            .expect("ssr")
+            .to_string(),
         "ssr-ccd-global-rematch"
     );
 }
@@ -301,32 +305,60 @@ fn loop_breaking_never_repeats_an_action_that_changed_nothing() {
     );
 }
 
+/// The record name of a configuration, as `seespot eval` names its records.
+fn name_of(
+    method: EvalMethod,
+    finetune_steps: usize,
+    correspond: CorrespondOptions,
+    noisy: bool,
+) -> String {
+    let mut config = EvalConfig {
+        method,
+        seeds: Seeds::new(1, 1).expect("seeds"),
+        out_dir: Default::default(),
+        models_dir: Default::default(),
+        demos_dir: Default::default(),
+        world: world_config(112),
+        correspond,
+        finetune_steps,
+    };
+    if noisy {
+        config.world.noise = seespot_sim::noise::SensorNoise {
+            depth_std: 0.002,
+            color_jitter: 8,
+        };
+    }
+    let spec = RunSpec::of(&config);
+    assert_eq!(spec.to_string().parse::<RunSpec>(), Ok(spec));
+    spec.to_string()
+}
+
 #[test]
 fn noisy_and_extension_runs_have_their_own_record_names() {
-    let plain = Correspondence::Plain;
-    let reference = Correspondence::Reference;
+    let plain = CorrespondOptions {
+        mode: Correspondence::Plain,
+        ..Default::default()
+    };
+    let reference = CorrespondOptions::default();
+    assert_eq!(name_of(EvalMethod::SsrCcd, 0, reference, false), "ssr-ccd");
     assert_eq!(
-        EvalMethod::SsrCcd.record_name(0, reference, false),
-        "ssr-ccd"
-    );
-    assert_eq!(
-        EvalMethod::SsrCcd.record_name(0, reference, true),
+        name_of(EvalMethod::SsrCcd, 0, reference, true),
         "ssr-ccd-noisy"
     );
     assert_eq!(
-        EvalMethod::SsrL2cd.record_name(0, plain, false),
+        name_of(EvalMethod::SsrL2cd, 0, plain, false),
         "ssr-l2cd-plain"
     );
     assert_eq!(
-        EvalMethod::SsrCcdLoopBreak.record_name(0, reference, false),
+        name_of(EvalMethod::SsrCcdLoopBreak, 0, reference, false),
         "ssr-ccd-loopbreak"
     );
     assert_eq!(
-        EvalMethod::SsrCcd.record_name(333, reference, false),
+        name_of(EvalMethod::SsrCcd, 333, reference, false),
         "ssr-ccd-finetuned"
     );
     assert_eq!(
-        EvalMethod::SpotQ.record_name(333, reference, false),
+        name_of(EvalMethod::SpotQ, 333, reference, false),
         "good-robot-finetuned"
     );
     assert_eq!(
@@ -340,7 +372,7 @@ fn noisy_and_extension_runs_have_their_own_record_names() {
         ..Default::default()
     };
     assert_eq!(
-        EvalMethod::SsrL2cd.record_name_with(0, normalized, false),
+        name_of(EvalMethod::SsrL2cd, 0, normalized, false),
         "ssr-l2cd-normalized"
     );
     let demo_real = CorrespondOptions {
@@ -348,13 +380,10 @@ fn noisy_and_extension_runs_have_their_own_record_names() {
         ..Default::default()
     };
     assert_eq!(
-        EvalMethod::SsrCcd.record_name_with(0, demo_real, true),
+        name_of(EvalMethod::SsrCcd, 0, demo_real, true),
         "ssr-ccd-demo-real-noisy"
     );
-    assert_eq!(
-        EvalMethod::Oracle.record_name_with(0, normalized, false),
-        "oracle"
-    );
+    assert_eq!(name_of(EvalMethod::Oracle, 0, normalized, false), "oracle");
     // Combined departures keep every one in the name, so no two settings
     // share a record file.
     use seespot_ssr::correspond::Rematch;
@@ -364,7 +393,7 @@ fn noisy_and_extension_runs_have_their_own_record_names() {
         ..Default::default()
     };
     assert_eq!(
-        EvalMethod::SsrCcd.record_name_with(0, both, false),
+        name_of(EvalMethod::SsrCcd, 0, both, false),
         "ssr-ccd-normalized-demo-real"
     );
     let all = CorrespondOptions {
@@ -372,7 +401,7 @@ fn noisy_and_extension_runs_have_their_own_record_names() {
         ..both
     };
     assert_eq!(
-        EvalMethod::SsrCcd.record_name_with(333, all, true),
+        name_of(EvalMethod::SsrCcd, 333, all, true),
         "ssr-ccd-normalized-demo-real-global-rematch-finetuned-noisy"
     );
 }

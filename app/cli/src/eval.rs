@@ -11,6 +11,7 @@ use seespot_ssr::CorrespondOptions;
 use seespot_ssr::correspond::Correspondence;
 use seespot_ssr::eval::{EvalConfig, EvalMethod, run_task, world_config};
 use seespot_ssr::report;
+use seespot_ssr::run::{RunSpec, TaskTraining};
 
 #[derive(clap::Args, Debug)]
 pub struct EvalArgs {
@@ -98,11 +99,7 @@ pub struct EvalArgs {
 }
 
 fn parse_method(s: &str) -> Result<EvalMethod, String> {
-    EvalMethod::parse(s).ok_or_else(|| {
-        format!(
-            "unknown method '{s}' (expected ssr-ccd, ssr-l2cd, ssr-ccd-loopbreak, spot-q, oracle, random or transporter)"
-        )
-    })
+    s.parse()
 }
 
 pub fn run(args: EvalArgs) -> anyhow::Result<()> {
@@ -185,7 +182,7 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
     }
     // One run per output folder: held until the report is written.
     let _lock = seespot_sim::lock::OutputLock::acquire(&args.out)?;
-    let name = EvalMethod::record_name_of(&config);
+    let name = RunSpec::of(&config).to_string();
     let bar = crate::progress_bar(tasks.len() as u64 * args.trials, false);
     for task in &tasks {
         let (mut ok, mut n) = (0, 0);
@@ -352,32 +349,31 @@ pub fn write_report(
         }
     }
     let train_steps = |method: &str, task: TaskId| -> u64 {
-        let steps = finetuned
-            .get(&(method.to_owned(), task))
-            .copied()
-            .unwrap_or(finetune_steps as u64);
-        if method.starts_with("transporter") {
-            if method.contains("-finetuned") {
-                return steps;
+        let Ok(spec) = method.parse::<RunSpec>() else {
+            return 0;
+        };
+        match spec.task_training() {
+            TaskTraining::Nothing => 0,
+            TaskTraining::Finetuning { factor } => {
+                factor
+                    * finetuned
+                        .get(&(method.to_owned(), task))
+                        .copied()
+                        .unwrap_or(finetune_steps as u64)
             }
-            return seespot_policy::TransporterNet::load(&seespot_ssr::eval::transporter_path(
-                models, task,
-            ))
+            TaskTraining::OwnTransporter => seespot_policy::TransporterNet::load(
+                &seespot_ssr::eval::transporter_path(models, task),
+            )
             .ok()
             .and_then(|n| n.meta.extra.get("iterations").and_then(|s| s.parse().ok()))
-            .unwrap_or(0);
+            .unwrap_or(0),
+            TaskTraining::OwnSpotQ => {
+                seespot_policy::PolicyNet::load(&seespot_ssr::policy::model_path(models, task))
+                    .ok()
+                    .and_then(|p| p.meta.extra.get("train_steps").and_then(|s| s.parse().ok()))
+                    .unwrap_or(0)
+            }
         }
-        if method.contains("-finetuned") {
-            // SSR: each of three policies; "Good Robot": one policy, as many in all.
-            return 3 * steps;
-        }
-        if method.trim_end_matches("-noisy") != "spot-q" {
-            return 0;
-        }
-        seespot_policy::PolicyNet::load(&seespot_ssr::policy::model_path(models, task))
-            .ok()
-            .and_then(|p| p.meta.extra.get("train_steps").and_then(|s| s.parse().ok()))
-            .unwrap_or(0)
     };
     let mut demo_actions = std::collections::BTreeMap::new();
     for task in TaskId::ALL {
@@ -393,10 +389,7 @@ pub fn write_report(
         demo_actions.insert(task, n);
     }
     let annotated = |method: &str, task: TaskId| -> usize {
-        if method.starts_with("ssr")
-            || method.starts_with("transporter")
-            || method.contains("-finetuned")
-        {
+        if method.parse::<RunSpec>().is_ok_and(|s| s.sees_demos()) {
             annotated_actions(demo_actions.get(&task).copied().unwrap_or(0))
         } else {
             0
@@ -416,9 +409,12 @@ pub fn write_report(
         ccd_vs_l2cd: report::compare(&records, "ssr-ccd", "ssr-l2cd"),
         comparisons: report::comparisons(&records),
         disagreements: report::disagreements(&records),
-        c_histograms: report::SSR_METHODS
+        c_histograms: report::ssr_runs(&records)
             .into_iter()
-            .map(|m| (m.to_owned(), report::c_histograms(&records, m)))
+            .map(|m| {
+                let h = report::c_histograms(&records, &m);
+                (m, h)
+            })
             .collect(),
     })
 }

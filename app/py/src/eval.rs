@@ -27,7 +27,8 @@ pub struct Evaluator {
 
 #[pymethods]
 impl Evaluator {
-    /// `method`: ssr-ccd, ssr-l2cd, spot-q, oracle, random or transporter (no finetuning);
+    /// `method`: one of `METHODS` (ssr-ccd, ssr-l2cd, ssr-ccd-loopbreak,
+    /// spot-q, oracle, random, transporter; no finetuning);
     /// `correspond`: `reference` or `plain` (SSR only).
     #[new]
     #[pyo3(signature = (method, task, models_dir = "models".into(), demos_dir = "demos".into(), resolution = 112, correspond = "reference"))]
@@ -40,14 +41,7 @@ impl Evaluator {
         resolution: i64,
         correspond: &str,
     ) -> PyResult<Self> {
-        let eval_method = EvalMethod::parse(method).ok_or_else(|| {
-            bad(
-                "method",
-                format!(
-                    "'{method}' is not ssr-ccd, ssr-l2cd, ssr-ccd-loopbreak, spot-q, oracle, random or transporter"
-                ),
-            )
-        })?;
+        let eval_method: EvalMethod = method.parse().map_err(|e| bad("method", e))?;
         let task = arrays::task(task)?;
         let resolution = non_negative(resolution, "resolution")?;
         let resolution = arrays::resolution(resolution as usize, "resolution")?;
@@ -69,7 +63,7 @@ impl Evaluator {
             correspond: ssr.correspond,
             finetune_steps: 0,
         };
-        let name = EvalMethod::record_name_of(&config);
+        let name = seespot_ssr::RunSpec::of(&config).to_string();
         let (actor, provenance) = py
             .detach(|| {
                 let provenance =
@@ -159,16 +153,16 @@ pub fn records_path(out_dir: PathBuf, method: &str, task: &str) -> PyResult<Path
 /// SSR with the plain correspondence (no finetuning).
 #[pyfunction]
 pub fn record_name(method: &str, correspond: &str) -> PyResult<String> {
-    let m = EvalMethod::parse(method).ok_or_else(|| {
-        bad(
-            "method",
-            format!(
-                "'{method}' is not ssr-ccd, ssr-l2cd, ssr-ccd-loopbreak, spot-q, oracle, random or transporter"
-            ),
-        )
-    })?;
+    let m: EvalMethod = method.parse().map_err(|e| bad("method", e))?;
     let config = crate::ssr::ssr_config("ssr-ccd", correspond)?;
-    Ok(m.record_name(0, config.correspond.mode, false))
+    let spec = seespot_ssr::RunSpec::new(m);
+    let spec = if m.is_ssr() {
+        spec.with_correspond(seespot_ssr::run::CorrespondName::of(&config.correspond))
+            .map_err(|e| bad("correspond", e))?
+    } else {
+        spec
+    };
+    Ok(spec.to_string())
 }
 
 /// The lock `seespot eval` takes on its output folder
@@ -251,4 +245,41 @@ pub fn append_record(path: PathBuf, line: &str) -> PyResult<()> {
             .map_err(|e| pyo3::exceptions::PyOSError::new_err(format!("{}: {e}", dir.display())))?;
     }
     seespot_sim::record::append_record(&path, &record).map_err(record_error)
+}
+
+/// What a record name (a records folder's name, `TrialRecord.method`) says
+/// about its run, read by the same [`seespot_ssr::RunSpec`] the CLI's report
+/// uses: `{"name", "method", "display_name", "finetuned", "noisy",
+/// "correspond"}` (`correspond`: `reference` with its departures, e.g.
+/// `reference+global-rematch`, or `plain`; `None` for methods without one).
+/// A name that is no run's raises `ValueError`.
+#[pyfunction]
+pub fn run_spec(py: Python<'_>, name: &str) -> PyResult<Py<pyo3::types::PyDict>> {
+    use pyo3::types::PyDict;
+    use seespot_ssr::run::CorrespondName;
+    let spec: seespot_ssr::RunSpec = name.parse().map_err(|e| bad("name", e))?;
+    let correspond = match spec.correspond() {
+        _ if !spec.is_ssr() => None,
+        CorrespondName::Plain => Some("plain".to_owned()),
+        CorrespondName::Reference {
+            normalized,
+            demo_real,
+            global_rematch,
+        } => Some(
+            std::iter::once("reference")
+                .chain(normalized.then_some("normalized"))
+                .chain(demo_real.then_some("demo-real"))
+                .chain(global_rematch.then_some("global-rematch"))
+                .collect::<Vec<_>>()
+                .join("+"),
+        ),
+    };
+    let d = PyDict::new(py);
+    d.set_item("name", spec.to_string())?;
+    d.set_item("method", spec.method().as_str())?;
+    d.set_item("display_name", spec.display_name())?;
+    d.set_item("finetuned", spec.is_finetuned())?;
+    d.set_item("noisy", spec.is_noisy())?;
+    d.set_item("correspond", correspond)?;
+    Ok(d.unbind())
 }

@@ -46,6 +46,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(eval::test_seeds, m)?)?;
     m.add_function(wrap_pyfunction!(eval::records_path, m)?)?;
     m.add_function(wrap_pyfunction!(eval::record_name, m)?)?;
+    m.add_function(wrap_pyfunction!(eval::run_spec, m)?)?;
     m.add_function(wrap_pyfunction!(eval::read_records, m)?)?;
     m.add_function(wrap_pyfunction!(eval::append_record, m)?)?;
     m.add_function(wrap_pyfunction!(correspond::match_queries, m)?)?;

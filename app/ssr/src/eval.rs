@@ -72,72 +72,19 @@ impl EvalMethod {
     pub fn is_ssr(self) -> bool {
         matches!(self, Self::SsrCcd | Self::SsrL2cd | Self::SsrCcdLoopBreak)
     }
+}
 
-    /// The method id written in records: SSR with the plain correspondence
-    /// carries `-plain`, finetuned variants `-finetuned`, runs under sensor
-    /// noise `-noisy`.
-    pub fn record_name(
-        self,
-        finetune_steps: usize,
-        correspondence: Correspondence,
-        noisy: bool,
-    ) -> String {
-        self.record_name_with(
-            finetune_steps,
-            CorrespondOptions {
-                mode: correspondence,
-                ..Default::default()
-            },
-            noisy,
-        )
-    }
+impl std::str::FromStr for EvalMethod {
+    type Err = String;
 
-    /// [`Self::record_name`] with every Correspond option: the departures
-    /// from the reference's Correspond carry `-normalized` (`--smoothing
-    /// normalized`), `-demo-real` (`--demo-features real`) and
-    /// `-global-rematch` (`--rematch global`), in that order when combined.
-    pub fn record_name_with(
-        self,
-        finetune_steps: usize,
-        correspond: CorrespondOptions,
-        noisy: bool,
-    ) -> String {
-        // The departures compose, in a fixed order, so every combination
-        // has its own name.
-        let mut plain = String::new();
-        if self.is_ssr() {
-            match correspond.mode {
-                Correspondence::Plain => plain.push_str("-plain"),
-                Correspondence::Reference => {
-                    if correspond.smoothing == Smoothing::Normalized {
-                        plain.push_str("-normalized");
-                    }
-                    if correspond.demo_features == DemoFeatures::Real {
-                        plain.push_str("-demo-real");
-                    }
-                    if correspond.rematch == Rematch::Global {
-                        plain.push_str("-global-rematch");
-                    }
-                }
-            }
-        }
-        let noise = if noisy { "-noisy" } else { "" };
-        match (self, finetune_steps) {
-            (_, 0) => format!("{}{plain}{noise}", self.as_str()),
-            (Self::SpotQ, _) => format!("good-robot-finetuned{noise}"),
-            (Self::Transporter, _) => format!("transporter-finetuned{noise}"),
-            (_, _) if self.is_ssr() => format!("{}{plain}-finetuned{noise}", self.as_str()),
-            _ => format!("{}{noise}", self.as_str()),
-        }
-    }
-
-    /// This configuration's record name.
-    pub fn record_name_of(config: &EvalConfig) -> String {
-        config.method.record_name_with(
-            config.finetune_steps,
-            config.correspond,
-            !config.world.noise.is_none(),
-        )
+    /// A method's id, or an error listing every method's.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Self::parse(s).ok_or_else(|| {
+            format!(
+                "unknown method '{s}' (expected {})",
+                Self::ALL.map(|m| m.as_str()).join(", ")
+            )
+        })
     }
 }
 
@@ -337,13 +284,11 @@ pub fn replay_config(
         let rest = prov.settings.split(&format!("{key}=")).nth(1)?;
         Some(rest.split(", ").next().unwrap_or(rest))
     };
-    let method = EvalMethod::parse(&record.method).ok_or_else(|| {
-        EvalError::Invalid(format!(
-            "method `{}` cannot be replayed (finetuned and noisy runs, and methods other than {}, are not)",
-            record.method,
-            EvalMethod::ALL.map(|m| m.as_str()).join(", ")
-        ))
-    })?;
+    let spec: crate::RunSpec = record.method.parse().map_err(EvalError::Invalid)?;
+    if let Some(why) = spec.replay_refusal() {
+        return Err(EvalError::Invalid(why));
+    }
+    let method = spec.method();
     let mode = match setting("correspond") {
         Some("plain") => Correspondence::Plain,
         _ => Correspondence::Reference,
@@ -446,7 +391,7 @@ pub fn run_task(
     task: TaskId,
     on_trial: &mut dyn FnMut(&TrialRecord),
 ) -> Result<Vec<TrialRecord>, EvalError> {
-    let name = EvalMethod::record_name_of(config);
+    let name = crate::RunSpec::of(config).to_string();
     let path = records_path(&config.out_dir, &name, task);
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir)

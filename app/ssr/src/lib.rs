@@ -10,6 +10,7 @@ pub mod pca;
 pub mod policy;
 pub mod report;
 pub mod review;
+pub mod run;
 
 pub use correspond::{
     CorrespondOptions, Match, bench_correspond, ccd, distance_map, match_queries,
@@ -17,3 +18,4 @@ pub use correspond::{
 };
 pub use explain::{Decision, Method, PairExplanation};
 pub use policy::{SsrConfig, SsrError, SsrPolicy};
+pub use run::RunSpec;

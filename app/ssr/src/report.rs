@@ -116,32 +116,11 @@ pub fn paper_results() -> Vec<PaperResult> {
     out
 }
 
-/// The display name of a method id (`ssr-ccd` -> `SSR CCD`); unknown ids as given.
+/// The display name of a record name (`ssr-ccd` -> `SSR CCD`, see
+/// [`crate::RunSpec::display_name`]); a name that is no run's as given.
 pub fn display_method(id: &str) -> String {
-    let key: String = id
-        .chars()
-        .filter(|c| c.is_ascii_alphanumeric())
-        .collect::<String>()
-        .to_ascii_lowercase();
-    match key.as_str() {
-        "ssrccd" => "SSR CCD".into(),
-        "ssrl2cd" => "SSR L2CD".into(),
-        "ssrccdfinetuned" => "SSR CCD finetuned".into(),
-        "ssrl2cdfinetuned" => "SSR L2CD finetuned".into(),
-        "ssrccdplain" => "SSR CCD, plain correspondence".into(),
-        "ssrccdloopbreak" => "Extension: SSR CCD + loop breaking".into(),
-        "ssrccdnoisy" => "SSR CCD, sensor noise".into(),
-        "ssrl2cdplain" => "SSR L2CD, plain correspondence".into(),
-        "ssrccdglobalrematch" => "SSR CCD, the reference runner's global rematch".into(),
-        "ssrl2cdglobalrematch" => "SSR L2CD, the reference runner's global rematch".into(),
-        "spotq" => "SPOT-Q".into(),
-        "goodrobotfinetuned" => "Good Robot finetuned".into(),
-        "transporternet" | "transporter" => "TransporterNet".into(),
-        "transporternetfinetuned" | "transporterfinetuned" => "TransporterNet finetuned".into(),
-        "oracle" => "Oracle".into(),
-        "random" => "Random".into(),
-        _ => id.to_string(),
-    }
+    id.parse::<crate::RunSpec>()
+        .map_or_else(|_| id.to_string(), |spec| spec.display_name())
 }
 
 /// The paper's number for a method id and task, if the paper reports one.
@@ -459,16 +438,18 @@ pub fn check_provenance(files: &[(PathBuf, Vec<TrialRecord>)]) -> Result<(), Str
     Ok(())
 }
 
-/// The SSR record names whose C the report shows.
-pub const SSR_METHODS: [&str; 7] = [
-    "ssr-ccd",
-    "ssr-l2cd",
-    "ssr-ccd-loopbreak",
-    "ssr-ccd-noisy",
-    "ssr-ccd-finetuned",
-    "ssr-ccd-plain",
-    "ssr-l2cd-plain",
-];
+/// The SSR runs among `records` (their record names, in [`crate::RunSpec`]
+/// order): the ones whose C and CCD/L2CD disagreements the report shows.
+pub fn ssr_runs(records: &[TrialRecord]) -> Vec<String> {
+    let mut specs: Vec<crate::RunSpec> = records
+        .iter()
+        .filter_map(|r| r.method.parse::<crate::RunSpec>().ok())
+        .filter(|s| s.is_ssr())
+        .collect();
+    specs.sort();
+    specs.dedup();
+    specs.iter().map(|s| s.to_string()).collect()
+}
 
 /// The pairs of methods the report tests on paired seeds (exact McNemar), with
 /// what each comparison asks; pairs without shared seeds are skipped.
@@ -532,7 +513,7 @@ pub struct Disagreement {
 /// `other_method_action`; older records without it are left out).
 pub fn disagreements(records: &[TrialRecord]) -> Vec<Disagreement> {
     let mut out = Vec::new();
-    for method in SSR_METHODS {
+    for method in ssr_runs(records) {
         for task in TaskId::ALL {
             let (mut decisions, mut differ) = (0, 0);
             for r in records
@@ -646,14 +627,14 @@ pub fn statistics_markdown(records: &[TrialRecord]) -> String {
             None => format!(">= {lo}"),
         })
         .collect();
-    for method in SSR_METHODS {
-        let hist = c_histograms(records, method);
+    for method in ssr_runs(records) {
+        let hist = c_histograms(records, &method);
         if hist.is_empty() {
             continue;
         }
         md.push_str(&format!(
             "\n### C of the chosen pair, {} (decisions per bucket)\n\n| fold | {} |\n|---|{}\n",
-            display_method(method),
+            display_method(&method),
             buckets.join(" | "),
             "---|".repeat(buckets.len())
         ));
@@ -940,7 +921,7 @@ mod tests {
         let ccd = paper_result("ssr-ccd", None).expect("SSR CCD mean");
         assert!((ccd.compute_efficiency() - 0.36).abs() < 1e-12);
         assert!((ccd.sample_efficiency() - 0.03).abs() < 1e-12);
-        let tn = paper_result("transporternet", None).expect("TransporterNet mean");
+        let tn = paper_result("transporter", None).expect("TransporterNet mean");
         assert_eq!(efficiency(tn.compute_efficiency()), "0.000750%");
         assert_eq!(efficiency(tn.sample_efficiency()), "2.50%");
         assert_eq!(efficiency(ccd.compute_efficiency()), "36.0%");
@@ -962,7 +943,7 @@ mod tests {
             Some(Some(12))
         );
         assert_eq!(
-            paper_result("transporternet", Some(TaskId::Unstack)).map(|r| r.success),
+            paper_result("transporter", Some(TaskId::Unstack)).map(|r| r.success),
             Some(0.86)
         );
     }

@@ -1,0 +1,454 @@
+//! The identity of an evaluation run: [`RunSpec`], what decides (the method
+//! and, for See-SPOT-Run, how its correspondence departs from the reference
+//! code's), whether it was finetuned on the demonstrations and whether it saw
+//! sensor noise. Its [`Display`](std::fmt::Display) is the one record name
+//! (`ssr-ccd`, `ssr-l2cd-plain`, `good-robot-finetuned`, `ssr-ccd-noisy`,
+//! ...), the name of the records folder, and [`FromStr`] reads it back; the
+//! report, the review, replays and the Python package take a run's meaning
+//! from the spec, never from pieces of its name.
+//!
+//! Invalid combinations are not values: the fields are private, and only SSR
+//! carries a correspondence variant, only SSR, SPOT-Q and TransporterNet can
+//! be finetuned. [`RunSpec::all`] lists every valid spec, and a name is read
+//! back by finding the spec that writes it, so the two directions cannot
+//! drift apart.
+
+use std::collections::HashMap;
+use std::fmt;
+use std::str::FromStr;
+use std::sync::OnceLock;
+
+use crate::correspond::{CorrespondOptions, Correspondence, DemoFeatures, Rematch, Smoothing};
+use crate::eval::{EvalConfig, EvalMethod};
+
+/// How SSR's correspondence departs from the reference code's Correspond, as
+/// far as it makes a run different (settings that do not, such as the plain
+/// scan's smoothing sigma, are in the records' provenance instead).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum CorrespondName {
+    /// The reference code's Correspond with each of seespot's departures on
+    /// or off: `-normalized` (`--smoothing normalized`), `-demo-real`
+    /// (`--demo-features real`), `-global-rematch` (`--rematch global`).
+    Reference {
+        normalized: bool,
+        demo_real: bool,
+        global_rematch: bool,
+    },
+    /// The plain scan (`--correspond plain`): `-plain`.
+    Plain,
+}
+
+impl CorrespondName {
+    /// The reference code's Correspond, no departure: no suffix.
+    pub const REFERENCE: Self = Self::Reference {
+        normalized: false,
+        demo_real: false,
+        global_rematch: false,
+    };
+
+    /// The name of a set of Correspond options.
+    pub fn of(options: &CorrespondOptions) -> Self {
+        match options.mode {
+            Correspondence::Plain => Self::Plain,
+            Correspondence::Reference => Self::Reference {
+                normalized: options.smoothing == Smoothing::Normalized,
+                demo_real: options.demo_features == DemoFeatures::Real,
+                global_rematch: options.rematch == Rematch::Global,
+            },
+        }
+    }
+
+    /// Every variant: the plain scan and the eight combinations of departures.
+    pub fn all() -> impl Iterator<Item = Self> {
+        (0..8u8)
+            .map(|bits| Self::Reference {
+                normalized: bits & 1 != 0,
+                demo_real: bits & 2 != 0,
+                global_rematch: bits & 4 != 0,
+            })
+            .chain([Self::Plain])
+    }
+
+    /// The record-name suffix, in a fixed order so every combination has its
+    /// own name.
+    fn suffix(self) -> String {
+        match self {
+            Self::Plain => "-plain".into(),
+            Self::Reference {
+                normalized,
+                demo_real,
+                global_rematch,
+            } => [
+                (normalized, "-normalized"),
+                (demo_real, "-demo-real"),
+                (global_rematch, "-global-rematch"),
+            ]
+            .into_iter()
+            .filter(|(on, _)| *on)
+            .map(|(_, s)| s)
+            .collect(),
+        }
+    }
+
+    /// The display suffix (`, plain correspondence`, ...).
+    fn display_suffix(self) -> String {
+        match self {
+            Self::Plain => ", plain correspondence".into(),
+            Self::Reference {
+                normalized,
+                demo_real,
+                global_rematch,
+            } => [
+                (normalized, ", normalized smoothing"),
+                (demo_real, ", real demo features"),
+                (global_rematch, ", the reference runner's global rematch"),
+            ]
+            .into_iter()
+            .filter(|(on, _)| *on)
+            .map(|(_, s)| s)
+            .collect(),
+        }
+    }
+}
+
+/// What a run trained on its test task, for the report's train steps.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TaskTraining {
+    /// Nothing: SSR, the oracle, random actions.
+    Nothing,
+    /// The test task's own SPOT-Q policy (its recorded training steps).
+    OwnSpotQ,
+    /// The test task's own TransporterNet (its recorded iterations).
+    OwnTransporter,
+    /// Finetuning on the demonstrations: `factor` x the run's finetune steps
+    /// (SSR: each of three policies; "Good Robot": one policy as many in all;
+    /// TransporterNet: 1).
+    Finetuning { factor: u64 },
+}
+
+/// The identity of an evaluation run (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct RunSpec {
+    method: EvalMethod,
+    correspond: CorrespondName,
+    finetuned: bool,
+    noisy: bool,
+}
+
+impl RunSpec {
+    /// `method` as the paper runs it: the reference Correspond, no
+    /// finetuning, no sensor noise.
+    pub const fn new(method: EvalMethod) -> Self {
+        Self {
+            method,
+            correspond: CorrespondName::REFERENCE,
+            finetuned: false,
+            noisy: false,
+        }
+    }
+
+    /// This run with SSR's correspondence `c`; for other methods, which have
+    /// no correspondence, an error.
+    pub fn with_correspond(self, c: CorrespondName) -> Result<Self, String> {
+        if !self.method.is_ssr() && c != CorrespondName::REFERENCE {
+            return Err(format!(
+                "{} has no correspondence to vary",
+                self.method.as_str()
+            ));
+        }
+        Ok(Self {
+            correspond: c,
+            ..self
+        })
+    }
+
+    /// This run finetuned on the demonstrations; an error for the oracle and
+    /// random actions, which have no policy to finetune.
+    pub fn finetuned(self) -> Result<Self, String> {
+        match self.method {
+            EvalMethod::Oracle | EvalMethod::Random => Err(format!(
+                "{} has no policy to finetune",
+                self.method.as_str()
+            )),
+            _ => Ok(Self {
+                finetuned: true,
+                ..self
+            }),
+        }
+    }
+
+    /// This run under sensor noise.
+    pub const fn noisy(self) -> Self {
+        Self {
+            noisy: true,
+            ..self
+        }
+    }
+
+    /// The spec of an evaluation configuration.
+    pub fn of(config: &EvalConfig) -> Self {
+        Self {
+            method: config.method,
+            correspond: if config.method.is_ssr() {
+                CorrespondName::of(&config.correspond)
+            } else {
+                CorrespondName::REFERENCE
+            },
+            finetuned: config.finetune_steps > 0
+                && !matches!(config.method, EvalMethod::Oracle | EvalMethod::Random),
+            noisy: !config.world.noise.is_none(),
+        }
+    }
+
+    /// Every valid spec, in order.
+    pub fn all() -> Vec<Self> {
+        let mut out = Vec::new();
+        for method in EvalMethod::ALL {
+            let variants: Vec<CorrespondName> = if method.is_ssr() {
+                CorrespondName::all().collect()
+            } else {
+                vec![CorrespondName::REFERENCE]
+            };
+            for c in variants {
+                for finetuned in [false, true] {
+                    for noisy in [false, true] {
+                        let mut spec = Self::new(method);
+                        spec.correspond = c;
+                        if finetuned {
+                            let Ok(f) = spec.finetuned() else { continue };
+                            spec = f;
+                        }
+                        out.push(if noisy { spec.noisy() } else { spec });
+                    }
+                }
+            }
+        }
+        out.sort();
+        out
+    }
+
+    pub fn method(&self) -> EvalMethod {
+        self.method
+    }
+
+    pub fn correspond(&self) -> CorrespondName {
+        self.correspond
+    }
+
+    pub fn is_finetuned(&self) -> bool {
+        self.finetuned
+    }
+
+    pub fn is_noisy(&self) -> bool {
+        self.noisy
+    }
+
+    pub fn is_ssr(&self) -> bool {
+        self.method.is_ssr()
+    }
+
+    /// The name the report and the page show (`SSR CCD`, `Good Robot
+    /// finetuned`, `SSR CCD, sensor noise`, ...); the paper's table uses the
+    /// same names.
+    pub fn display_name(&self) -> String {
+        let base = match (self.method, self.finetuned) {
+            (EvalMethod::SsrCcd, _) => "SSR CCD",
+            (EvalMethod::SsrL2cd, _) => "SSR L2CD",
+            (EvalMethod::SsrCcdLoopBreak, _) => "Extension: SSR CCD + loop breaking",
+            (EvalMethod::SpotQ, false) => "SPOT-Q",
+            (EvalMethod::SpotQ, true) => "Good Robot finetuned",
+            (EvalMethod::Transporter, false) => "TransporterNet",
+            (EvalMethod::Transporter, true) => "TransporterNet finetuned",
+            (EvalMethod::Oracle, _) => "Oracle",
+            (EvalMethod::Random, _) => "Random",
+        };
+        let finetuned = if self.finetuned && self.is_ssr() {
+            " finetuned"
+        } else {
+            ""
+        };
+        let noise = if self.noisy { ", sensor noise" } else { "" };
+        format!(
+            "{base}{finetuned}{}{noise}",
+            self.correspond.display_suffix()
+        )
+    }
+
+    /// Whether the run's decisions use the test task's demonstrations (SSR,
+    /// TransporterNet, the finetuned rows): the report counts their
+    /// annotated actions.
+    pub fn sees_demos(&self) -> bool {
+        self.is_ssr() || self.method == EvalMethod::Transporter || self.finetuned
+    }
+
+    /// What the run trained on its test task.
+    pub fn task_training(&self) -> TaskTraining {
+        match (self.method, self.finetuned) {
+            (EvalMethod::Transporter, true) => TaskTraining::Finetuning { factor: 1 },
+            (EvalMethod::Transporter, false) => TaskTraining::OwnTransporter,
+            (_, true) => TaskTraining::Finetuning { factor: 3 },
+            (EvalMethod::SpotQ, false) => TaskTraining::OwnSpotQ,
+            _ => TaskTraining::Nothing,
+        }
+    }
+
+    /// Why the debugger cannot run this run's trials again, if it cannot:
+    /// it replays SSR, TransporterNet and oracle trials, unfinetuned and
+    /// without sensor noise.
+    pub fn replay_refusal(&self) -> Option<String> {
+        if self.finetuned {
+            return Some(format!(
+                "{self}: finetuned runs cannot be replayed in the debugger"
+            ));
+        }
+        if self.noisy {
+            return Some(format!(
+                "{self}: runs under sensor noise cannot be replayed in the debugger"
+            ));
+        }
+        match self.method {
+            EvalMethod::SpotQ | EvalMethod::Random => Some(format!(
+                "the debugger replays SSR, TransporterNet and oracle trials, not {self}"
+            )),
+            _ => None,
+        }
+    }
+}
+
+impl fmt::Display for RunSpec {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let noise = if self.noisy { "-noisy" } else { "" };
+        match (self.method, self.finetuned) {
+            (EvalMethod::SpotQ, true) => write!(f, "good-robot-finetuned{noise}"),
+            (EvalMethod::Transporter, true) => write!(f, "transporter-finetuned{noise}"),
+            (m, finetuned) => {
+                let suffix = if m.is_ssr() {
+                    self.correspond.suffix()
+                } else {
+                    String::new()
+                };
+                let finetuned = if finetuned { "-finetuned" } else { "" };
+                write!(f, "{}{suffix}{finetuned}{noise}", m.as_str())
+            }
+        }
+    }
+}
+
+impl FromStr for RunSpec {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        static NAMES: OnceLock<HashMap<String, RunSpec>> = OnceLock::new();
+        let names = NAMES.get_or_init(|| {
+            RunSpec::all()
+                .into_iter()
+                .map(|spec| (spec.to_string(), spec))
+                .collect()
+        });
+        names.get(s).copied().ok_or_else(|| {
+            format!(
+                "`{s}` is not a seespot run name (a method, {}, with its variants, e.g. \
+                 ssr-ccd-plain, ssr-ccd-finetuned, good-robot-finetuned, ssr-ccd-noisy)",
+                EvalMethod::ALL.map(|m| m.as_str()).join(", ")
+            )
+        })
+    }
+}
+
+impl serde::Serialize for RunSpec {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(self)
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for RunSpec {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(d)?;
+        name.parse().map_err(serde::de::Error::custom)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_spec_round_trips_through_its_name() {
+        let all = RunSpec::all();
+        // 3 SSR methods x 9 correspondences x 2 x 2, SPOT-Q and TransporterNet
+        // x 2 x 2, oracle and random x 2 (noise only).
+        assert_eq!(all.len(), 3 * 9 * 4 + 2 * 4 + 2 * 2);
+        let mut names = std::collections::HashSet::new();
+        for spec in &all {
+            let name = spec.to_string();
+            assert!(names.insert(name.clone()), "two specs are named {name}");
+            assert_eq!(name.parse::<RunSpec>(), Ok(*spec), "{name}");
+            let json = serde_json::to_string(spec).expect("serialize");
+            assert_eq!(
+                serde_json::from_str::<RunSpec>(&json).expect("parse"),
+                *spec
+            );
+        }
+        assert!("ssr-ccd-plian".parse::<RunSpec>().is_err());
+        assert!("oracle-finetuned".parse::<RunSpec>().is_err());
+        assert!("spot-q-plain".parse::<RunSpec>().is_err());
+    }
+
+    #[test]
+    fn invalid_combinations_are_refused() {
+        assert!(RunSpec::new(EvalMethod::Oracle).finetuned().is_err());
+        assert!(
+            RunSpec::new(EvalMethod::SpotQ)
+                .with_correspond(CorrespondName::Plain)
+                .is_err()
+        );
+        assert!(
+            RunSpec::new(EvalMethod::SsrL2cd)
+                .with_correspond(CorrespondName::Plain)
+                .is_ok()
+        );
+    }
+
+    #[test]
+    fn the_names_of_the_table() {
+        let ccd = RunSpec::new(EvalMethod::SsrCcd);
+        for (spec, name, display) in [
+            (ccd, "ssr-ccd", "SSR CCD"),
+            (ccd.noisy(), "ssr-ccd-noisy", "SSR CCD, sensor noise"),
+            (
+                ccd.finetuned().expect("ssr"),
+                "ssr-ccd-finetuned",
+                "SSR CCD finetuned",
+            ),
+            (
+                RunSpec::new(EvalMethod::SpotQ).finetuned().expect("spot-q"),
+                "good-robot-finetuned",
+                "Good Robot finetuned",
+            ),
+            (
+                RunSpec::new(EvalMethod::SsrL2cd)
+                    .with_correspond(CorrespondName::Plain)
+                    .expect("ssr"),
+                "ssr-l2cd-plain",
+                "SSR L2CD, plain correspondence",
+            ),
+            (
+                ccd.with_correspond(CorrespondName::Reference {
+                    normalized: true,
+                    demo_real: true,
+                    global_rematch: true,
+                })
+                .expect("ssr")
+                .finetuned()
+                .expect("ssr")
+                .noisy(),
+                "ssr-ccd-normalized-demo-real-global-rematch-finetuned-noisy",
+                "SSR CCD finetuned, normalized smoothing, real demo features, \
+                 the reference runner's global rematch, sensor noise",
+            ),
+        ] {
+            assert_eq!(spec.to_string(), name);
+            assert_eq!(spec.display_name(), display);
+        }
+    }
+}
