@@ -477,7 +477,7 @@ fn evaluation_writes_records_and_resumes_after_interruption() {
     assert!(other.iter().all(|r| {
         r.provenance
             .as_ref()
-            .is_some_and(|p| p.settings.contains("correspond=reference"))
+            .is_some_and(|p| p.settings["correspond"] == "reference" && p.settings.is_object())
     }));
     let mixed = EvalConfig {
         correspond: CorrespondOptions {

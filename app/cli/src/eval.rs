@@ -339,12 +339,11 @@ pub fn write_report(
     // Finetuning steps per (method, task), as the records' provenance states.
     let mut finetuned = std::collections::BTreeMap::new();
     for r in &records {
-        if let Some(n) = r.provenance.as_ref().and_then(|p| {
-            p.settings
-                .split(", ")
-                .find_map(|kv| kv.strip_prefix("finetune_steps="))
-                .and_then(|v| v.parse::<u64>().ok())
-        }) {
+        if let Some(n) = r
+            .provenance
+            .as_ref()
+            .and_then(|p| p.settings.get("finetune_steps")?.as_u64())
+        {
             finetuned.insert((r.method.clone(), r.task), n);
         }
     }

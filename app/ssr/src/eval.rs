@@ -184,6 +184,70 @@ pub fn sha256_file(path: &Path) -> Result<String, EvalError> {
         .collect())
 }
 
+/// A run's settings as its records' provenance holds them (a JSON object),
+/// so that runs with different settings are never mixed in one file. The
+/// keys a run does not use are left out, as older records left them out:
+/// `smoothing` only for SSR with the reference Correspond (records made
+/// before SSR smoothed as the reference did have none, and so never mix with
+/// these), `demo_features` and `rematch` only when they depart from the
+/// reference's.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct RunSettings {
+    /// `reference` or `plain`.
+    pub correspond: String,
+    /// The plain scan's smoothing, pixels.
+    pub smooth_sigma: Option<f32>,
+    pub finetune_steps: usize,
+    pub resolution: usize,
+    pub noise: seespot_sim::noise::SensorNoise,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub smoothing: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub demo_features: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rematch: Option<String>,
+}
+
+impl RunSettings {
+    /// The settings of an evaluation configuration.
+    pub fn of(config: &EvalConfig) -> Self {
+        let c = &config.correspond;
+        let reference_ssr = config.method.is_ssr() && c.mode == Correspondence::Reference;
+        Self {
+            correspond: c.mode.as_str().to_owned(),
+            smooth_sigma: c.smooth_sigma,
+            finetune_steps: config.finetune_steps,
+            resolution: config.world.grid.resolution,
+            noise: config.world.noise,
+            smoothing: reference_ssr.then(|| c.smoothing.as_str().to_owned()),
+            demo_features: (reference_ssr && c.demo_features != DemoFeatures::Zeroed)
+                .then(|| c.demo_features.as_str().to_owned()),
+            rematch: (reference_ssr && c.rematch != Rematch::Window)
+                .then(|| c.rematch.as_str().to_owned()),
+        }
+    }
+
+    /// The Correspond options these settings name.
+    pub fn correspond_options(&self) -> Result<CorrespondOptions, String> {
+        Ok(CorrespondOptions {
+            mode: self.correspond.parse()?,
+            smooth_sigma: self.smooth_sigma,
+            demo_features: self
+                .demo_features
+                .as_deref()
+                .map_or(Ok(DemoFeatures::Zeroed), str::parse)?,
+            smoothing: self
+                .smoothing
+                .as_deref()
+                .map_or(Ok(Smoothing::Reference), str::parse)?,
+            rematch: self
+                .rematch
+                .as_deref()
+                .map_or(Ok(Rematch::Window), str::parse)?,
+        })
+    }
+}
+
 /// The files `config.method` reads for fold `task` (the models of the other
 /// tasks or of the task itself, every file of the two demonstrations), with
 /// their sha256, the seespot version and the method's settings.
@@ -231,33 +295,8 @@ pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalE
     for p in paths {
         files.insert(p.display().to_string(), sha256_file(&p)?);
     }
-    let mut settings = format!(
-        "correspond={}, smooth_sigma={:?}, finetune_steps={}, resolution={}, noise={:?}",
-        config.correspond.mode.as_str(),
-        config.correspond.smooth_sigma,
-        config.finetune_steps,
-        config.world.grid.resolution,
-        config.world.noise
-    );
-    if config.method.is_ssr() && config.correspond.mode == Correspondence::Reference {
-        // Records made before SSR smoothed as the reference did (masked
-        // actions as zero embeddings, scipy's edges) carry no such entry, so
-        // they are never mixed with these.
-        settings.push_str(&format!(
-            ", smoothing={}",
-            config.correspond.smoothing.as_str()
-        ));
-        if config.correspond.demo_features != DemoFeatures::Zeroed {
-            settings.push_str(&format!(
-                ", demo_features={}",
-                config.correspond.demo_features.as_str()
-            ));
-        }
-        // Records made before the option existed searched the window.
-        if config.correspond.rematch != Rematch::Window {
-            settings.push_str(&format!(", rematch={}", config.correspond.rematch.as_str()));
-        }
-    }
+    let settings = serde_json::to_value(RunSettings::of(config))
+        .map_err(|e| EvalError::Invalid(format!("settings: {e}")))?;
     Ok(Provenance {
         seespot_version: seespot_sim::VERSION.to_owned(),
         settings,
@@ -280,55 +319,36 @@ pub fn replay_config(
             record.method, record.seed
         ))
     })?;
-    let setting = |key: &str| -> Option<&str> {
-        let rest = prov.settings.split(&format!("{key}=")).nth(1)?;
-        Some(rest.split(", ").next().unwrap_or(rest))
-    };
+    let settings: RunSettings = serde_json::from_value(prov.settings.clone()).map_err(|e| {
+        EvalError::Invalid(format!(
+            "provenance settings `{}` are not a run's settings: {e}",
+            prov.settings
+        ))
+    })?;
     let spec: crate::RunSpec = record.method.parse().map_err(EvalError::Invalid)?;
     if let Some(why) = spec.replay_refusal() {
         return Err(EvalError::Invalid(why));
     }
     let method = spec.method();
-    let mode = match setting("correspond") {
-        Some("plain") => Correspondence::Plain,
-        _ => Correspondence::Reference,
-    };
-    let resolution: usize = setting("resolution")
-        .and_then(|r| r.parse().ok())
-        .ok_or_else(|| {
-            EvalError::Invalid(format!(
-                "provenance settings `{}` name no resolution",
-                prov.settings
-            ))
-        })?;
-    if setting("finetune_steps").is_some_and(|s| s != "0") {
+    if settings.finetune_steps != 0 {
         return Err(EvalError::Invalid(
             "finetuned runs cannot be replayed in the debugger".into(),
         ));
     }
+    let correspond = settings
+        .correspond_options()
+        .map_err(|e| EvalError::Invalid(format!("provenance settings `{}`: {e}", prov.settings)))?;
     let config = EvalConfig {
         method,
         seeds: Seeds::new(record.seed, 1).map_err(|e| EvalError::Invalid(e.to_string()))?,
         out_dir: PathBuf::new(),
         models_dir: models_dir.to_owned(),
         demos_dir: demos_dir.to_owned(),
-        world: world_config(resolution),
-        correspond: CorrespondOptions {
-            mode,
-            smooth_sigma: None,
-            demo_features: match setting("demo_features") {
-                Some("real") => DemoFeatures::Real,
-                _ => DemoFeatures::Zeroed,
-            },
-            smoothing: match setting("smoothing") {
-                Some("normalized") => Smoothing::Normalized,
-                _ => Smoothing::Reference,
-            },
-            rematch: match setting("rematch") {
-                Some("global") => Rematch::Global,
-                _ => Rematch::Window,
-            },
+        world: WorldConfig {
+            noise: settings.noise,
+            ..world_config(settings.resolution)
         },
+        correspond,
         finetune_steps: 0,
     };
     let now = provenance(&config, record.task)?;

@@ -850,7 +850,7 @@ mod tests {
         for r in &mut rs {
             r.provenance = Some(seespot_sim::Provenance {
                 seespot_version: "0.1.0".into(),
-                settings: "correspond=reference".into(),
+                settings: serde_json::json!({"correspond": "reference"}),
                 files: [("models/row.safetensors".to_owned(), sum.to_owned())].into(),
             });
         }
