@@ -13,6 +13,7 @@ use seespot_sim::{Grid, Seeds, TaskId, WorldConfig};
 use serde::Serialize;
 use serde_json::json;
 
+use crate::documents::to_text;
 use crate::recording::Recorder;
 use crate::registry::DeciderFactory;
 use crate::server::{self, AppState};
@@ -346,14 +347,14 @@ pub fn bench_view(
     };
     let (recorder, storage) = Recorder::memory(task)?;
     let mut s = Session::new(factory, SessionConfig { task, seed, world }, Some(recorder))?;
-    let decider = s.state()["decider"].as_str().unwrap_or_default().to_owned();
+    let decider = s.state().decider;
     let mut phases = Vec::new();
     while !s.ended() && s.trial().actions() < max_actions {
         let t0 = Instant::now();
         let phase = s.next_phase()?;
-        let state = s.state().to_string();
+        let state = to_text(&s.state());
         let pair = s.decision().map_or(0, |d| d.chosen);
-        let frame = s.frame(pair).to_string();
+        let frame = to_text(&s.frame(pair));
         let ms = t0.elapsed().as_secs_f64() * 1e3;
         let decide_ms = if phase == Phase::Embed {
             s.last_decide_ms()

@@ -12,10 +12,12 @@
 //! (pixel `(y, x)` of the demo heightmap of pair `pair`, under policy index
 //! `policy`).
 //!
-//! Server -> client ([`ServerMessage`], plus the `state` and `query` documents
-//! built by [`crate::session::Session`]): `{"type": "info", "info": {...}}` once
-//! on connect, `{"type": "pong"}`, and `{"type": "error", "message": "...",
-//! "request": "reset"}` naming the request type that failed (or null).
+//! Server -> client ([`ServerMessage`], plus the documents of
+//! [`crate::documents`]: `state`, `frame`, `query`, `embedding`):
+//! `{"type": "info", "info": {...}}` once on connect, `{"type": "pong"}`,
+//! `{"type": "replay", "method": ..., "task": ..., "seed": ...}` when a replay
+//! is loaded, and `{"type": "error", "message": "...", "request": "reset"}`
+//! naming the request type that failed (or null).
 
 use seespot_sim::TaskId;
 use serde::{Deserialize, Serialize};
@@ -115,6 +117,12 @@ pub enum ServerMessage<'a> {
         info: &'a serde_json::Value,
     },
     Pong,
+    /// A replay of an evaluation's trial was loaded (the state follows).
+    Replay {
+        method: String,
+        task: TaskId,
+        seed: u64,
+    },
     Error {
         message: String,
         /// The `type` of the request that failed, if known.

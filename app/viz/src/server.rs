@@ -24,9 +24,10 @@ use axum::http::{StatusCode, Uri, header};
 use axum::response::{IntoResponse, Response};
 use axum::routing::get;
 use futures_util::{SinkExt, StreamExt};
-use serde_json::{Value, json};
+use serde_json::Value;
 use tokio::sync::{broadcast, mpsc};
 
+use crate::documents::to_text;
 use crate::protocol::{ClientMessage, ServerMessage};
 use crate::review::ReviewSource;
 use crate::session::{PairQuery, Session};
@@ -126,7 +127,7 @@ impl AppState {
     }
 
     fn broadcast_state(&self) {
-        let s = self.session().state().to_string();
+        let s = to_text(&self.session().state());
         // No receivers is fine: nobody is watching.
         let _ = self.tx.send(s);
     }
@@ -186,18 +187,21 @@ async fn api_frame(
     State(s): State<Arc<AppState>>,
     Query(q): Query<HashMap<String, String>>,
 ) -> Response {
-    let pair =
-        match q.get("pair").map(|p| p.parse::<usize>()) {
-            None => 0,
-            Some(Ok(p)) => p,
-            Some(Err(_)) => return (
+    let pair = match q.get("pair").map(|p| p.parse::<usize>()) {
+        None => 0,
+        Some(Ok(p)) => p,
+        Some(Err(_)) => {
+            return (
                 StatusCode::BAD_REQUEST,
-                axum::Json(
-                    json!({"type": "error", "message": "`pair` must be a non-negative integer"}),
-                ),
+                ServerMessage::Error {
+                    message: "`pair` must be a non-negative integer".into(),
+                    request: Some("frame"),
+                }
+                .to_text(),
             )
-                .into_response(),
-        };
+                .into_response();
+        }
+    };
     let st = s.clone();
     blocking(move || st.session().frame(pair)).await
 }
@@ -332,7 +336,9 @@ async fn blocking_or_conflict<T: Send + 'static>(
     }
 }
 
-async fn blocking(f: impl FnOnce() -> Value + Send + 'static) -> Response {
+async fn blocking<T: serde::Serialize + Send + 'static>(
+    f: impl FnOnce() -> T + Send + 'static,
+) -> Response {
     match tokio::task::spawn_blocking(f).await {
         Ok(v) => axum::Json(v).into_response(),
         Err(e) => (
@@ -364,7 +370,7 @@ async fn client(socket: WebSocket, s: Arc<AppState>) {
     let (direct_tx, mut direct_rx) = mpsc::channel::<String>(16);
     let hello = ServerMessage::Info { info: &s.info }.to_text();
     let st = s.clone();
-    let state = tokio::task::spawn_blocking(move || st.session().state().to_string())
+    let state = tokio::task::spawn_blocking(move || to_text(&st.session().state()))
         .await
         .unwrap_or_default();
     let writer = tokio::spawn(async move {
@@ -437,7 +443,7 @@ pub async fn handle(s: &Arc<AppState>, text: &str) -> Option<String> {
     let st = s.clone();
     let reply = match msg {
         ClientMessage::Ping => return Some(ServerMessage::Pong.to_text()),
-        ClientMessage::State => return Some(st.session().state().to_string()),
+        ClientMessage::State => return Some(to_text(&st.session().state())),
         ClientMessage::NextPhase => step(st, |ses| ses.next_phase().map(|_| ())).await,
         ClientMessage::NextAction => step(st, Session::next_action).await,
         ClientMessage::Reset { task, seed } => {
@@ -464,8 +470,7 @@ pub async fn handle(s: &Arc<AppState>, text: &str) -> Option<String> {
             })
             .await;
             return Some(match r {
-                Ok(()) => json!({"type": "replay", "method": method, "task": task, "seed": seed})
-                    .to_string(),
+                Ok(()) => ServerMessage::Replay { method, task, seed }.to_text(),
                 Err(e) => error(e, Some(kind)),
             });
         }
@@ -482,7 +487,7 @@ pub async fn handle(s: &Arc<AppState>, text: &str) -> Option<String> {
             })
             .await;
             return Some(match r {
-                Ok(Ok(v)) => v.to_string(),
+                Ok(Ok(v)) => to_text(&v),
                 Ok(Err(e)) => error(format!("{e:#}"), Some(kind)),
                 Err(e) => error(format!("internal error: {e}"), Some(kind)),
             });

@@ -14,10 +14,14 @@ use seespot_sim::task::MAX_TRIAL_ACTIONS;
 use seespot_sim::{Action, BlockPose, Heightmaps, NUM_BLOCKS, TaskId, Trial, World, WorldConfig};
 use seespot_ssr::Decision;
 use seespot_ssr::policy::DemoQuery;
-use serde_json::{Value, json};
+use serde_json::Value;
 
 use crate::b64;
 use crate::decider::Decider;
+use crate::documents::{
+    DemoFrameDoc, EmbeddingDoc, FrameDoc, HeightmapDoc, HistoryDoc, HistoryEntry, PairDoc,
+    QueryBest, QueryDoc, StateDoc, StepDoc, TimingDoc,
+};
 use crate::recording::Recorder;
 use crate::registry::{DeciderFactory, Replay};
 
@@ -52,7 +56,7 @@ pub const HISTORY_PHASES: usize = 4 * 32;
 /// decision and scene its frames are drawn from.
 #[derive(Clone, Debug)]
 struct Snapshot {
-    state: Value,
+    state: StateDoc,
     phase: Phase,
     decision: Option<Arc<Decision>>,
     decided_on: Option<Arc<Heightmaps>>,
@@ -449,7 +453,7 @@ impl Session {
     /// its policy, over the live scene of the current decision (or the
     /// current scene); while travelling in time, of the decision being
     /// looked at.
-    pub fn query(&mut self, q: PairQuery) -> anyhow::Result<Value> {
+    pub fn query(&mut self, q: PairQuery) -> anyhow::Result<QueryDoc> {
         let PairQuery { pair, policy, y, x } = q;
         let (decision, decided_on) = match self.viewed() {
             Some(snap) => (snap.decision.as_deref(), snap.decided_on.as_deref()),
@@ -478,25 +482,29 @@ impl Session {
                 },
             )?
             .context("this decider has no embedding to query")?;
+        let n = hm.grid.resolution;
         let best = map
             .iter()
             .enumerate()
             .filter(|(_, v)| v.is_finite())
             .min_by(|a, b| a.1.total_cmp(b.1))
-            .map(|(i, v)| json!({"y": i / hm.grid.resolution, "x": i % hm.grid.resolution, "distance": v}));
-        Ok(json!({
-            "type": "query",
-            "pair": pair,
-            "policy": policy,
-            "policy_name": self.decider.policies().get(policy).map(|t| t.as_str()),
-            "demo": demo,
-            "demo_step": demo_step,
-            "y": y,
-            "x": x,
-            "resolution": hm.grid.resolution,
-            "best": best,
-            "map": b64::f32s(&map),
-        }))
+            .map(|(i, v)| QueryBest {
+                y: i / n,
+                x: i % n,
+                distance: *v,
+            });
+        Ok(QueryDoc {
+            pair,
+            policy,
+            policy_name: self.decider.policies().get(policy).copied(),
+            demo,
+            demo_step,
+            y,
+            x,
+            resolution: n,
+            best,
+            map: b64::f32s(&map),
+        })
     }
 
     /// What the chosen (or `pair`'s) policy sees: the live embeddings of the
@@ -504,7 +512,7 @@ impl Session {
     /// its demo step, as RGB of their joint first three principal components
     /// (base64, `H x W x 3`). Live only: while travelling in time it is refused
     /// (the live maps of earlier decisions are not kept).
-    pub fn embedding(&mut self, pair: usize) -> anyhow::Result<Value> {
+    pub fn embedding(&mut self, pair: usize) -> anyhow::Result<EmbeddingDoc> {
         if self.viewing.is_some() {
             bail!("embedding colours show the live decision; go back to live first");
         }
@@ -528,106 +536,134 @@ impl Session {
             .decider
             .embedding_rgb(policy, demo, step, rotation)?
             .context("this decider has no embedding to show")?;
-        Ok(json!({
-            "type": "embedding",
-            "version": self.version,
-            "pair": pair,
-            "policy": task.as_str(),
-            "rotation": rotation,
-            "demo": demo,
-            "demo_step": step,
-            "resolution": n,
-            "live": b64::bytes(&live),
-            "demo_rgb": b64::bytes(&demo_rgb),
-        }))
+        Ok(EmbeddingDoc {
+            version: self.version,
+            pair,
+            policy: task,
+            rotation,
+            demo,
+            demo_step: step,
+            resolution: n,
+            live: b64::bytes(&live),
+            demo_rgb: b64::bytes(&demo_rgb),
+        })
     }
 
     /// The small JSON state every tab gets after each change: the trial, the
     /// phase and the L / C table revealed so far; while travelling in time, the
     /// state that was shown at that phase. `history` says how many phases can be
     /// revisited and which one is shown (`viewing`, null when live).
-    pub fn state(&self) -> Value {
+    pub fn state(&self) -> StateDoc {
         let mut v = match self.viewed() {
             Some(snap) => snap.state.clone(),
             None => self.live_state(),
         };
-        v["version"] = json!(self.version);
-        v["history"] = json!({
-            "len": self.history.len(),
-            "viewing": self.viewing,
-            "phases": self.history.iter().map(|h| json!({
-                "action_index": h.state["action_index"],
-                "action_number": h.state["action_number"],
-                "phase": h.phase.as_str(),
-            })).collect::<Vec<_>>(),
+        v.version = self.version;
+        v.history = Some(HistoryDoc {
+            len: self.history.len(),
+            viewing: self.viewing,
+            phases: self
+                .history
+                .iter()
+                .map(|h| HistoryEntry {
+                    action_index: h.state.action_index,
+                    action_number: h.state.action_number,
+                    phase: h.phase,
+                })
+                .collect(),
         });
         v
     }
 
     /// The state of the live trial (see [`Self::state`]).
-    fn live_state(&self) -> Value {
+    fn live_state(&self) -> StateDoc {
         let phase = self.phase;
         let shown = |p: Phase| phase.is_some_and(|ph| ph >= p) && self.decision.is_some();
-        let pairs: Vec<Value> = self
+        let pairs: Vec<PairDoc> = self
             .decision
             .iter()
             .flat_map(|d| d.pairs.iter())
-            .map(|p| {
-                json!({
-                    "policy": p.policy.as_str(),
-                    "demo": p.demo,
-                    "demo_step": p.demo_step,
-                    "demo_action": p.demo_action,
-                    "l": if shown(Phase::Match) { json!(p.l) } else { Value::Null },
-                    "matched": if shown(Phase::Match) { json!(p.matched) } else { Value::Null },
-                    "c": if shown(Phase::Verify) { json!(p.c) } else { Value::Null },
-                    "rematch": if shown(Phase::Verify) { json!(p.rematch) } else { Value::Null },
-                })
+            .map(|p| PairDoc {
+                policy: p.policy,
+                demo: p.demo,
+                demo_step: p.demo_step,
+                demo_action: p.demo_action,
+                l: shown(Phase::Match).then_some(p.l),
+                matched: shown(Phase::Match).then_some(p.matched),
+                c: shown(Phase::Verify).then_some(p.c),
+                rematch: shown(Phase::Verify).then_some(p.rematch),
             })
             .collect();
         let t = &self.trial;
-        json!({
-            "type": "state",
-            "version": self.version,
-            "task": t.task().as_str(),
-            "seed": t.seed(),
-            "trial_index": self.trial_index,
-            "resolution": self.config.world.grid.resolution,
-            "decider": self.decider.name(),
-            "decider_note": self.decider_note,
-            "replay": self.replay_of.as_ref()
-                .filter(|(task, seed, _)| *task == t.task() && *seed == t.seed() && self.layout.is_none())
-                .map(|(_, _, summary)| summary),
-            "policies": self.decider.policies().iter().map(|p| p.as_str()).collect::<Vec<_>>(),
-            "phase": phase.map(Phase::as_str),
-            "action_index": t.actions(),
-            // The action this phase belongs to, counted from 1 as the page,
-            // the rerun timeline and the viser view show it: the one being
-            // decided, or at Act the one just executed.
-            "action_number": if phase == Some(Phase::Act) { t.actions() } else { t.actions() + 1 },
-            "progress": t.progress(),
-            "max_progress": t.max_progress(),
-            "primitive": t.world().next_primitive(),
-            "holding": t.world().held_block(),
-            "blocks": t.world().block_poses(),
-            "end": t.end(),
-            "end_words": t.end().map(seespot_sim::TrialEnd::words),
-            "succeeded": t.succeeded(),
-            "had_reversal": t.had_reversal(),
-            "method": self.decision.as_ref().map(|d| d.method),
-            "decided_primitive": self.decision.as_ref().map(|d| d.primitive),
-            "decided_progress": self.decision.as_ref().map(|d| d.progress),
-            "pairs": pairs,
-            "chosen": if shown(Phase::Act) { self.decision.as_ref().map(|d| d.chosen) } else { None },
+        let decision = self.decision.as_ref();
+        StateDoc {
+            version: self.version,
+            task: t.task(),
+            seed: t.seed(),
+            trial_index: self.trial_index,
+            resolution: self.config.world.grid.resolution,
+            decider: self.decider.name(),
+            decider_note: self.decider_note.clone(),
+            replay: self
+                .replay_of
+                .as_ref()
+                .filter(|(task, seed, _)| {
+                    *task == t.task() && *seed == t.seed() && self.layout.is_none()
+                })
+                .map(|(_, _, summary)| summary.clone()),
+            policies: self.decider.policies(),
+            phase,
+            action_index: t.actions(),
+            action_number: if phase == Some(Phase::Act) {
+                t.actions()
+            } else {
+                t.actions() + 1
+            },
+            progress: t.progress(),
+            max_progress: t.max_progress(),
+            primitive: t.world().next_primitive(),
+            holding: t.world().held_block(),
+            blocks: t.world().block_poses(),
+            end: t.end(),
+            end_words: t.end().map(seespot_sim::TrialEnd::words),
+            succeeded: t.succeeded(),
+            had_reversal: t.had_reversal(),
+            method: decision.map(|d| d.method),
+            decided_primitive: decision.map(|d| d.primitive),
+            decided_progress: decision.map(|d| d.progress),
+            pairs,
+            chosen: decision.filter(|_| shown(Phase::Act)).map(|d| d.chosen),
             // What each method would do in this state, once its distance is shown.
-            "l2cd_choice": if shown(Phase::Match) { self.decision.as_ref().map(|d| d.l2cd_choice) } else { None },
-            "ccd_choice": if shown(Phase::Verify) { self.decision.as_ref().map(|d| d.ccd_choice) } else { None },
-            "action": if phase.is_some() { self.action.map(|a| json!(a)) } else { None },
-            "timing_ms": self.decision.as_ref().map(|d| json!({"embed": d.embed_ms, "correspond": d.correspond_ms})),
-            "steps": t.steps().iter().map(|s| json!({"action": s.action, "success": s.outcome.success, "progress_before": s.progress_before, "progress_after": s.progress_after, "reversal": s.reversal})).collect::<Vec<_>>(),
-            "recording": self.recorder.as_ref().and_then(|r| r.save_path()).map(|p| p.display().to_string()),
-            "error": self.last_error,
-        })
+            l2cd_choice: decision
+                .filter(|_| shown(Phase::Match))
+                .map(|d| d.l2cd_choice),
+            ccd_choice: decision
+                .filter(|_| shown(Phase::Verify))
+                .map(|d| d.ccd_choice),
+            action: if phase.is_some() { self.action } else { None },
+            timing_ms: decision.map(|d| TimingDoc {
+                embed: d.embed_ms,
+                correspond: d.correspond_ms,
+            }),
+            steps: t
+                .steps()
+                .iter()
+                .map(|s| StepDoc {
+                    action: s.action,
+                    success: s.outcome.success,
+                    progress_before: s.progress_before,
+                    progress_after: s.progress_after,
+                    reversal: s.reversal,
+                })
+                .collect(),
+            recording: self
+                .recorder
+                .as_ref()
+                .and_then(|r| r.save_path())
+                .map(|p| p.display().to_string()),
+            error: self.last_error.clone(),
+            history: None,
+        }
     }
 
     /// The full explanation record of the current decision (maps left out
@@ -656,7 +692,7 @@ impl Session {
     /// heights f32 metres), the pair's demo heightmaps at its step, and the
     /// match / rematch maps once their phase is reached; all base64, row-major,
     /// `H x W`.
-    pub fn frame(&self, pair: usize) -> Value {
+    pub fn frame(&self, pair: usize) -> FrameDoc {
         let (decision, decided_on, phase) = match self.viewed() {
             Some(snap) => (
                 snap.decision.as_deref(),
@@ -666,43 +702,40 @@ impl Session {
             None => (self.decision.as_ref(), self.decided_on.clone(), self.phase),
         };
         let live = decided_on.unwrap_or_else(|| self.trial.world().render());
-        let mut out = json!({
-            "type": "frame",
-            "version": self.version,
-            "resolution": live.grid.resolution,
-            "pair": pair,
-            "phase": phase.map(Phase::as_str),
-            "live": {"color": b64::bytes(&live.color), "depth": b64::f32s(&live.depth)},
-            "demo": Value::Null,
-            "match_map": Value::Null,
-            "rematch_map": Value::Null,
-        });
-        let Some(d) = decision else {
+        let mut out = FrameDoc {
+            version: self.version,
+            resolution: live.grid.resolution,
+            pair,
+            phase,
+            live: HeightmapDoc {
+                color: b64::bytes(&live.color),
+                depth: b64::f32s(&live.depth),
+            },
+            demo: None,
+            match_map: None,
+            rematch_map: None,
+        };
+        let Some(p) = decision.and_then(|d| d.pairs.get(pair)) else {
             return out;
         };
-        let Some(p) = d.pairs.get(pair) else {
-            return out;
-        };
-        if let Some(step) = self
+        out.demo = self
             .decider
             .demos()
             .get(p.demo)
             .and_then(|demo| demo.steps.get(p.demo_step))
-        {
-            out["demo"] = json!({
-                "demo": p.demo,
-                "step": p.demo_step,
-                "action": p.demo_action,
-                "color": b64::bytes(&step.heightmaps.color),
-                "depth": b64::f32s(&step.heightmaps.depth),
+            .map(|step| DemoFrameDoc {
+                demo: p.demo,
+                step: p.demo_step,
+                action: p.demo_action,
+                color: b64::bytes(&step.heightmaps.color),
+                depth: b64::f32s(&step.heightmaps.depth),
             });
-        }
         let phase = phase.unwrap_or(Phase::Embed);
         if phase >= Phase::Match {
-            out["match_map"] = json!(b64::f32s(&p.match_map));
+            out.match_map = Some(b64::f32s(&p.match_map));
         }
         if phase >= Phase::Verify && !p.rematch_map.is_empty() {
-            out["rematch_map"] = json!(b64::f32s(&p.rematch_map));
+            out.rematch_map = Some(b64::f32s(&p.rematch_map));
         }
         out
     }

@@ -37,7 +37,7 @@ fn a_session_starts_from_a_scene_layout_and_saves_it_back() {
     let mut s = Session::new(factory, config, None).expect("session");
     let poses = scene.blocks.expect("layout");
     s.set_layout(poses);
-    let state = s.state();
+    let state = serde_json::to_value(s.state()).expect("state");
     for (i, p) in poses.iter().enumerate() {
         for k in 0..2 {
             let shown = state["blocks"][i]["position"][k].as_f64().expect("pose");
@@ -111,7 +111,7 @@ fn a_what_if_edit_restarts_from_the_moved_blocks_and_decides_again() {
         poses[target].position[1] = -0.17;
     }
     s.set_blocks(&poses).expect("what if");
-    let state = s.state();
+    let state = serde_json::to_value(s.state()).expect("state");
     assert_eq!(state["phase"], "embed");
     assert_eq!(state["action_index"], 0);
     let shown = state["blocks"][target]["position"][1]

@@ -32,13 +32,8 @@ fn ssr_decider_explains_and_answers_queries() {
         },
     };
     let mut s = Session::new(factory, config, None).expect("session");
-    assert!(
-        s.state()["decider"]
-            .as_str()
-            .is_some_and(|d| d.starts_with("See-SPOT-Run")),
-        "{}",
-        s.state()["decider"]
-    );
+    let decider = s.state().decider;
+    assert!(decider.starts_with("See-SPOT-Run"), "{decider}");
     for phase in Phase::ALL {
         assert_eq!(s.next_phase().expect("phase"), phase);
     }
@@ -59,6 +54,6 @@ fn ssr_decider_explains_and_answers_queries() {
             x: a.x,
         })
         .expect("query");
-    assert_eq!(q["policy_name"], d.pairs[4].policy.as_str());
+    assert_eq!(q.policy_name, Some(d.pairs[4].policy));
     std::fs::remove_dir_all(&models).ok();
 }

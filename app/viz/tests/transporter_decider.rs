@@ -46,7 +46,8 @@ fn transporter_decider_shows_its_score_maps() {
     }
     assert_eq!(seen.first(), Some(&Primitive::Grasp));
     assert_eq!(seen.last(), Some(&Primitive::Place), "{seen:?}");
-    let frame = s.frame(0);
+    let frame = serde_json::to_value(s.frame(0)).expect("frame");
+    assert_eq!(frame["type"], "frame");
     assert!(frame["rematch_map"].is_null());
     assert!(frame["match_map"].is_string());
 }

@@ -1,0 +1,221 @@
+//! The documents the server sends the page (`web/app.js`, `web/review.js`)
+//! and the viser client (`python/seespot/viz/viser.py`), as serde types: one
+//! JSON object each, tagged by its `type` field. This is their one schema;
+//! the clients read these fields and no others.
+//!
+//! - [`StateDoc`] (`"state"`): the trial, the phase, the L / C table revealed
+//!   so far and the time-travel history; sent to every tab after each change.
+//! - [`FrameDoc`] (`"frame"`): the images of the current phase for one pair:
+//!   live and demo heightmaps, match and rematch maps.
+//! - [`QueryDoc`] (`"query"`): a click-to-query's distance map.
+//! - [`EmbeddingDoc`] (`"embedding"`): what a policy sees, as colours.
+//!
+//! Binary payloads (heightmaps, maps, colours) are base64 ([`crate::b64`]):
+//! RGB8 bytes as they are, `f32`s little-endian, row-major `H x W`
+//! (`x 3` for colours), `f32::INFINITY` kept where an action is masked.
+
+use seespot_sim::{Action, BlockPose, NUM_BLOCKS, Primitive, TaskId, TrialEnd};
+use seespot_ssr::Method;
+use serde::Serialize;
+
+use crate::phase::Phase;
+
+/// The state of a trial as the page shows it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "type", rename = "state")]
+pub struct StateDoc {
+    /// Bumped at every change; a tab drops documents older than its state.
+    pub version: u64,
+    pub task: TaskId,
+    pub seed: u64,
+    /// Trials started in this session, from 0.
+    pub trial_index: u64,
+    pub resolution: usize,
+    /// What decides, and a note on what it loaded.
+    pub decider: String,
+    pub decider_note: String,
+    /// When this trial replays an evaluation's: what and how it ended.
+    pub replay: Option<String>,
+    /// The policies of the decision's pairs, in pair order.
+    pub policies: Vec<TaskId>,
+    /// The phase shown (embed, match, verify, act); `None` before the first.
+    pub phase: Option<Phase>,
+    /// Actions executed so far.
+    pub action_index: usize,
+    /// The action this phase belongs to, counted from 1 as the page, the rerun
+    /// timeline and the viser view show it: the one being decided, or at Act
+    /// the one just executed.
+    pub action_number: usize,
+    pub progress: u8,
+    pub max_progress: u8,
+    /// The primitive the next action will be.
+    pub primitive: Primitive,
+    /// The block in the gripper.
+    pub holding: Option<usize>,
+    pub blocks: [BlockPose; NUM_BLOCKS],
+    pub end: Option<TrialEnd>,
+    /// [`TrialEnd::words`] of `end`.
+    pub end_words: Option<&'static str>,
+    pub succeeded: bool,
+    pub had_reversal: bool,
+    /// The decision's method, primitive and test progress.
+    pub method: Option<Method>,
+    pub decided_primitive: Option<Primitive>,
+    pub decided_progress: Option<u8>,
+    /// The decision's pairs, revealed phase by phase.
+    pub pairs: Vec<PairDoc>,
+    /// The pair acted on, from the Act phase.
+    pub chosen: Option<usize>,
+    /// The pair SSR L2CD would act on (from Match) and SSR CCD (from Verify).
+    pub l2cd_choice: Option<usize>,
+    pub ccd_choice: Option<usize>,
+    /// The action decided, once a phase is shown.
+    pub action: Option<Action>,
+    pub timing_ms: Option<TimingDoc>,
+    /// Every executed action of the trial.
+    pub steps: Vec<StepDoc>,
+    /// Where a `--save` recording goes.
+    pub recording: Option<String>,
+    /// The last request's error, if it failed.
+    pub error: Option<String>,
+    /// The phases that can be revisited; `None` in a stored snapshot (the
+    /// state sent always has it).
+    pub history: Option<HistoryDoc>,
+}
+
+/// One (policy, demo) pair's row of the L / C table: L and the match from
+/// the Match phase, C and the rematch from Verify (`None` before).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PairDoc {
+    pub policy: TaskId,
+    pub demo: usize,
+    pub demo_step: usize,
+    pub demo_action: Action,
+    /// L: embedding distance of the best match (Eq. 4).
+    pub l: Option<f32>,
+    pub matched: Option<Action>,
+    /// C: cycle consistency distance, in pixels of the heightmap (Eq. 7).
+    pub c: Option<f32>,
+    pub rematch: Option<Action>,
+}
+
+/// Milliseconds a decision spent embedding and on correspondence.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct TimingDoc {
+    pub embed: f64,
+    pub correspond: f64,
+}
+
+/// One executed action.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct StepDoc {
+    pub action: Action,
+    pub success: bool,
+    pub progress_before: u8,
+    pub progress_after: u8,
+    pub reversal: bool,
+}
+
+/// The time-travel history: how many phases can be revisited and which one
+/// is shown (`viewing`, `None` when live).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct HistoryDoc {
+    pub len: usize,
+    pub viewing: Option<usize>,
+    pub phases: Vec<HistoryEntry>,
+}
+
+/// One revisitable phase.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct HistoryEntry {
+    pub action_index: usize,
+    pub action_number: usize,
+    pub phase: Phase,
+}
+
+/// The images of one phase for one pair.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "type", rename = "frame")]
+pub struct FrameDoc {
+    pub version: u64,
+    pub resolution: usize,
+    pub pair: usize,
+    pub phase: Option<Phase>,
+    pub live: HeightmapDoc,
+    /// The pair's demo step, once there is a decision.
+    pub demo: Option<DemoFrameDoc>,
+    /// Base64 `f32` `H x W`: from the Match phase.
+    pub match_map: Option<String>,
+    /// Base64 `f32` `H x W`: from the Verify phase.
+    pub rematch_map: Option<String>,
+}
+
+/// A heightmap: base64 RGB8 colour (`H x W x 3`) and `f32` depth in metres
+/// above the table (`H x W`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct HeightmapDoc {
+    pub color: String,
+    pub depth: String,
+}
+
+/// A pair's demo step in a frame.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct DemoFrameDoc {
+    pub demo: usize,
+    pub step: usize,
+    pub action: Action,
+    pub color: String,
+    pub depth: String,
+}
+
+/// The best live action of a click-to-query.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct QueryBest {
+    pub y: usize,
+    pub x: usize,
+    pub distance: f32,
+}
+
+/// A click-to-query's answer: demo pixel `(y, x)` of pair `pair`'s demo step
+/// under policy index `policy`, compared with every live action.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "type", rename = "query")]
+pub struct QueryDoc {
+    pub pair: usize,
+    pub policy: usize,
+    pub policy_name: Option<TaskId>,
+    pub demo: usize,
+    pub demo_step: usize,
+    pub y: usize,
+    pub x: usize,
+    pub resolution: usize,
+    pub best: Option<QueryBest>,
+    /// Base64 `f32` `H x W` of distances (the minimum over rotations).
+    pub map: String,
+}
+
+/// What a pair's policy sees: its live embeddings at the match rotation and
+/// its demo embeddings at the demo step, as base64 RGB8 (`H x W x 3`) of
+/// their joint first three principal components.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "type", rename = "embedding")]
+pub struct EmbeddingDoc {
+    pub version: u64,
+    pub pair: usize,
+    pub policy: TaskId,
+    pub rotation: usize,
+    pub demo: usize,
+    pub demo_step: usize,
+    pub resolution: usize,
+    pub live: String,
+    pub demo_rgb: String,
+}
+
+/// A document as the JSON text sent over the socket or HTTP.
+pub fn to_text(doc: &impl Serialize) -> String {
+    // Every field serializes (no maps with non-string keys, no failing
+    // `Serialize` impls); an error here is a bug, shown to the page as one.
+    serde_json::to_string(doc).unwrap_or_else(|e| {
+        serde_json::json!({"type": "error", "message": format!("internal error: {e}")}).to_string()
+    })
+}
