@@ -4,16 +4,17 @@ use seespot_policy::PolicyNet;
 use seespot_sim::{Demo, Primitive, Seeds, TaskId, TrialRecord};
 use seespot_ssr::correspond::Correspondence;
 use seespot_ssr::eval::{EvalConfig, EvalMethod, records_path, run_task, world_config};
-use seespot_ssr::policy::{DemoQuery, SsrConfig, SsrPolicy, choose, chosen_pair, demo_dirs};
+use seespot_ssr::policy::{DemoQuery, SsrConfig, SsrPolicy, choose, chosen_pair};
 use seespot_ssr::run::CorrespondName;
-use seespot_ssr::{CorrespondOptions, Method, RunSpec};
+use seespot_ssr::{CorrespondOptions, Layout, Method, RunSpec};
 
 fn demos_dir() -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../demos")
 }
 
 fn demos(task: TaskId) -> Vec<Demo> {
-    demo_dirs(&demos_dir(), task)
+    Layout::new("models", demos_dir())
+        .demo_dirs(task)
         .iter()
         .map(|d| Demo::read(d).expect("shipped demo"))
         .collect()
@@ -277,7 +278,8 @@ fn loop_breaking_never_repeats_an_action_that_changed_nothing() {
         loop_break: true,
         ..SsrConfig::default()
     };
-    let mut ssr = SsrPolicy::load(TaskId::Stack, &models, &demos_dir(), config).expect("ssr");
+    let mut ssr =
+        SsrPolicy::load(TaskId::Stack, &Layout::new(&models, demos_dir()), config).expect("ssr");
     let world = world_config(112);
     let mut trial = seespot_sim::Trial::new(world, TaskId::Stack, 3);
     let mut observed = Vec::new();
@@ -316,8 +318,7 @@ fn name_of(
         method,
         seeds: Seeds::new(1, 1).expect("seeds"),
         out_dir: Default::default(),
-        models_dir: Default::default(),
-        demos_dir: Default::default(),
+        layout: Layout::default(),
         world: world_config(112),
         correspond,
         finetune_steps,
@@ -413,8 +414,7 @@ fn evaluation_writes_records_and_resumes_after_interruption() {
         method: EvalMethod::Oracle,
         seeds: Seeds::new(1, 3).expect("test seeds"),
         out_dir: out.path().to_owned(),
-        models_dir: "models".into(),
-        demos_dir: demos_dir(),
+        layout: Layout::new("models", demos_dir()),
         world: world_config(112),
         correspond: CorrespondOptions::default(),
         finetune_steps: 0,
@@ -513,7 +513,7 @@ fn a_record_replays_exactly_and_is_refused_after_its_files_change() {
     use seespot_ssr::eval::replay_config;
     let tmp = tempfile::tempdir().expect("tempdir");
     let demos = tmp.path().join("demos");
-    for dir in demo_dirs(&demos_dir(), TaskId::Unstack) {
+    for dir in Layout::new("models", demos_dir()).demo_dirs(TaskId::Unstack) {
         let to = demos
             .join("unstack")
             .join(dir.file_name().expect("seed folder"));
@@ -528,8 +528,7 @@ fn a_record_replays_exactly_and_is_refused_after_its_files_change() {
         method: EvalMethod::SsrL2cd,
         seeds: Seeds::new(5, 1).expect("test seed"),
         out_dir: tmp.path().join("out"),
-        models_dir: models.clone(),
-        demos_dir: demos.clone(),
+        layout: Layout::new(&models, &demos),
         world: world_config(112),
         correspond: CorrespondOptions::default(),
         finetune_steps: 0,
@@ -537,13 +536,12 @@ fn a_record_replays_exactly_and_is_refused_after_its_files_change() {
     let record = run_task(&config, TaskId::Unstack, &mut |_| {})
         .expect("eval")
         .remove(0);
-    let again = replay_config(&record, &models, &demos).expect("replayable");
+    let again = replay_config(&record, &Layout::new(&models, &demos)).expect("replayable");
     assert_eq!(again.method, EvalMethod::SsrL2cd);
     assert_eq!(again.world.grid.resolution, 112);
     let mut ssr = SsrPolicy::load(
         TaskId::Unstack,
-        &models,
-        &demos,
+        &Layout::new(&models, &demos),
         SsrConfig {
             method: Method::SsrL2cd,
             ..SsrConfig::default()
@@ -561,7 +559,7 @@ fn a_record_replays_exactly_and_is_refused_after_its_files_change() {
     let mut text = std::fs::read_to_string(&meta).expect("meta");
     text.push('\n');
     std::fs::write(&meta, text).expect("write");
-    let err = replay_config(&record, &models, &demos)
+    let err = replay_config(&record, &Layout::new(&models, &demos))
         .expect_err("changed demo")
         .to_string();
     assert!(err.contains("meta.json"), "{err}");
@@ -646,7 +644,7 @@ fn every_shipped_demo_re_records_to_the_same_bytes() {
     let mut checked = 0;
     for root in [demos_dir(), demos_dir().join("paper-scale")] {
         for task in TaskId::ALL {
-            for dir in demo_dirs(&root, task) {
+            for dir in Layout::new("models", &root).demo_dirs(task) {
                 let shipped = Demo::read(&dir).expect("shipped demo");
                 let config = seespot_sim::WorldConfig {
                     grid: seespot_sim::Grid::new(shipped.meta.resolution),

@@ -49,7 +49,7 @@ pub fn run(cmd: DemoCommand) -> anyhow::Result<()> {
             resolution,
             json,
         } => {
-            let out = out.unwrap_or_else(|| PathBuf::from(format!("runs/demos/{task}/{seed}")));
+            let out = out.unwrap_or_else(|| seespot_ssr::layout::new_layout().demo_dir(task, seed));
             let config = WorldConfig {
                 grid: Grid::new(resolution),
                 ..Default::default()

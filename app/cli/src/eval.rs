@@ -7,11 +7,11 @@ use seespot_sim::TaskId;
 use seespot_sim::metrics::{annotated_actions, summarize_all};
 use seespot_sim::record::read_records;
 use seespot_sim::{Seeds, Summary};
-use seespot_ssr::CorrespondOptions;
 use seespot_ssr::correspond::Correspondence;
 use seespot_ssr::eval::{EvalConfig, EvalMethod, run_task, world_config};
 use seespot_ssr::report;
 use seespot_ssr::run::{RunSpec, TaskTraining};
+use seespot_ssr::{CorrespondOptions, Layout};
 
 #[derive(clap::Args, Debug)]
 pub struct EvalArgs {
@@ -154,8 +154,7 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         method: args.method,
         seeds,
         out_dir: args.out.clone(),
-        models_dir: args.models.clone(),
-        demos_dir: args.demos.clone(),
+        layout: Layout::new(&args.models, &args.demos),
         world,
         correspond: CorrespondOptions {
             mode: args.correspond,
@@ -198,12 +197,7 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         }
     }
     bar.finish_and_clear();
-    let summary = write_report(
-        &args.out,
-        &args.models,
-        &args.demos,
-        args.finetune_steps.max(333),
-    )?;
+    let summary = write_report(&args.out, &config.layout, args.finetune_steps.max(333))?;
     let ours: Vec<&Summary> = summary
         .summaries
         .iter()
@@ -263,12 +257,7 @@ fn record_failed(
         format!("--record failed records SSR, TransporterNet and oracle trials, not {name}")
     })?;
     let ssr = config.ssr_config();
-    let factory = factory_with(
-        kind,
-        config.models_dir.clone(),
-        config.demos_dir.clone(),
-        ssr,
-    );
+    let factory = factory_with(kind, config.layout.clone(), ssr);
     let out = config.out_dir.join("recordings").join(name);
     let stop = live::ctrl_c_flag();
     for r in records.iter().filter(|r| !r.success) {
@@ -318,12 +307,7 @@ fn record_failed(
 /// Annotated actions: for the methods that see the test task's demonstrations
 /// (SSR and the finetuned rows) the actions they hold, counted as at least the
 /// paper's 12; 0 for the others.
-pub fn write_report(
-    out: &Path,
-    models: &Path,
-    demos: &Path,
-    finetune_steps: usize,
-) -> anyhow::Result<Report> {
+pub fn write_report(out: &Path, layout: &Layout, finetune_steps: usize) -> anyhow::Result<Report> {
     let mut records = Vec::new();
     let files = seespot_ssr::eval::records_files(out)
         .with_context(|| format!("reading {}", out.join("trials").display()))?;
@@ -360,24 +344,22 @@ pub fn write_report(
                         .copied()
                         .unwrap_or(finetune_steps as u64)
             }
-            TaskTraining::OwnTransporter => seespot_policy::TransporterNet::load(
-                &seespot_ssr::eval::transporter_path(models, task),
-            )
-            .ok()
-            .and_then(|n| n.meta.extra.get("iterations").and_then(|s| s.parse().ok()))
-            .unwrap_or(0),
-            TaskTraining::OwnSpotQ => {
-                seespot_policy::PolicyNet::load(&seespot_ssr::policy::model_path(models, task))
+            TaskTraining::OwnTransporter => {
+                seespot_policy::TransporterNet::load(&layout.transporter(task))
                     .ok()
-                    .and_then(|p| p.meta.extra.get("train_steps").and_then(|s| s.parse().ok()))
+                    .and_then(|n| n.meta.extra.get("iterations").and_then(|s| s.parse().ok()))
                     .unwrap_or(0)
             }
+            TaskTraining::OwnSpotQ => seespot_policy::PolicyNet::load(&layout.model(task))
+                .ok()
+                .and_then(|p| p.meta.extra.get("train_steps").and_then(|s| s.parse().ok()))
+                .unwrap_or(0),
         }
     };
     let mut demo_actions = std::collections::BTreeMap::new();
     for task in TaskId::ALL {
         let mut n = 0;
-        for dir in seespot_ssr::policy::demo_dirs(demos, task) {
+        for dir in layout.demo_dirs(task) {
             if dir.exists() {
                 n += seespot_sim::Demo::read(&dir)
                     .with_context(|| format!("counting the actions of {}", dir.display()))?

@@ -38,7 +38,8 @@ fn replayable(
     trials: &[seespot_ssr::review::ReviewedTrial],
     args: &ReviewArgs,
 ) -> BTreeMap<PathBuf, Result<(), String>> {
-    seespot_viz::review::replay_status(trials, &args.models, &args.demos)
+    let layout = seespot_ssr::Layout::new(&args.models, &args.demos);
+    seespot_viz::review::replay_status(trials, &layout)
         .into_iter()
         .map(|(file, r)| (file, r.map_err(|e| e.root_cause().to_string())))
         .collect()

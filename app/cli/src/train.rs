@@ -7,6 +7,8 @@ use anyhow::Context;
 use seespot_policy::PolicyNet;
 use seespot_policy::trainer::{TrainConfig, TrainOutcome};
 use seespot_sim::{Seeds, Split, Summary, TaskId, summarize};
+use seespot_ssr::Layout;
+use seespot_ssr::layout::new_layout;
 
 /// Train a SPOT-Q policy for one task.
 #[derive(clap::Args, Debug, Clone)]
@@ -70,19 +72,19 @@ fn bar(len: u64, quiet: bool, template: &str) -> indicatif::ProgressBar {
 
 pub fn run(args: TrainArgs) -> anyhow::Result<()> {
     let task = args.task;
-    let (runs, models) = if args.pure_rl {
-        ("runs/train-pure-rl-", "runs/models/pure-rl/")
+    let (run, models) = if args.pure_rl {
+        ("train-pure-rl", new_layout().models.join("pure-rl"))
     } else {
-        ("runs/train-", "runs/models/")
+        ("train", new_layout().models)
     };
     let run_dir = args
         .run_dir
         .clone()
-        .unwrap_or_else(|| PathBuf::from(format!("{runs}{task}")));
+        .unwrap_or_else(|| seespot_ssr::layout::run_dir(run, task));
     let out = args
         .out
         .clone()
-        .unwrap_or_else(|| PathBuf::from(format!("{models}{task}.safetensors")));
+        .unwrap_or_else(|| Layout::new(models, "").model(task));
     // Refused before any training, so no time is lost.
     crate::refuse_to_replace(&out, args.overwrite, "--out")?;
     crate::refuse_to_replace(&out.with_extension("md"), args.overwrite, "--out")?;

@@ -7,8 +7,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use seespot_policy::transporter::{TransporterTrainConfig, TransporterTrainOutcome};
 use seespot_sim::{Demo, TaskId};
-use seespot_ssr::eval::{sha256_file, transporter_path};
-use seespot_ssr::policy::demo_dirs;
+use seespot_ssr::eval::sha256_file;
 
 /// TransporterNet, the paper's few-shot baseline.
 #[derive(clap::Subcommand, Debug)]
@@ -66,18 +65,19 @@ fn train(args: TrainArgs) -> anyhow::Result<()> {
     let run_dir = args
         .run_dir
         .clone()
-        .unwrap_or_else(|| PathBuf::from(format!("runs/transporter-{task}")));
+        .unwrap_or_else(|| seespot_ssr::layout::run_dir("transporter", task));
     if args.curve_every > 0 && args.curve_trials == 0 {
         anyhow::bail!(
             "--curve-trials 0: a validation curve point needs at least one trial \
              (or --curve-every 0 for no curve)"
         );
     }
-    let out = transporter_path(&args.models, task);
+    let layout = seespot_ssr::Layout::new(&args.models, &args.demos);
+    let out = layout.transporter(task);
     // Refused before any training, so no time is lost.
     crate::refuse_to_replace(&out, args.overwrite, "--models")?;
     crate::refuse_to_replace(&out.with_extension("md"), args.overwrite, "--models")?;
-    let dirs = demo_dirs(&args.demos, task);
+    let dirs = layout.demo_dirs(task);
     let demos = dirs
         .iter()
         .map(|d| Demo::read(d))

@@ -5,6 +5,7 @@ use std::net::IpAddr;
 use std::path::PathBuf;
 
 use seespot_sim::TaskId;
+use seespot_ssr::Layout;
 use seespot_viz::live::{self, ViewOptions};
 use seespot_viz::registry::{self, DeciderFactory, DeciderKind};
 
@@ -26,12 +27,12 @@ pub struct DeciderArgs {
 }
 
 impl DeciderArgs {
+    fn layout(&self) -> Layout {
+        Layout::new(&self.models, &self.demos)
+    }
+
     fn factory(&self) -> anyhow::Result<DeciderFactory> {
-        Ok(registry::factory(
-            self.decider,
-            self.models.clone(),
-            self.demos.clone(),
-        ))
+        Ok(registry::factory(self.decider, self.layout()))
     }
 }
 
@@ -100,8 +101,7 @@ fn replay(
     args: &ViewArgs,
     path: &std::path::Path,
 ) -> anyhow::Result<(TaskId, usize, DeciderFactory, String)> {
-    let r =
-        seespot_viz::review::replay(path, args.seed, &args.decider.models, &args.decider.demos)?;
+    let r = seespot_viz::review::replay(path, args.seed, &args.decider.layout())?;
     outln!("{}: the files it was made with match today's", r.summary)?;
     Ok((r.task, r.resolution, r.factory, r.summary))
 }
@@ -152,8 +152,7 @@ pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
         no_viewer: args.no_viewer,
         review: Some(seespot_viz::review::ReviewSource {
             dir: args.review.clone(),
-            models: args.decider.models.clone(),
-            demos: args.decider.demos.clone(),
+            layout: args.decider.layout(),
         }),
         replay: replay_summary,
     };

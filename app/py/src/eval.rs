@@ -9,7 +9,6 @@ use seespot_policy::{PolicyNet, RandomActor};
 use seespot_sim::{Actor, Oracle, Provenance, Seeds, TaskId, Trial};
 use seespot_ssr::SsrPolicy;
 use seespot_ssr::eval::{EvalConfig, EvalMethod};
-use seespot_ssr::policy::model_path;
 
 use crate::arrays::{self, bad};
 use crate::trial::non_negative;
@@ -57,8 +56,7 @@ impl Evaluator {
             method: eval_method,
             seeds: Seeds::new(1, 1).map_err(|e| bad("seeds", e))?,
             out_dir: PathBuf::new(),
-            models_dir,
-            demos_dir,
+            layout: seespot_ssr::Layout::new(models_dir, demos_dir),
             world: seespot_ssr::eval::world_config(resolution),
             correspond: ssr.correspond,
             finetune_steps: 0,
@@ -71,22 +69,18 @@ impl Evaluator {
                 let actor: Box<dyn Actor + Send + Sync> = match eval_method {
                     EvalMethod::SsrCcd | EvalMethod::SsrL2cd | EvalMethod::SsrCcdLoopBreak => {
                         Box::new(
-                            SsrPolicy::load(task, &config.models_dir, &config.demos_dir, ssr)
+                            SsrPolicy::load(task, &config.layout, ssr)
                                 .map_err(|e| e.to_string())?,
                         )
                     }
                     EvalMethod::SpotQ => Box::new(
-                        PolicyNet::load(&model_path(&config.models_dir, task))
-                            .map_err(|e| e.to_string())?,
+                        PolicyNet::load(&config.layout.model(task)).map_err(|e| e.to_string())?,
                     ),
                     EvalMethod::Oracle => Box::new(Oracle::new(task)),
                     EvalMethod::Random => Box::new(RandomActor::default()),
                     EvalMethod::Transporter => Box::new(seespot_policy::TransporterActor::new(
-                        seespot_policy::TransporterNet::load(&seespot_ssr::eval::transporter_path(
-                            &config.models_dir,
-                            task,
-                        ))
-                        .map_err(|e| e.to_string())?,
+                        seespot_policy::TransporterNet::load(&config.layout.transporter(task))
+                            .map_err(|e| e.to_string())?,
                     )),
                 };
                 Ok::<_, String>((actor, provenance))

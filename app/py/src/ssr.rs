@@ -65,7 +65,13 @@ impl Ssr {
         let task = arrays::task(task)?;
         let config = ssr_config(method, correspond)?;
         let ssr = py
-            .detach(|| SsrPolicy::load(task, &models_dir, &demos_dir, config))
+            .detach(|| {
+                SsrPolicy::load(
+                    task,
+                    &seespot_ssr::Layout::new(models_dir, demos_dir),
+                    config,
+                )
+            })
             .map_err(|e| bad("models_dir/demos_dir", e))?;
         Ok(Self { ssr })
     }

@@ -17,7 +17,8 @@ use seespot_sim::{
 
 use crate::correspond::{CorrespondOptions, Correspondence, DemoFeatures, Rematch, Smoothing};
 use crate::explain::Method;
-use crate::policy::{SsrConfig, SsrError, SsrPolicy, demo_dirs, model_path};
+use crate::layout::Layout;
+use crate::policy::{SsrConfig, SsrError, SsrPolicy};
 
 /// A method of the evaluation table.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -96,8 +97,8 @@ pub struct EvalConfig {
     /// for choosing settings; see [`seespot_sim::seeds`]).
     pub seeds: Seeds,
     pub out_dir: PathBuf,
-    pub models_dir: PathBuf,
-    pub demos_dir: PathBuf,
+    /// The policies, TransporterNets and demonstrations it reads.
+    pub layout: Layout,
     pub world: WorldConfig,
     pub correspond: CorrespondOptions,
     /// Finetuning steps per policy on the two demonstrations before the trials
@@ -141,18 +142,12 @@ pub enum EvalError {
     Actor(seespot_sim::ActorError),
 }
 
-/// The records file of (method, task).
-pub fn records_path(out_dir: &Path, method: &str, task: TaskId) -> PathBuf {
-    out_dir
-        .join("trials")
-        .join(method)
-        .join(format!("{}.jsonl", task.as_str()))
-}
+pub use crate::layout::records_path;
 
 /// Every records file under `<out_dir>/trials/` (`<method>/<task>.jsonl`),
 /// sorted; what the report and `seespot review` read.
 pub fn records_files(out_dir: &Path) -> Result<Vec<PathBuf>, RecordError> {
-    let trials = out_dir.join("trials");
+    let trials = crate::layout::trials_dir(out_dir);
     let io = |e: std::io::Error| RecordError::Io {
         path: trials.display().to_string(),
         source: e,
@@ -255,7 +250,7 @@ pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalE
     let mut paths: Vec<PathBuf> = Vec::new();
     let demos = || -> Result<Vec<PathBuf>, EvalError> {
         let mut out = Vec::new();
-        for dir in demo_dirs(&config.demos_dir, task) {
+        for dir in config.layout.demo_dirs(task) {
             let entries = std::fs::read_dir(&dir)
                 .map_err(|e| EvalError::Invalid(format!("{}: {e}", dir.display())))?;
             for e in entries {
@@ -270,23 +265,23 @@ pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalE
     match (config.method, config.finetune_steps) {
         (EvalMethod::SsrCcd | EvalMethod::SsrL2cd | EvalMethod::SsrCcdLoopBreak, _) => {
             for t in TaskId::ALL.into_iter().filter(|t| *t != task) {
-                paths.push(model_path(&config.models_dir, t));
+                paths.push(config.layout.model(t));
             }
             paths.extend(demos()?);
         }
-        (EvalMethod::SpotQ, 0) => paths.push(model_path(&config.models_dir, task)),
+        (EvalMethod::SpotQ, 0) => paths.push(config.layout.model(task)),
         (EvalMethod::SpotQ, _) => {
             if let Some(base) = TaskId::ALL.into_iter().find(|t| *t != task) {
-                paths.push(model_path(&config.models_dir, base));
+                paths.push(config.layout.model(base));
             }
             paths.extend(demos()?);
         }
         (EvalMethod::Transporter, 0) => {
-            paths.push(transporter_path(&config.models_dir, task));
+            paths.push(config.layout.transporter(task));
             paths.extend(demos()?);
         }
         (EvalMethod::Transporter, _) => {
-            paths.push(transporter_path(&config.models_dir, finetune_base(task)));
+            paths.push(config.layout.transporter(finetune_base(task)));
             paths.extend(demos()?);
         }
         (EvalMethod::Oracle | EvalMethod::Random, _) => {}
@@ -308,11 +303,7 @@ pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalE
 /// provenance (for replaying it): the method, the correspondence, the
 /// resolution. Refuses what cannot be replayed exactly (finetuned or noisy
 /// runs) and records without provenance.
-pub fn replay_config(
-    record: &TrialRecord,
-    models_dir: &Path,
-    demos_dir: &Path,
-) -> Result<EvalConfig, EvalError> {
+pub fn replay_config(record: &TrialRecord, layout: &Layout) -> Result<EvalConfig, EvalError> {
     let prov = record.provenance.as_ref().ok_or_else(|| {
         EvalError::Invalid(format!(
             "the {} record of seed {} has no provenance: it cannot be checked against today's files",
@@ -342,8 +333,7 @@ pub fn replay_config(
         method,
         seeds: Seeds::new(record.seed, 1).map_err(|e| EvalError::Invalid(e.to_string()))?,
         out_dir: PathBuf::new(),
-        models_dir: models_dir.to_owned(),
-        demos_dir: demos_dir.to_owned(),
+        layout: layout.clone(),
         world: WorldConfig {
             noise: settings.noise,
             ..world_config(settings.resolution)
@@ -364,8 +354,8 @@ pub fn replay_config(
     // its path inside today's models or demos folder.
     let tail = |key: &str| -> String {
         let p = Path::new(key);
-        p.strip_prefix(models_dir)
-            .or_else(|_| p.strip_prefix(demos_dir))
+        p.strip_prefix(&layout.models)
+            .or_else(|_| p.strip_prefix(&layout.demos))
             .map_or_else(|_| key.to_owned(), |t| t.display().to_string())
     };
     let recorded = |tail: &str, hash: &String| {
@@ -484,12 +474,7 @@ pub fn run_task(
 fn make_actor(config: &EvalConfig, task: TaskId) -> Result<Box<dyn Actor>, EvalError> {
     Ok(match config.method {
         EvalMethod::SsrCcd | EvalMethod::SsrL2cd | EvalMethod::SsrCcdLoopBreak => {
-            let mut ssr = SsrPolicy::load(
-                task,
-                &config.models_dir,
-                &config.demos_dir,
-                config.ssr_config(),
-            )?;
+            let mut ssr = SsrPolicy::load(task, &config.layout, config.ssr_config())?;
             if config.finetune_steps > 0 {
                 let demos = ssr.demos().to_vec();
                 for (i, (_, policy)) in ssr.policies_mut().iter_mut().enumerate() {
@@ -501,7 +486,7 @@ fn make_actor(config: &EvalConfig, task: TaskId) -> Result<Box<dyn Actor>, EvalE
         EvalMethod::SpotQ if config.finetune_steps > 0 => {
             // "Good Robot finetuned": the first other-task policy, finetuned on the
             // demonstrations for as many steps as SSR's three together, run greedily.
-            let policy = PolicyNet::load(&model_path(&config.models_dir, finetune_base(task)))?;
+            let policy = PolicyNet::load(&config.layout.model(finetune_base(task)))?;
             Box::new(finetune(
                 policy,
                 &read_demos(config, task)?,
@@ -510,16 +495,15 @@ fn make_actor(config: &EvalConfig, task: TaskId) -> Result<Box<dyn Actor>, EvalE
             )?)
         }
         EvalMethod::Transporter if config.finetune_steps > 0 => {
-            let base =
-                TransporterNet::load(&transporter_path(&config.models_dir, finetune_base(task)))?;
+            let base = TransporterNet::load(&config.layout.transporter(finetune_base(task)))?;
             let net =
                 finetune_transporter(&base, &read_demos(config, task)?, config.finetune_steps, 0)?;
             Box::new(TransporterActor::new(net))
         }
         EvalMethod::Transporter => Box::new(TransporterActor::new(TransporterNet::load(
-            &transporter_path(&config.models_dir, task),
+            &config.layout.transporter(task),
         )?)),
-        EvalMethod::SpotQ => Box::new(PolicyNet::load(&model_path(&config.models_dir, task))?),
+        EvalMethod::SpotQ => Box::new(PolicyNet::load(&config.layout.model(task))?),
         EvalMethod::Oracle => Box::new(Oracle::new(task)),
         EvalMethod::Random => Box::new(RandomActor::default()),
     })
@@ -534,16 +518,10 @@ pub fn finetune_base(task: TaskId) -> TaskId {
         .unwrap_or(TaskId::Stack)
 }
 
-/// The TransporterNet trained on `task`'s demonstrations:
-/// `<models>/transporter/<task>.safetensors`.
-pub fn transporter_path(models_dir: &Path, task: TaskId) -> PathBuf {
-    models_dir
-        .join("transporter")
-        .join(format!("{}.safetensors", task.as_str()))
-}
-
 fn read_demos(config: &EvalConfig, task: TaskId) -> Result<Vec<Demo>, EvalError> {
-    Ok(demo_dirs(&config.demos_dir, task)
+    Ok(config
+        .layout
+        .demo_dirs(task)
         .iter()
         .map(|d| Demo::read(d))
         .collect::<Result<Vec<_>, _>>()?)

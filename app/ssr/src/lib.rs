@@ -6,6 +6,7 @@
 pub mod correspond;
 pub mod eval;
 pub mod explain;
+pub mod layout;
 pub mod pca;
 pub mod policy;
 pub mod report;
@@ -17,5 +18,6 @@ pub use correspond::{
     match_queries_with, rematch, rematch_with, smooth,
 };
 pub use explain::{Decision, Method, PairExplanation};
+pub use layout::Layout;
 pub use policy::{SsrConfig, SsrError, SsrPolicy};
 pub use run::RunSpec;

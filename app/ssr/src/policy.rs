@@ -30,7 +30,7 @@
 //! [`seespot_policy::AseMap`]s from them.
 
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 use seespot_policy::{CellAse, PolicyError, PolicyNet};
@@ -39,6 +39,7 @@ use seespot_sim::{Action, Demo, DemoError, Heightmaps, Primitive, TaskId, Trial}
 
 use crate::correspond::{self, CorrespondOptions, Correspondence};
 use crate::explain::{Decision, Method, PairExplanation};
+use crate::layout::Layout;
 
 /// Demonstrations SSR uses per task: `demos/<task>/{0,2}` (even seeds).
 pub const DEMO_SEEDS: [u64; 2] = [0, 2];
@@ -82,19 +83,6 @@ pub enum SsrError {
     Invalid(String),
 }
 
-/// The models directory's file for `task`'s policy.
-pub fn model_path(models_dir: &Path, task: TaskId) -> PathBuf {
-    models_dir.join(format!("{}.safetensors", task.as_str()))
-}
-
-/// The demonstration directories of `task`.
-pub fn demo_dirs(demos_dir: &Path, task: TaskId) -> Vec<PathBuf> {
-    DEMO_SEEDS
-        .iter()
-        .map(|s| demos_dir.join(task.as_str()).join(s.to_string()))
-        .collect()
-}
-
 /// What click-to-query asks about: pixel `(y, x)` of demonstration `demo`'s
 /// step `step`, embedded by the policy of index `policy` (in
 /// [`SsrPolicy::policy_tasks`] order). Named fields, so a call cannot swap
@@ -128,21 +116,16 @@ pub struct SsrPolicy {
 }
 
 impl SsrPolicy {
-    /// Loads the M = 3 policies of the other tasks from `models_dir` and the
-    /// N = 2 demonstrations of `task` from `demos_dir`.
-    pub fn load(
-        task: TaskId,
-        models_dir: &Path,
-        demos_dir: &Path,
-        config: SsrConfig,
-    ) -> Result<Self, SsrError> {
+    /// Loads the M = 3 policies of the other tasks and the N = 2
+    /// demonstrations of `task` from `layout`.
+    pub fn load(task: TaskId, layout: &Layout, config: SsrConfig) -> Result<Self, SsrError> {
         let policies = TaskId::ALL
             .into_iter()
             .filter(|t| *t != task)
-            .map(|t| Ok((t, PolicyNet::load(&model_path(models_dir, t))?)))
+            .map(|t| Ok((t, PolicyNet::load(&layout.model(t))?)))
             .collect::<Result<Vec<_>, SsrError>>()?;
         let mut demos = Vec::new();
-        for dir in demo_dirs(demos_dir, task) {
+        for dir in layout.demo_dirs(task) {
             let d = Demo::read(&dir)?;
             if d.meta.task != task {
                 return Err(SsrError::Mismatch {

@@ -27,7 +27,11 @@ fn main() -> anyhow::Result<()> {
             &out.join("models")
                 .join(format!("{}.safetensors", t.as_str())),
         )?;
-        let (demos, _) = load_demos(t, std::path::Path::new("/nonexistent"), world)?;
+        let (demos, _) = load_demos(
+            t,
+            &seespot_ssr::Layout::new("/nonexistent", "/nonexistent"),
+            world,
+        )?;
         for (d, name) in demos.iter().zip(["0", "2"]) {
             d.write(&out.join("demos").join(t.as_str()).join(name))?;
         }

@@ -5,7 +5,6 @@
 //! ([`seespot_ssr::SsrPolicy`], the default), the scripted oracle (no
 //! explanation), and [`FeatureDecider`], SSR's loop over handcrafted features.
 
-use std::path::Path;
 use std::time::Instant;
 
 use anyhow::Context;
@@ -13,7 +12,7 @@ use seespot_sim::actor::{Actor, ActorError, Choice};
 use seespot_sim::{Action, Demo, Heightmaps, Oracle, Primitive, Seeds, TaskId, Trial, WorldConfig};
 use seespot_ssr::correspond::Correspondence;
 use seespot_ssr::policy::{DEMO_SEEDS, DemoQuery, choose, chosen_pair, demo_step};
-use seespot_ssr::{Decision, Method, PairExplanation, SsrPolicy};
+use seespot_ssr::{Decision, Layout, Method, PairExplanation, SsrPolicy};
 
 /// An [`Actor`] the debugger can explain.
 pub trait Decider: Actor + Send {
@@ -444,21 +443,20 @@ pub fn record_demo(
 }
 
 /// The two demonstrations of `task` at the resolution of `config`: read from
-/// `demos_dir/<task>/{0,2}` where they exist at that resolution, else recorded in
+/// `layout`'s demo folders where they exist at that resolution, else recorded in
 /// memory with the oracle (see [`record_demo`]). A demonstration that exists but
 /// cannot be read is an error naming it. Returns the demos and a note saying
 /// where they came from.
 pub fn load_demos(
     task: TaskId,
-    demos_dir: &Path,
+    layout: &Layout,
     config: WorldConfig,
 ) -> anyhow::Result<(Vec<Demo>, String)> {
-    let dir = demos_dir.join(task.as_str());
     let n = config.grid.resolution;
     let mut demos: Vec<Demo> = Vec::new();
     let mut notes = Vec::new();
     for seed in DEMO_SEEDS {
-        let path = dir.join(seed.to_string());
+        let path = layout.demo_dir(task, seed);
         if path.exists() {
             let d = Demo::read(&path)
                 .with_context(|| format!("cannot use the demonstration {}", path.display()))?;

@@ -4,9 +4,8 @@
 //! below the session, the review and the server, which all take deciders
 //! from it.
 
-use std::path::PathBuf;
-
 use seespot_sim::{Grid, Oracle, TaskId, WorldConfig};
+use seespot_ssr::Layout;
 use seespot_ssr::eval::EvalMethod;
 use serde::Serialize;
 
@@ -73,23 +72,16 @@ impl std::str::FromStr for DeciderKind {
     }
 }
 
-/// The decider factory for `kind`, reading models from `models_dir` and
-/// demos from `demos_dir`.
-pub fn factory(kind: DeciderKind, models_dir: PathBuf, demos_dir: PathBuf) -> DeciderFactory {
-    factory_with(
-        kind,
-        models_dir,
-        demos_dir,
-        seespot_ssr::SsrConfig::default(),
-    )
+/// The decider factory for `kind`, reading models and demos from `layout`.
+pub fn factory(kind: DeciderKind, layout: Layout) -> DeciderFactory {
+    factory_with(kind, layout, seespot_ssr::SsrConfig::default())
 }
 
 /// [`factory`] whose SSR decider runs with `ssr` (method, correspondence, loop
 /// breaking).
 pub fn factory_with(
     kind: DeciderKind,
-    models_dir: PathBuf,
-    demos_dir: PathBuf,
+    layout: Layout,
     ssr: seespot_ssr::SsrConfig,
 ) -> DeciderFactory {
     Box::new(
@@ -98,14 +90,10 @@ pub fn factory_with(
                 DeciderKind::Oracle => {
                     Ok((Box::new(Oracle::new(task)), "scripted oracle".to_owned()))
                 }
-                DeciderKind::Ssr => {
-                    crate::ssr::load_with(task, &models_dir, &demos_dir, world, ssr)
-                }
-                DeciderKind::Transporter => {
-                    crate::transporter::load(task, &models_dir, &demos_dir, world)
-                }
+                DeciderKind::Ssr => crate::ssr::load_with(task, &layout, world, ssr),
+                DeciderKind::Transporter => crate::transporter::load(task, &layout, world),
                 DeciderKind::Features => {
-                    let (demos, note) = load_demos(task, &demos_dir, world)?;
+                    let (demos, note) = load_demos(task, &layout, world)?;
                     Ok((Box::new(FeatureDecider::new(task, demos)), note))
                 }
             }

@@ -13,6 +13,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use seespot_sim::TaskId;
+use seespot_ssr::Layout;
 use seespot_ssr::eval::{records_files, replay_config};
 use seespot_ssr::review::{FailureKind, counts, review_dir};
 use serde_json::{Value, json};
@@ -22,10 +23,10 @@ use crate::registry::{DeciderKind, Replay, factory_with, world};
 use crate::session::{Session, SessionConfig};
 
 /// The replay of trial `seed` of the records file `path`, deciding with the
-/// models in `models` and demonstrations in `demos`; refused when they (or
+/// models and demonstrations of `layout`; refused when they (or
 /// the settings) differ from the ones the record was made with, and for
 /// methods the debugger cannot run (SPOT-Q, random, finetuned, noisy).
-pub fn replay(path: &Path, seed: u64, models: &Path, demos: &Path) -> anyhow::Result<Replay> {
+pub fn replay(path: &Path, seed: u64, layout: &Layout) -> anyhow::Result<Replay> {
     let records = seespot_sim::record::read_records(path)?;
     let record = records.iter().find(|r| r.seed == seed).with_context(|| {
         format!(
@@ -38,7 +39,7 @@ pub fn replay(path: &Path, seed: u64, models: &Path, demos: &Path) -> anyhow::Re
                 .join(", ")
         )
     })?;
-    let config = replay_config(record, models, demos)
+    let config = replay_config(record, layout)
         .with_context(|| format!("cannot replay {} seed {seed}", path.display()))?;
     let kind = DeciderKind::of_method(config.method).with_context(|| {
         format!(
@@ -47,12 +48,7 @@ pub fn replay(path: &Path, seed: u64, models: &Path, demos: &Path) -> anyhow::Re
             config.method.as_str()
         )
     })?;
-    let factory = factory_with(
-        kind,
-        models.to_owned(),
-        demos.to_owned(),
-        config.ssr_config(),
-    );
+    let factory = factory_with(kind, layout.clone(), config.ssr_config());
     let summary = format!(
         "replay of {} on {} seed {} ({} actions, {})",
         record.method,
@@ -75,21 +71,17 @@ pub fn replay(path: &Path, seed: u64, models: &Path, demos: &Path) -> anyhow::Re
 }
 
 /// Whether the trials of each records file among `trials` replay in the
-/// debugger with the models in `models` and demonstrations in `demos`, and
+/// debugger with the models and demonstrations of `layout`, and
 /// why not, by file (one record stands for its file: a file never mixes
 /// provenances). The page's review and `seespot review` both say so.
 pub fn replay_status(
     trials: &[seespot_ssr::review::ReviewedTrial],
-    models: &Path,
-    demos: &Path,
+    layout: &Layout,
 ) -> std::collections::BTreeMap<PathBuf, anyhow::Result<()>> {
     let mut out = std::collections::BTreeMap::new();
     for t in trials {
         if !out.contains_key(&t.file) {
-            out.insert(
-                t.file.clone(),
-                replay(&t.file, t.seed, models, demos).map(|_| ()),
-            );
+            out.insert(t.file.clone(), replay(&t.file, t.seed, layout).map(|_| ()));
         }
     }
     out
@@ -100,18 +92,13 @@ pub fn replay_status(
 pub struct ReviewSource {
     /// An evaluation's output folder (`trials/<method>/<task>.jsonl`).
     pub dir: PathBuf,
-    pub models: PathBuf,
-    pub demos: PathBuf,
+    pub layout: Layout,
 }
 
 impl ReviewSource {
     /// The records file of `method` on `task`, if the review lists one.
     pub fn records_file(&self, method: &str, task: TaskId) -> anyhow::Result<PathBuf> {
-        let want = self
-            .dir
-            .join("trials")
-            .join(method)
-            .join(format!("{task}.jsonl"));
+        let want = seespot_ssr::layout::records_path(&self.dir, method, task);
         records_files(&self.dir)?
             .into_iter()
             .find(|f| *f == want)
@@ -126,7 +113,7 @@ impl ReviewSource {
     /// The replay of trial (method, task, seed) of the review.
     pub fn replay(&self, method: &str, task: TaskId, seed: u64) -> anyhow::Result<Replay> {
         let file = self.records_file(method, task)?;
-        replay(&file, seed, &self.models, &self.demos)
+        replay(&file, seed, &self.layout)
     }
 
     /// The page's document: the failure kinds, per (method, fold) the counts
@@ -134,7 +121,7 @@ impl ReviewSource {
     pub fn document(&self) -> anyhow::Result<Value> {
         let trials =
             review_dir(&self.dir).with_context(|| format!("reviewing {}", self.dir.display()))?;
-        let status = replay_status(&trials, &self.models, &self.demos);
+        let status = replay_status(&trials, &self.layout);
         let rows: Vec<Value> = counts(&trials)
             .iter()
             .map(|(method, task, n, ok, kinds)| {
@@ -191,8 +178,7 @@ mod tests {
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
         ReviewSource {
             dir: root.join("results"),
-            models: root.join("models"),
-            demos: root.join("demos"),
+            layout: Layout::new(root.join("models"), root.join("demos")),
         }
     }
 

@@ -1,41 +1,36 @@
 //! Loading See-SPOT-Run for the debugger (the [`crate::decider::Decider`]
 //! implementation of [`SsrPolicy`] is in `decider.rs`).
 
-use std::path::Path;
-
 use anyhow::Context;
 use seespot_sim::{TaskId, WorldConfig};
-use seespot_ssr::{SsrConfig, SsrPolicy};
+use seespot_ssr::{Layout, SsrConfig, SsrPolicy};
 
 use crate::decider::Decider;
 
-/// Loads the SSR policy for `task`: the other tasks' models from
-/// `models_dir/<policy>.safetensors` and the demos from `demos_dir/<task>/{0,2}`,
-/// which must match the resolution of `world`.
+/// Loads the SSR policy for `task`: the other tasks' models and the task's
+/// demos from `layout`, which must match the resolution of `world`.
 pub fn load(
     task: TaskId,
-    models_dir: &Path,
-    demos_dir: &Path,
+    layout: &Layout,
     world: WorldConfig,
 ) -> anyhow::Result<(Box<dyn Decider>, String)> {
-    load_with(task, models_dir, demos_dir, world, SsrConfig::default())
+    load_with(task, layout, world, SsrConfig::default())
 }
 
 /// [`load`] with a given SSR configuration (method, correspondence, loop
 /// breaking), e.g. to replay a trial of an evaluation.
 pub fn load_with(
     task: TaskId,
-    models_dir: &Path,
-    demos_dir: &Path,
+    layout: &Layout,
     world: WorldConfig,
     config: SsrConfig,
 ) -> anyhow::Result<(Box<dyn Decider>, String)> {
-    let mut policy = SsrPolicy::load(task, models_dir, demos_dir, config).with_context(|| {
+    let mut policy = SsrPolicy::load(task, layout, config).with_context(|| {
         format!(
             "cannot load SSR for {} from {} and {}",
             task.as_str(),
-            models_dir.display(),
-            demos_dir.display()
+            layout.models.display(),
+            layout.demos.display()
         )
     })?;
     let n = world.grid.resolution;
@@ -58,8 +53,8 @@ pub fn load_with(
             .map(|t| t.as_str())
             .collect::<Vec<_>>()
             .join(", "),
-        models_dir.display(),
-        demos_dir.join(task.as_str()).display()
+        layout.models.display(),
+        layout.demos.join(task.as_str()).display()
     );
     Ok((Box::new(policy), note))
 }

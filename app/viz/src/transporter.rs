@@ -8,7 +8,6 @@
 //! `L` is that map's value at the action (0) and `C` is 0. There is no
 //! rematch: the rematch map stays empty.
 
-use std::path::Path;
 use std::time::Instant;
 
 use anyhow::Context;
@@ -17,7 +16,7 @@ use seespot_policy::{TransporterActor, TransporterNet};
 use seespot_sim::actor::{Actor, ActorError, Choice};
 use seespot_sim::{Action, Demo, Heightmaps, Primitive, TaskId, Trial, WorldConfig};
 use seespot_ssr::policy::{DemoQuery, demo_step};
-use seespot_ssr::{Decision, Method, PairExplanation};
+use seespot_ssr::{Decision, Layout, Method, PairExplanation};
 
 use crate::decider::{Decider, load_demos};
 
@@ -34,14 +33,13 @@ pub struct TransporterDecider {
 /// the page's demo panel).
 pub fn load(
     task: TaskId,
-    models_dir: &Path,
-    demos_dir: &Path,
+    layout: &Layout,
     world: WorldConfig,
 ) -> anyhow::Result<(Box<dyn Decider>, String)> {
-    let path = seespot_ssr::eval::transporter_path(models_dir, task);
+    let path = layout.transporter(task);
     let net = TransporterNet::load(&path)
         .with_context(|| format!("cannot load the {task} TransporterNet"))?;
-    let (demos, _) = load_demos(task, demos_dir, world)?;
+    let (demos, _) = load_demos(task, layout, world)?;
     let note = format!(
         "TransporterNet {} ({} iterations on the {task} demonstrations)",
         path.display(),

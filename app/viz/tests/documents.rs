@@ -18,7 +18,10 @@ fn keys(v: &serde_json::Value) -> Vec<&str> {
 
 #[test]
 fn state_and_frame_documents_keep_their_schema() {
-    let factory = registry::factory(DeciderKind::Oracle, "models".into(), "demos".into());
+    let factory = registry::factory(
+        DeciderKind::Oracle,
+        seespot_ssr::Layout::new("models", "demos"),
+    );
     let config = SessionConfig {
         task: TaskId::Stack,
         seed: 1,

@@ -28,7 +28,10 @@ yaw = 60
 #[test]
 fn a_session_starts_from_a_scene_layout_and_saves_it_back() {
     let scene = Scene::parse(SCENE, Path::new("layout.toml")).expect("scene");
-    let factory = registry::factory(DeciderKind::Oracle, "models".into(), "demos".into());
+    let factory = registry::factory(
+        DeciderKind::Oracle,
+        seespot_ssr::Layout::new("models", "demos"),
+    );
     let config = SessionConfig {
         task: scene.task,
         seed: scene.seeds.start(),
@@ -71,7 +74,10 @@ fn a_session_starts_from_a_scene_layout_and_saves_it_back() {
 
 #[test]
 fn a_what_if_edit_restarts_from_the_moved_blocks_and_decides_again() {
-    let factory = registry::factory(DeciderKind::Features, "models".into(), "demos".into());
+    let factory = registry::factory(
+        DeciderKind::Features,
+        seespot_ssr::Layout::new("models", "demos"),
+    );
     let config = SessionConfig {
         task: TaskId::Stack,
         seed: 1,

@@ -12,8 +12,7 @@ fn one_rrd_per_trial_and_stop_ends_cleanly() {
     let out = std::env::temp_dir().join(format!("seespot-viz-rec-{}", std::process::id()));
     let factory = registry::factory(
         DeciderKind::Features,
-        "/nonexistent".into(),
-        "/nonexistent".into(),
+        seespot_ssr::Layout::new("/nonexistent", "/nonexistent"),
     );
     let opts = |start| live::RecordOptions {
         task: TaskId::Row,

@@ -38,8 +38,7 @@ async fn bind_session(addr: &str) -> (tokio::net::TcpListener, Arc<AppState>) {
     };
     let factory = registry::factory(
         DeciderKind::Features,
-        "/nonexistent/models".into(),
-        "/nonexistent/demos".into(),
+        seespot_ssr::Layout::new("/nonexistent/models", "/nonexistent/demos"),
     );
     let session = tokio::task::spawn_blocking(move || Session::new(factory, config, None))
         .await
@@ -375,8 +374,7 @@ async fn issue_10_non_loopback_bind_is_refused_without_allow_remote() {
     };
     let factory = registry::factory(
         DeciderKind::Features,
-        "/nonexistent/models".into(),
-        "/nonexistent/demos".into(),
+        seespot_ssr::Layout::new("/nonexistent/models", "/nonexistent/demos"),
     );
     let e = live::serve_view(opts, factory, |_| panic!("served"), std::future::ready(()))
         .await

@@ -22,7 +22,7 @@ fn ssr_decider_explains_and_answers_queries() {
             .save(&models.join(format!("{}.safetensors", t.as_str())))
             .expect("save");
     }
-    let factory = registry::factory(DeciderKind::Ssr, models.clone(), demos);
+    let factory = registry::factory(DeciderKind::Ssr, seespot_ssr::Layout::new(&models, demos));
     let config = SessionConfig {
         task: TaskId::Stack,
         seed: 1,

@@ -16,7 +16,10 @@ fn transporter_decider_shows_its_score_maps() {
         return;
     }
     let models = root.join("models");
-    let factory = registry::factory(DeciderKind::Transporter, models, demos);
+    let factory = registry::factory(
+        DeciderKind::Transporter,
+        seespot_ssr::Layout::new(models, demos),
+    );
     let config = SessionConfig {
         task: TaskId::Stack,
         seed: 1,

@@ -1,0 +1,101 @@
+//! Where seespot's files live: one type, [`Layout`], owns every path of a
+//! model set and its demonstrations, and the functions below every path of
+//! what a run writes (records, training runs, new models and demos). Nothing
+//! else spells a file name.
+//!
+//! ```text
+//! <models>/<task>.safetensors              a SPOT-Q policy (and <task>.md, its card)
+//! <models>/transporter/<task>.safetensors  a TransporterNet
+//! <demos>/<task>/<seed>/                   a demonstration (meta.json + PNGs)
+//! <out>/trials/<run>/<task>.jsonl          an evaluation's records (<run>: a RunSpec's name)
+//! runs/train-<task>/                       a SPOT-Q training run (resumable)
+//! runs/transporter-<task>/                 a TransporterNet training run
+//! runs/models/, runs/demos/                what training and recording write by default
+//! ```
+//!
+//! The shipped set is `models/` and `demos/`; the paper-scale set
+//! `models/paper-scale/` and `demos/paper-scale/`.
+
+use std::path::{Path, PathBuf};
+
+use seespot_sim::TaskId;
+
+use crate::policy::DEMO_SEEDS;
+
+/// A model set and its demonstrations.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Layout {
+    /// Policies (`<task>.safetensors`) and TransporterNets (`transporter/`).
+    pub models: PathBuf,
+    /// Demonstrations (`<task>/<seed>/`).
+    pub demos: PathBuf,
+}
+
+impl Default for Layout {
+    /// The shipped set: `models/` and `demos/`.
+    fn default() -> Self {
+        Self::new("models", "demos")
+    }
+}
+
+impl Layout {
+    pub fn new(models: impl Into<PathBuf>, demos: impl Into<PathBuf>) -> Self {
+        Self {
+            models: models.into(),
+            demos: demos.into(),
+        }
+    }
+
+    /// `task`'s SPOT-Q policy.
+    pub fn model(&self, task: TaskId) -> PathBuf {
+        self.models.join(format!("{}.safetensors", task.as_str()))
+    }
+
+    /// The TransporterNet trained on `task`'s demonstrations.
+    pub fn transporter(&self, task: TaskId) -> PathBuf {
+        self.models
+            .join("transporter")
+            .join(format!("{}.safetensors", task.as_str()))
+    }
+
+    /// `task`'s demonstration folders, in [`DEMO_SEEDS`] order.
+    pub fn demo_dirs(&self, task: TaskId) -> Vec<PathBuf> {
+        DEMO_SEEDS.iter().map(|s| self.demo_dir(task, *s)).collect()
+    }
+
+    /// The demonstration of `task` recorded from `seed`.
+    pub fn demo_dir(&self, task: TaskId, seed: u64) -> PathBuf {
+        self.demos.join(task.as_str()).join(seed.to_string())
+    }
+}
+
+/// Where training runs and what they make go by default.
+pub const RUNS: &str = "runs";
+
+/// The records folder of an evaluation's output.
+pub fn trials_dir(out_dir: &Path) -> PathBuf {
+    out_dir.join("trials")
+}
+
+/// The records file of run `run` (a [`crate::RunSpec`]'s name) on `task`.
+pub fn records_path(out_dir: &Path, run: &str, task: TaskId) -> PathBuf {
+    trials_dir(out_dir)
+        .join(run)
+        .join(format!("{}.jsonl", task.as_str()))
+}
+
+/// The default run directory of `seespot train` (`prefix`: `train` or
+/// `train-pure-rl`) and of `seespot transporter train` (`transporter`).
+pub fn run_dir(prefix: &str, task: TaskId) -> PathBuf {
+    Path::new(RUNS).join(format!("{prefix}-{task}"))
+}
+
+/// Where `seespot train`, `transporter train` and `demo record` write by
+/// default: `runs/models` and `runs/demos`, so that the shipped sets are
+/// never replaced by accident.
+pub fn new_layout() -> Layout {
+    Layout::new(
+        Path::new(RUNS).join("models"),
+        Path::new(RUNS).join("demos"),
+    )
+}
