@@ -20,7 +20,8 @@ use std::path::{Path, PathBuf};
 
 use seespot_sim::TaskId;
 
-use crate::policy::DEMO_SEEDS;
+/// Demonstrations SSR uses per task: `demos/<task>/{0,2}` (even seeds).
+pub const DEMO_SEEDS: [u64; 2] = [0, 2];
 
 /// A model set and its demonstrations.
 #[derive(Clone, Debug, PartialEq, Eq)]

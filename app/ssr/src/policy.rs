@@ -39,10 +39,8 @@ use seespot_sim::{Action, Demo, DemoError, Heightmaps, Primitive, TaskId, Trial}
 
 use crate::correspond::{self, CorrespondOptions, Correspondence};
 use crate::explain::{Decision, Method, PairExplanation};
+pub use crate::layout::DEMO_SEEDS;
 use crate::layout::Layout;
-
-/// Demonstrations SSR uses per task: `demos/<task>/{0,2}` (even seeds).
-pub const DEMO_SEEDS: [u64; 2] = [0, 2];
 
 /// Around an action that left the scene unchanged, the loop-breaking extension
 /// masks the pixels within this distance (Chebyshev, metres): the gripper
