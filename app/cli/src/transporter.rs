@@ -139,7 +139,7 @@ fn train(args: TrainArgs) -> anyhow::Result<()> {
         .collect::<anyhow::Result<Vec<_>>>()?;
     std::fs::write(
         &card,
-        model_card(&outcome, &args, &sha256_file(&out)?, &sums),
+        model_card(&outcome, &args, &run_dir, &sha256_file(&out)?, &sums),
     )
     .with_context(|| format!("writing {}", card.display()))?;
     eprintln!(
@@ -172,6 +172,7 @@ fn train(args: TrainArgs) -> anyhow::Result<()> {
 fn model_card(
     o: &TransporterTrainOutcome,
     args: &TrainArgs,
+    run_dir: &std::path::Path,
     weights_sha: &str,
     demos: &[(String, String)],
 ) -> String {
@@ -199,13 +200,15 @@ fn model_card(
     let _ = writeln!(
         md,
         "\nRemake: `seespot transporter train --task {task} --iterations {} --seed {} \
-         --curve-every {} --curve-trials {} --models {} --overwrite` (resumes from \
-         `runs/transporter-{task}`).\n",
+         --curve-every {} --curve-trials {} --demos {} --models {} --run-dir {} --overwrite` \
+         (resumes from the run directory).\n",
         s.iteration,
         s.config.seed,
         s.config.curve_every,
         s.config.curve_trials,
-        args.models.display()
+        args.demos.display(),
+        args.models.display(),
+        run_dir.display()
     );
     let _ = writeln!(
         md,
