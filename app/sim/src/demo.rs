@@ -40,6 +40,10 @@ pub struct DemoMeta {
     pub workspace: [[f32; 2]; 2],
     pub seespot_version: String,
     pub steps: Vec<DemoStepMeta>,
+    /// For a task defined by its demonstrations (`custom:NAME`): the final
+    /// layout, the task's goal. Absent for the built-in tasks.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub goal: Option<crate::goal::Goal>,
 }
 
 /// One step's record in `meta.json`.
@@ -211,17 +215,7 @@ impl Demo {
 
     /// Reads and validates a demonstration directory.
     pub fn read(dir: &Path) -> Result<Self, DemoError> {
-        let path = dir.join("meta.json");
-        let text =
-            crate::bounds::read_text(&path, crate::bounds::files::DEMO_META).map_err(|source| {
-                DemoError::Io {
-                    path: path.clone(),
-                    source,
-                }
-            })?;
-        let meta: DemoMeta = serde_json::from_str(&text)
-            .map_err(|e| invalid(&path, format!("bad metadata: {e}")))?;
-        meta.validate(&path)?;
+        let meta = read_meta(dir)?;
         let grid = Grid::new(meta.resolution);
         let steps = meta
             .steps
@@ -254,6 +248,7 @@ impl DemoMeta {
             workspace: [[-h, h], [-h, h]],
             seespot_version: crate::VERSION.to_owned(),
             steps: Vec::new(),
+            goal: None,
         }
     }
 
@@ -293,6 +288,37 @@ impl DemoMeta {
                 path,
                 "field `steps`: a demonstration needs at least one step",
             ));
+        }
+        match (self.task.custom(), &self.goal) {
+            (Some(_), None) => {
+                return Err(invalid(
+                    path,
+                    format!(
+                        "field `goal`: a demonstration of {} must hold its final layout",
+                        self.task
+                    ),
+                ));
+            }
+            (None, Some(_)) => {
+                return Err(invalid(
+                    path,
+                    format!(
+                        "field `goal`: {} is a built-in task, whose goal is not a layout",
+                        self.task
+                    ),
+                ));
+            }
+            (Some(_), Some(goal)) if goal.places.len() != crate::NUM_BLOCKS => {
+                return Err(invalid(
+                    path,
+                    format!(
+                        "field `goal.places`: {} places, expected all {} blocks",
+                        goal.places.len(),
+                        crate::NUM_BLOCKS
+                    ),
+                ));
+            }
+            _ => {}
         }
         let mut expected = Primitive::Grasp;
         for (i, s) in self.steps.iter().enumerate() {
@@ -414,6 +440,22 @@ impl DemoMeta {
         }
         Ok(())
     }
+}
+
+/// Reads and validates a demonstration's `meta.json` (not its images).
+pub fn read_meta(dir: &Path) -> Result<DemoMeta, DemoError> {
+    let path = dir.join("meta.json");
+    let text =
+        crate::bounds::read_text(&path, crate::bounds::files::DEMO_META).map_err(|source| {
+            DemoError::Io {
+                path: path.clone(),
+                source,
+            }
+        })?;
+    let meta: DemoMeta =
+        serde_json::from_str(&text).map_err(|e| invalid(&path, format!("bad metadata: {e}")))?;
+    meta.validate(&path)?;
+    Ok(meta)
 }
 
 fn io(path: &Path) -> impl FnOnce(std::io::Error) -> DemoError + '_ {

@@ -105,6 +105,7 @@ impl Oracle {
             TaskId::VerticalSquare => progress::stacked_pairs(poses)
                 .iter()
                 .any(|&(u, l)| u == i || l == i),
+            TaskId::Custom(_) => false,
         }
     }
 
@@ -115,13 +116,17 @@ impl Oracle {
             TaskId::Unstack => plan_unstack(poses),
             TaskId::Row => plan_row(poses),
             TaskId::VerticalSquare => plan_vertical_square(poses),
+            TaskId::Custom(c) => panic!(
+                "the scripted oracle knows the four built-in tasks, not custom:{}",
+                c.name()
+            ),
         }
     }
 }
 
 /// A grasp of block `i` that the world says will catch it: the block's centre, at
 /// the rotation of its faces, else a quarter or eighth turn from it.
-fn grasp_action(world: &World, i: usize) -> Option<Action> {
+pub fn grasp_action(world: &World, i: usize) -> Option<Action> {
     let p = world.block_poses()[i];
     let quarter = std::f32::consts::FRAC_PI_2;
     [0.0, quarter, quarter / 2.0, -quarter / 2.0]
@@ -138,7 +143,9 @@ fn grasp_action(world: &World, i: usize) -> Option<Action> {
         .find(|a| world.check_grasp(*a) == Ok(i))
 }
 
-fn to_action(grid: Grid, primitive: Primitive, x: f32, y: f32, yaw: f32) -> Action {
+/// The action of `primitive` at world `(x, y)` (clamped into the workspace)
+/// with the rotation nearest `yaw`.
+pub fn to_action(grid: Grid, primitive: Primitive, x: f32, y: f32, yaw: f32) -> Action {
     let h = WORKSPACE_SIZE / 2.0 - 1e-4;
     let (py, px) = grid
         .world_to_pixel(x.clamp(-h, h), y.clamp(-h, h))

@@ -101,7 +101,7 @@ impl Trial {
 
     /// A trial over an existing world with its own action limit.
     pub fn from_world(world: World, task: TaskId, seed: u64, max_actions: usize) -> Self {
-        let progress = task.progress(&world.table_poses());
+        let progress = task.progress_of(&world.table_blocks());
         let mut trial = Self {
             world,
             task,
@@ -120,6 +120,11 @@ impl Trial {
 
     pub fn world(&self) -> &World {
         &self.world
+    }
+
+    /// The world, the trial given up.
+    pub fn into_world(self) -> World {
+        self.world
     }
 
     pub fn world_mut(&mut self) -> &mut World {
@@ -179,7 +184,7 @@ impl Trial {
         assert!(self.end.is_none(), "step() on an ended trial");
         let before = self.progress;
         let outcome = self.world.execute(action);
-        let after = self.task.progress(&self.world.table_poses());
+        let after = self.task.progress_of(&self.world.table_blocks());
         let reversal = after < self.max_progress;
         self.progress = after;
         self.max_progress = self.max_progress.max(after);
