@@ -9,7 +9,10 @@ const PHASES = ['embed', 'match', 'verify', 'act'];
 const app = window.seespot = {
   info: null, state: null, frame: null, frameVersion: -1, query: null,
   selectedPair: null, errors: [], ws: null,
+  // Demonstrate mode: the gripper's rotation index (0..15) and the pixel under the mouse.
+  demoRotation: 0, hover: null, saved: null,
 };
+const ROTATIONS = 16;
 
 let pending = null; // frame request in flight
 let images = { live: null, demo: null, match: null, rematch: null, query: null, embedding: null };
@@ -34,6 +37,12 @@ function connect() {
     else if (m.type === 'state') onState(m);
     else if (m.type === 'query') onQuery(m);
     else if (m.type === 'error') showError(m.message);
+    else if (m.type === 'demo_saved') {
+      app.saved = m.dir; $('demo-status').textContent = `saved to ${m.dir}`;
+      // A custom task can be run once it has a demonstration.
+      const t = $('demo-task').value.trim();
+      if (t.startsWith('custom:')) addTask(t);
+    }
   };
 }
 
@@ -49,8 +58,16 @@ function onInfo(info) {
   app.info = info;
   const sel = $('task');
   if (!sel.options.length) for (const t of info.tasks) sel.add(new Option(t, t));
+  const dl = $('demo-tasks');
+  if (!dl.options.length) for (const t of info.tasks) dl.appendChild(new Option(t, t));
   if (info.viewer_url) { $('viewer-link').href = info.viewer_url; }
   else { $('viewer-link').hidden = true; $('toggle-viewer').hidden = true; }
+}
+
+/** Adds a task (a custom one) to the task box, once. */
+function addTask(t) {
+  const sel = $('task');
+  if (![...sel.options].some((o) => o.value === t)) sel.add(new Option(t, t));
 }
 
 function fmt(v, d) { return v === null || v === undefined ? '…' : Number(v).toFixed(d); }
@@ -60,6 +77,7 @@ function onState(s) {
   const prev = app.state;
   app.state = s;
   if (!prev || prev.task !== s.task || prev.seed !== s.seed || prev.trial_index !== s.trial_index) {
+    addTask(s.task);
     $('task').value = s.task; $('seed').value = s.seed;
   }
   if (app.selectedPair !== null && app.selectedPair >= s.pairs.length) app.selectedPair = null;
@@ -82,7 +100,18 @@ function onState(s) {
   $('replay-banner').hidden = !s.replay;
   $('replay-banner').textContent = s.replay ? `▶ ${s.replay}` : '';
   const ended = !!s.end;
-  for (const id of ['next-phase', 'next-action', 'run']) $(id).disabled = ended;
+  const demo = s.demonstrate;
+  for (const id of ['next-phase', 'next-action', 'run']) $(id).disabled = ended || !!demo;
+  document.body.classList.toggle('demonstrating', !!demo);
+  $('demo-live').hidden = !demo;
+  if (demo) {
+    $('demo-status').textContent = `demonstrating ${demo.task} from seed ${demo.seed}: ${demo.actions.length} action${demo.actions.length === 1 ? '' : 's'}`
+      + (demo.progress !== null ? `, progress ${demo.progress} / 4` : '') + ` · next: ${s.primitive} (click the live heightmap)`;
+    $('demo-undo').disabled = !demo.actions.length;
+    $('progress').textContent = demo.progress !== null ? `${demo.progress} / 4` : '– (the goal is the final layout)';
+    $('progress-bar').style.width = `${((demo.progress ?? 0) / 4) * 100}%`;
+    $('action-index').textContent = String(demo.actions.length);
+  }
 
   // Query policies.
   const qp = $('query-policy');
@@ -250,10 +279,22 @@ function draw() {
   if (p && p.matched) lm.push({ kind: 'arrow', from: p.demo_action, to: p.matched, color: chosen ? '#00e676' : '#ffffff', label: `L = ${fmt(p.l, 3)}` });
   if (p && p.matched) lm.push({ kind: 'point', at: p.matched, color: chosen ? '#00e676' : '#ffffff', label: chosen ? 'F (executed)' : 'F', ring: chosen });
   if (images.query && app.queryBest) lm.push({ kind: 'point', at: app.queryBest, color: '#ff4fd8', label: 'best', ring: true, below: true });
+  const demo = s.demonstrate;
+  if (demo) {
+    heat = null; label = 'demonstrating: click to act';
+    demo.actions.forEach((a, i) => lm.push({ kind: 'point', at: a, color: a.primitive === 'grasp' ? '#00e676' : '#ffaa00', label: i === demo.actions.length - 1 ? `${i + 1}: ${act(a)}` : null }));
+    if (app.hover) {
+      const info = app.info || {};
+      const px = (info.workspace_size || 0.448) / n;
+      lm.push({ kind: 'gripper', at: app.hover, yaw: (app.demoRotation * 2 * Math.PI) / ROTATIONS,
+        jaw: (info.jaw_opening || 0.08) / px, finger: (info.block_size || 0.05) / px,
+        color: s.primitive === 'grasp' ? '#00e676' : '#ffaa00', label: `${s.primitive} r${app.demoRotation}` });
+    }
+  }
   compose($('live-canvas'), n, emb ? emb.live : images.live[kind], heat ? heat.canvas : null, op, lm);
   document.body.dataset.embedding = emb ? `${emb.policy}:${emb.version}` : '';
   $('overlay-label').textContent = label;
-  $('live-title').textContent = s.phase === 'act' ? 'Live scene (before the action)' : 'Live scene';
+  $('live-title').textContent = demo ? `Demonstrating ${demo.task}` : (s.phase === 'act' ? 'Live scene (before the action)' : 'Live scene');
 }
 
 function onQuery(m) {
@@ -298,6 +339,34 @@ $('demo-canvas').onclick = (ev) => {
   const { y, x } = pixelAt($('demo-canvas'), f.resolution, ev);
   send({ type: 'query', pair: f.pair, policy: Number($('query-policy').value || 0), y, x });
 };
+// Demonstrate mode: the live heightmap is the controller.
+$('demo-start').onclick = () => {
+  const task = $('demo-task').value.trim() || (app.state && app.state.task);
+  app.saved = null;
+  send({ type: 'demonstrate', task, seed: Number($('seed').value), colours_matter: $('demo-colours').checked });
+};
+$('demo-undo').onclick = () => send({ type: 'demo_undo' });
+$('demo-save').onclick = () => send({ type: 'demo_save', overwrite: $('demo-overwrite').checked });
+$('demo-stop').onclick = () => { app.hover = null; send({ type: 'demo_stop' }); };
+function turnGripper(delta) { app.demoRotation = (app.demoRotation + delta + ROTATIONS) % ROTATIONS; draw(); }
+$('live-canvas').onclick = (ev) => {
+  const s = app.state, f = app.frame;
+  if (!s || !s.demonstrate || !f) return;
+  const { y, x } = pixelAt($('live-canvas'), f.resolution, ev);
+  send({ type: 'demo_act', action: { primitive: s.primitive, rotation: app.demoRotation, y, x } });
+};
+$('live-canvas').onmousemove = (ev) => {
+  const s = app.state, f = app.frame;
+  if (!s || !s.demonstrate || !f) return;
+  app.hover = pixelAt($('live-canvas'), f.resolution, ev);
+  draw();
+};
+$('live-canvas').onmouseleave = () => { if (app.hover) { app.hover = null; draw(); } };
+$('live-canvas').addEventListener('wheel', (ev) => {
+  if (!app.state || !app.state.demonstrate) return;
+  ev.preventDefault();
+  turnGripper(ev.deltaY > 0 ? 1 : -1);
+}, { passive: false });
 $('toggle-viewer').onclick = () => {
   const box = $('viewer-box');
   box.hidden = !box.hidden;
@@ -311,6 +380,9 @@ document.addEventListener('keydown', (ev) => {
   else if (ev.key === 'r') $('run').click();
   else if (ev.key === 'ArrowLeft') travel(-1);
   else if (ev.key === 'ArrowRight') travel(1);
+  else if (app.state && app.state.demonstrate && ev.key === '[') turnGripper(-1);
+  else if (app.state && app.state.demonstrate && ev.key === ']') turnGripper(1);
+  else if (app.state && app.state.demonstrate && ev.key === 'u') $('demo-undo').click();
 });
 
 connect();

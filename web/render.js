@@ -83,7 +83,29 @@ export function compose(canvas, n, base, heat, opacity, marks) {
   for (const m of marks) {
     if (m.kind === 'arrow') arrow(ctx, s, m.from, m.to, m.color, m.label);
     else if (m.kind === 'point') point(ctx, s, m.at, m.color, m.label, m.ring, m.below);
+    else if (m.kind === 'gripper') gripper(ctx, s, m);
   }
+}
+
+// The gripper's footprint at pixel m.at: two fingers m.jaw pixels apart along
+// the closing direction of yaw m.yaw (radians; pixel x and y follow world x and
+// y), each m.finger pixels long across it.
+function gripper(ctx, s, m) {
+  const [x, y] = px(s, m.at);
+  const c = Math.cos(m.yaw), sn = Math.sin(m.yaw);
+  const half = (m.jaw / 2) * s, len = (m.finger / 2) * s;
+  for (const [w, col] of [[6, '#000b'], [3, m.color]]) {
+    ctx.lineWidth = w; ctx.strokeStyle = col;
+    for (const side of [-1, 1]) {
+      const fx = x + side * half * c, fy = y + side * half * sn;
+      ctx.beginPath();
+      ctx.moveTo(fx - len * -sn, fy - len * c);
+      ctx.lineTo(fx + len * -sn, fy + len * c);
+      ctx.stroke();
+    }
+    ctx.beginPath(); ctx.moveTo(x - half * c, y - half * sn); ctx.lineTo(x + half * c, y + half * sn); ctx.stroke();
+  }
+  if (m.label) tag(ctx, x + 14, y - 14, m.label, m.color);
 }
 
 function px(s, p) { return [(p.x + 0.5) * s, (p.y + 0.5) * s]; }

@@ -8,10 +8,22 @@ use seespot_sim::{Demo, Grid, TaskId, WorldConfig};
 
 #[derive(Subcommand, Debug)]
 pub enum DemoCommand {
-    /// Record one oracle demonstration of a task.
+    /// Record one demonstration of a task: the scripted oracle's, or the
+    /// actions of `--actions` (the path a click in the debugger's Demonstrate
+    /// mode takes; the only way to demonstrate a custom task).
     Record {
+        /// A built-in task, or `custom:NAME` for a task defined by its
+        /// demonstrations (saved in `demos/custom/NAME/<n>`).
         #[arg(long)]
         task: TaskId,
+        /// A JSON file holding the actions to demonstrate, in order:
+        /// `[{"primitive": "grasp", "rotation": 3, "y": 50, "x": 61}, ...]`
+        /// (`-` reads standard input).
+        #[arg(long)]
+        actions: Option<PathBuf>,
+        /// For a custom task: each block must reach the place of its own colour.
+        #[arg(long)]
+        colours_matter: bool,
         /// World seed (demonstration seeds are even by convention).
         #[arg(long)]
         seed: u64,
@@ -43,18 +55,56 @@ pub fn run(cmd: DemoCommand) -> anyhow::Result<()> {
     match cmd {
         DemoCommand::Record {
             task,
+            actions,
+            colours_matter,
             seed,
             out,
             overwrite,
             resolution,
             json,
         } => {
-            let out = out.unwrap_or_else(|| seespot_ssr::layout::new_layout().demo_dir(task, seed));
             let config = WorldConfig {
                 grid: Grid::new(resolution),
                 ..Default::default()
             };
-            let demo = seespot_ssr::correspond::reference::record_demo(task, seed, config)?;
+            if colours_matter && task.is_builtin() {
+                anyhow::bail!(
+                    "--colours-matter: only a custom task's goal is a layout; {task} has its own rule"
+                );
+            }
+            let out = match (out, task.is_builtin()) {
+                (Some(out), _) => out,
+                (None, true) => seespot_ssr::layout::new_layout().demo_dir(task, seed),
+                (None, false) => seespot_sim::custom::next_demo_dir(
+                    &seespot_ssr::layout::new_layout().task_demos(task),
+                )?,
+            };
+            let demo = match actions {
+                Some(file) => {
+                    let list = read_actions(&file)?;
+                    let mut recorder = seespot_sim::custom::Recorder::new(task, seed, config)
+                        .with_colours_matter(colours_matter);
+                    for (i, a) in list.into_iter().enumerate() {
+                        recorder
+                            .step(a)
+                            .with_context(|| format!("{}: action {i}", file.display()))?;
+                    }
+                    let demo = recorder
+                        .finish()
+                        .with_context(|| format!("{}: cannot save", file.display()))?;
+                    if let Some(parent) = out.parent() {
+                        seespot_sim::custom::check_agrees(parent, &demo)?;
+                    }
+                    demo
+                }
+                None if task.is_builtin() => {
+                    seespot_ssr::correspond::reference::record_demo(task, seed, config)?
+                }
+                None => anyhow::bail!(
+                    "{task} has no scripted oracle: pass --actions FILE (the actions to \
+                     demonstrate), or demonstrate it in the debugger (`seespot view --task {task}`)"
+                ),
+            };
             let files = demo.files(&out)?;
             let differing = differing_files(&out, &files)?;
             let written = match &differing {
@@ -147,6 +197,30 @@ pub fn run(cmd: DemoCommand) -> anyhow::Result<()> {
             Ok(())
         }
     }
+}
+
+/// The actions of an `--actions` file (JSON list of actions), read with a
+/// size bound.
+fn read_actions(file: &Path) -> anyhow::Result<Vec<seespot_sim::Action>> {
+    let text = if file == Path::new("-") {
+        let mut s = String::new();
+        std::io::Read::read_to_string(
+            &mut std::io::Read::take(std::io::stdin(), seespot_sim::bounds::files::DEMO_META),
+            &mut s,
+        )?;
+        s
+    } else {
+        seespot_sim::bounds::read_text(file, seespot_sim::bounds::files::DEMO_META)
+            .with_context(|| format!("reading {}", file.display()))?
+    };
+    let actions: Vec<seespot_sim::Action> = serde_json::from_str(&text).with_context(|| {
+        format!(
+            "{}: expected a JSON list of actions like \
+             [{{\"primitive\": \"grasp\", \"rotation\": 3, \"y\": 50, \"x\": 61}}]",
+            file.display()
+        )
+    })?;
+    Ok(actions)
 }
 
 /// Whether `dir` holds a demonstration, and which of `files` differ from

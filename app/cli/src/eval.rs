@@ -22,7 +22,8 @@ pub struct EvalArgs {
     /// the scene unchanged), not the paper's method.
     #[arg(long, default_value = "ssr-ccd", value_parser = parse_method)]
     method: EvalMethod,
-    /// A task id, or `all` for the four leave-one-out folds.
+    /// A task id, `all` for the four leave-one-out folds, or `custom:NAME` for
+    /// a task defined by its demonstrations (`<demos>/custom/NAME/`).
     #[arg(long, default_value = "all")]
     task: String,
     /// Trials per task.
@@ -108,6 +109,35 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
     } else {
         vec![args.task.parse::<TaskId>().map_err(anyhow::Error::msg)?]
     };
+    let custom = tasks.iter().any(|t| !t.is_builtin());
+    if custom {
+        // A task defined by its demonstrations has no policy, oracle or
+        // TransporterNet of its own: SSR reasons with all four policies.
+        if !matches!(
+            args.method,
+            EvalMethod::SsrCcd
+                | EvalMethod::SsrL2cd
+                | EvalMethod::SsrCcdLoopBreak
+                | EvalMethod::Random
+        ) || args.finetune_steps > 0
+        {
+            anyhow::bail!(
+                "--method {}{}: a custom task ({}) has no policy, oracle or TransporterNet of its \
+                 own; evaluate it with ssr-ccd, ssr-l2cd, ssr-ccd-loopbreak or random",
+                args.method.as_str(),
+                if args.finetune_steps > 0 {
+                    " --finetune-steps"
+                } else {
+                    ""
+                },
+                args.task
+            );
+        }
+        let layout = Layout::new(&args.models, &args.demos);
+        for t in &tasks {
+            layout.load_task(*t)?;
+        }
+    }
     let seeds = Seeds::new(args.seed, args.trials)?;
     if seeds.split() == seespot_sim::Split::Train && !args.training_seeds {
         anyhow::bail!(
@@ -197,6 +227,22 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         }
     }
     bar.finish_and_clear();
+    if custom {
+        let path = args.out.join("custom.md");
+        let text = seespot_ssr::report::custom_markdown(&args.out)?;
+        std::fs::write(&path, &text).with_context(|| format!("writing {}", path.display()))?;
+        if args.json {
+            return crate::print_json(&serde_json::json!({
+                "method": name,
+                "out": args.out,
+                "seeds": seeds,
+                "report": path,
+            }));
+        }
+        outln!("{text}")?;
+        outln!("report: {}", path.display())?;
+        return Ok(());
+    }
     let summary = write_report(&args.out, &config.layout, args.finetune_steps.max(333))?;
     let ours: Vec<&Summary> = summary
         .summaries

@@ -4,6 +4,7 @@
 use std::net::IpAddr;
 use std::path::PathBuf;
 
+use anyhow::Context;
 use seespot_sim::TaskId;
 use seespot_ssr::Layout;
 use seespot_viz::live::{self, ViewOptions};
@@ -138,6 +139,11 @@ pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
             scene.blocks,
         );
     }
+    // A custom task is defined by its demonstrations: read their final layout.
+    args.decider
+        .layout()
+        .load_task(task)
+        .with_context(|| format!("task {task}"))?;
     let opts = ViewOptions {
         task,
         seed,

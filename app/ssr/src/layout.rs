@@ -59,14 +59,39 @@ impl Layout {
             .join(format!("{}.safetensors", task.as_str()))
     }
 
-    /// `task`'s demonstration folders, in [`DEMO_SEEDS`] order.
+    /// `task`'s demonstration folders: for a built-in task, in [`DEMO_SEEDS`]
+    /// order; for a custom task, every numbered folder of
+    /// `demos/custom/NAME/`, in numeric order (the first, `0`, when there are
+    /// none, so that reading it names what is missing).
     pub fn demo_dirs(&self, task: TaskId) -> Vec<PathBuf> {
-        DEMO_SEEDS.iter().map(|s| self.demo_dir(task, *s)).collect()
+        if task.is_builtin() {
+            return DEMO_SEEDS.iter().map(|s| self.demo_dir(task, *s)).collect();
+        }
+        match seespot_sim::custom::demo_dirs(&self.task_demos(task)) {
+            Ok(dirs) if !dirs.is_empty() => dirs,
+            _ => vec![self.task_demos(task).join("0")],
+        }
     }
 
-    /// The demonstration of `task` recorded from `seed`.
+    /// The folder of `task`'s demonstrations (`demos/stack`, `demos/custom/NAME`).
+    pub fn task_demos(&self, task: TaskId) -> PathBuf {
+        self.demos.join(task.path())
+    }
+
+    /// The demonstration of `task` recorded from `seed` (for a custom task,
+    /// its folder number).
     pub fn demo_dir(&self, task: TaskId, seed: u64) -> PathBuf {
-        self.demos.join(task.as_str()).join(seed.to_string())
+        self.task_demos(task).join(seed.to_string())
+    }
+
+    /// Makes `task` ready to run: a custom task reads its demonstrations'
+    /// final layouts and is defined by them ([`seespot_sim::custom::load`]);
+    /// a built-in task needs nothing.
+    pub fn load_task(&self, task: TaskId) -> Result<(), seespot_sim::DemoError> {
+        match task.custom() {
+            Some(c) => seespot_sim::custom::load(&self.task_demos(task), c).map(|_| ()),
+            None => Ok(()),
+        }
     }
 }
 
@@ -80,9 +105,9 @@ pub fn trials_dir(out_dir: &Path) -> PathBuf {
 
 /// The records file of run `run` (a [`crate::RunSpec`]'s name) on `task`.
 pub fn records_path(out_dir: &Path, run: &str, task: TaskId) -> PathBuf {
-    trials_dir(out_dir)
-        .join(run)
-        .join(format!("{}.jsonl", task.as_str()))
+    let mut path = trials_dir(out_dir).join(run).join(task.path());
+    path.set_extension("jsonl");
+    path
 }
 
 /// The default run directory of `seespot train` (`prefix`: `train` or

@@ -138,7 +138,7 @@ impl FeatureDecider {
             TaskId::Stack => [0.6, 2.0],
             TaskId::Unstack => [1.0, 1.5],
             TaskId::Row => [2.0, 0.7],
-            TaskId::VerticalSquare => [1.2, 1.2],
+            TaskId::VerticalSquare | TaskId::Custom(_) => [1.2, 1.2],
         }
     }
 }

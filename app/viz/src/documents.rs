@@ -81,6 +81,28 @@ pub struct StateDoc {
     /// The phases that can be revisited; `None` in a stored snapshot (the
     /// state sent always has it).
     pub history: Option<HistoryDoc>,
+    /// The demonstration being made in Demonstrate mode, if any: while there
+    /// is one, `blocks`, `holding` and `primitive` and the frames' live
+    /// heightmaps are its world's.
+    pub demonstrate: Option<DemonstrateDoc>,
+}
+
+/// A demonstration being made on the page (Demonstrate mode).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct DemonstrateDoc {
+    /// The task demonstrated: built-in, or `custom:NAME`.
+    pub task: TaskId,
+    /// The start's seed.
+    pub seed: u64,
+    /// Whether a custom task's blocks must reach the places of their colours.
+    pub colours_matter: bool,
+    /// The actions so far.
+    pub actions: Vec<Action>,
+    /// Progress now, for a built-in task (a custom task's goal is the final
+    /// layout, known when it is saved).
+    pub progress: Option<u8>,
+    /// Where the last demonstration of this session was saved.
+    pub saved: Option<String>,
 }
 
 /// One (policy, demo) pair's row of the L / C table: L and the match from

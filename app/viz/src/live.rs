@@ -153,8 +153,12 @@ pub async fn serve_view(
     };
     let layout = opts.layout;
     let replay = opts.replay.clone();
+    let demos = opts.review.as_ref().map(|r| r.layout.demos.clone());
     let session = tokio::task::spawn_blocking(move || {
         let mut s = Session::new(factory, config, recorder)?;
+        if let Some(demos) = demos {
+            s.set_demos(demos);
+        }
         if let Some(poses) = layout {
             s.set_layout(poses);
         }
@@ -170,6 +174,9 @@ pub async fn serve_view(
         "rerun_version": "0.36.3",
         "seespot_version": seespot_sim::VERSION,
         "tasks": TaskId::ALL.iter().map(|t| t.as_str()).collect::<Vec<_>>(),
+        "workspace_size": seespot_sim::workspace::WORKSPACE_SIZE,
+        "jaw_opening": seespot_sim::world::JAW_OPENING,
+        "block_size": seespot_sim::BLOCK_SIZE,
     });
     let state = AppState::with_review(session, info, opts.review.clone());
     let listener = tokio::net::TcpListener::bind(SocketAddr::new(bind, opts.port))

@@ -11,6 +11,12 @@
 //! (replay a trial of the reviewed evaluation), `{"type": "query", "pair": 0, "policy": 1, "y": 40, "x": 60}`
 //! (pixel `(y, x)` of the demo heightmap of pair `pair`, under policy index
 //! `policy`).
+//! Demonstrate mode: `{"type": "demonstrate", "task": "custom:l-shape",
+//! "seed": 0, "colours_matter": false}` (seed and colours optional), then
+//! `{"type": "demo_act", "action": {"primitive": "grasp", "rotation": 3, "y":
+//! 50, "x": 61}}` per click, `{"type": "demo_undo"}`, `{"type": "demo_save",
+//! "overwrite": false}` (answered with `{"type": "demo_saved", "dir": ...}`)
+//! and `{"type": "demo_stop"}`.
 //!
 //! Server -> client ([`ServerMessage`], plus the documents of
 //! [`crate::documents`]: `state`, `frame`, `query`, `embedding`):
@@ -69,6 +75,29 @@ pub enum ClientMessage {
         y: usize,
         x: usize,
     },
+    /// Demonstrate mode: start a demonstration of `task` (built-in or
+    /// `custom:NAME`) from `seed`'s start (default: the current trial's).
+    Demonstrate {
+        task: TaskId,
+        #[serde(default)]
+        seed: Option<u64>,
+        #[serde(default)]
+        colours_matter: bool,
+    },
+    /// One demonstrated action (a click on the live heightmap).
+    DemoAct {
+        action: seespot_sim::Action,
+    },
+    /// Take back the last demonstrated action.
+    DemoUndo,
+    /// Save the demonstration (a built-in task's folder is replaced only with
+    /// `overwrite`).
+    DemoSave {
+        #[serde(default)]
+        overwrite: bool,
+    },
+    /// Leave Demonstrate mode without saving.
+    DemoStop,
 }
 
 impl ClientMessage {
@@ -87,6 +116,11 @@ impl ClientMessage {
             Self::SetBlocks { .. } => "set_blocks",
             Self::Replay { .. } => "replay",
             Self::Query { .. } => "query",
+            Self::Demonstrate { .. } => "demonstrate",
+            Self::DemoAct { .. } => "demo_act",
+            Self::DemoUndo => "demo_undo",
+            Self::DemoSave { .. } => "demo_save",
+            Self::DemoStop => "demo_stop",
         }
     }
 
@@ -122,6 +156,10 @@ pub enum ServerMessage<'a> {
         method: String,
         task: TaskId,
         seed: u64,
+    },
+    /// A demonstration was saved in `dir` (the state follows).
+    DemoSaved {
+        dir: String,
     },
     Error {
         message: String,

@@ -492,6 +492,43 @@ pub async fn handle(s: &Arc<AppState>, text: &str) -> Option<String> {
                 Err(e) => error(format!("internal error: {e}"), Some(kind)),
             });
         }
+        ClientMessage::Demonstrate {
+            task,
+            seed,
+            colours_matter,
+        } => step(st, move |ses| ses.demonstrate(task, seed, colours_matter)).await,
+        ClientMessage::DemoAct { action } => step(st, move |ses| ses.demo_act(action)).await,
+        ClientMessage::DemoUndo => step(st, Session::demo_undo).await,
+        ClientMessage::DemoStop => {
+            step(st, |ses| {
+                ses.demo_stop();
+                Ok(())
+            })
+            .await
+        }
+        ClientMessage::DemoSave { overwrite } => {
+            let saved = std::sync::Arc::new(std::sync::Mutex::new(None));
+            let out = saved.clone();
+            let r = step(st, move |ses| {
+                let dir = ses.demo_save(overwrite)?;
+                *out.lock()
+                    .unwrap_or_else(std::sync::PoisonError::into_inner) = Some(dir);
+                Ok(())
+            })
+            .await;
+            let dir = saved
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner)
+                .take();
+            return Some(match (r, dir) {
+                (Ok(()), Some(dir)) => ServerMessage::DemoSaved {
+                    dir: dir.display().to_string(),
+                }
+                .to_text(),
+                (Err(e), _) => error(e, Some(kind)),
+                (Ok(()), None) => error("the demonstration was not saved", Some(kind)),
+            });
+        }
         ClientMessage::Run => {
             s.running.store(true, Ordering::SeqCst);
             s.broadcast_state();

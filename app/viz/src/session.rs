@@ -19,8 +19,8 @@ use serde_json::Value;
 use crate::b64;
 use crate::decider::Decider;
 use crate::documents::{
-    DemoFrameDoc, EmbeddingDoc, FrameDoc, HeightmapDoc, HistoryDoc, HistoryEntry, PairDoc,
-    QueryBest, QueryDoc, StateDoc, StepDoc, TimingDoc,
+    DemoFrameDoc, DemonstrateDoc, EmbeddingDoc, FrameDoc, HeightmapDoc, HistoryDoc, HistoryEntry,
+    PairDoc, QueryBest, QueryDoc, StateDoc, StepDoc, TimingDoc,
 };
 use crate::recording::Recorder;
 use crate::registry::{DeciderFactory, Replay};
@@ -88,6 +88,13 @@ pub struct Session {
     layout: Option<(TaskId, u64, [BlockPose; NUM_BLOCKS])>,
     /// The evaluation trial being replayed (task, seed, summary), if any.
     replay_of: Option<(TaskId, u64, String)>,
+    /// Demonstrate mode: the demonstration being made by clicks.
+    demonstration: Option<seespot_sim::custom::Recorder>,
+    /// Where Demonstrate mode saves (`<demos>/<task>/<seed>`,
+    /// `<demos>/custom/NAME/<n>`), and where custom tasks are read from.
+    demos: PathBuf,
+    /// Where the last demonstration was saved.
+    saved_demo: Option<PathBuf>,
 }
 
 impl std::fmt::Debug for Session {
@@ -126,6 +133,9 @@ impl Session {
             viewing: None,
             layout: None,
             replay_of: None,
+            demonstration: None,
+            demos: PathBuf::from("demos"),
+            saved_demo: None,
         };
         s.begin();
         Ok(s)
@@ -180,9 +190,94 @@ impl Session {
         self.trial.end().is_some()
     }
 
+    /// The demonstrations folder Demonstrate mode saves into and custom
+    /// tasks are read from (default `demos`).
+    pub fn set_demos(&mut self, demos: PathBuf) {
+        self.demos = demos;
+    }
+
+    /// Enters Demonstrate mode: a demonstration of `task` from the start of
+    /// `seed` (default: this trial's), made one click at a time.
+    pub fn demonstrate(
+        &mut self,
+        task: TaskId,
+        seed: Option<u64>,
+        colours_matter: bool,
+    ) -> anyhow::Result<()> {
+        if colours_matter && task.is_builtin() {
+            bail!("colours_matter: only a custom task's goal is a layout; {task} has its own rule");
+        }
+        let seed = seed.unwrap_or(self.config.seed);
+        self.demonstration = Some(
+            seespot_sim::custom::Recorder::new(task, seed, self.config.world)
+                .with_colours_matter(colours_matter),
+        );
+        self.last_error = None;
+        self.viewing = None;
+        self.version += 1;
+        Ok(())
+    }
+
+    fn demonstrating(&mut self) -> anyhow::Result<&mut seespot_sim::custom::Recorder> {
+        self.demonstration
+            .as_mut()
+            .ok_or_else(|| anyhow::anyhow!("not demonstrating: send `demonstrate` first"))
+    }
+
+    /// Executes one demonstrated action (a click on the live heightmap).
+    pub fn demo_act(&mut self, action: Action) -> anyhow::Result<()> {
+        self.demonstrating()?.step(action)?;
+        self.version += 1;
+        Ok(())
+    }
+
+    /// Takes back the last demonstrated action.
+    pub fn demo_undo(&mut self) -> anyhow::Result<()> {
+        if self.demonstrating()?.undo().is_none() {
+            bail!("nothing to undo: the demonstration has no actions");
+        }
+        self.version += 1;
+        Ok(())
+    }
+
+    /// Leaves Demonstrate mode without saving.
+    pub fn demo_stop(&mut self) {
+        self.demonstration = None;
+        self.version += 1;
+    }
+
+    /// Saves the demonstration in the format of `seespot demo record`: a
+    /// built-in task's in `<demos>/<task>/<seed>` (an existing folder only
+    /// with `overwrite`), a custom task's in the next free
+    /// `<demos>/custom/NAME/<n>` (refused when its final layout disagrees
+    /// with the task's other demonstrations). Leaves Demonstrate mode and
+    /// returns the folder.
+    pub fn demo_save(&mut self, overwrite: bool) -> anyhow::Result<PathBuf> {
+        let demos = self.demos.clone();
+        let recorder = self.demonstrating()?;
+        let demo = recorder.finish()?;
+        let (task, seed) = (recorder.task(), recorder.seed());
+        let task_dir = demos.join(task.path());
+        let dir = if task.is_builtin() {
+            task_dir.join(seed.to_string())
+        } else {
+            seespot_sim::custom::next_demo_dir(&task_dir)?
+        };
+        seespot_sim::custom::save(&demo, &dir, overwrite)?;
+        self.demonstration = None;
+        self.saved_demo = Some(dir.clone());
+        self.version += 1;
+        Ok(dir)
+    }
+
     /// Starts a new trial of `task` from `seed` (loading that task's decider
     /// when the task changes). The recording goes on, on the next `trial` index.
+    /// A custom task is first defined by its demonstrations in the demos folder.
     pub fn reset(&mut self, task: TaskId, seed: u64) -> anyhow::Result<()> {
+        if let Some(c) = task.custom() {
+            seespot_sim::custom::load(&self.demos.join(task.path()), c)?;
+        }
+        self.demonstration = None;
         if task != self.config.task {
             let (decider, note) = (self.factory)(task, self.config.world)?;
             self.decider = decider;
@@ -366,6 +461,9 @@ impl Session {
 
     /// Advances one phase; returns the phase now shown.
     pub fn next_phase(&mut self) -> anyhow::Result<Phase> {
+        if self.demonstration.is_some() {
+            bail!("demonstrating: save the demonstration or leave Demonstrate mode first");
+        }
         self.go_live();
         if let Some(end) = self.trial.end() {
             bail!("the trial has ended ({end:?}); reset to start another");
@@ -596,7 +694,7 @@ impl Session {
             .collect();
         let t = &self.trial;
         let decision = self.decision.as_ref();
-        StateDoc {
+        let mut doc = StateDoc {
             version: self.version,
             task: t.task(),
             seed: t.seed(),
@@ -663,7 +761,27 @@ impl Session {
                 .map(|p| p.display().to_string()),
             error: self.last_error.clone(),
             history: None,
+            demonstrate: None,
+        };
+        if let Some(d) = &self.demonstration {
+            let w = d.world();
+            doc.primitive = w.next_primitive();
+            doc.holding = w.held_block();
+            doc.blocks = w.block_poses();
+            doc.phase = None;
+            doc.pairs.clear();
+            doc.chosen = None;
+            doc.action = None;
+            doc.demonstrate = Some(DemonstrateDoc {
+                task: d.task(),
+                seed: d.seed(),
+                colours_matter: d.colours_matter(),
+                actions: d.actions(),
+                progress: d.progress(),
+                saved: self.saved_demo.as_ref().map(|p| p.display().to_string()),
+            });
         }
+        doc
     }
 
     /// The full explanation record of the current decision (maps left out
@@ -701,7 +819,11 @@ impl Session {
             ),
             None => (self.decision.as_ref(), self.decided_on.clone(), self.phase),
         };
-        let live = decided_on.unwrap_or_else(|| self.trial.world().render());
+        let live = match &self.demonstration {
+            Some(d) => d.world().render(),
+            None => decided_on.unwrap_or_else(|| self.trial.world().render()),
+        };
+        let decision = decision.filter(|_| self.demonstration.is_none());
         let mut out = FrameDoc {
             version: self.version,
             resolution: live.grid.resolution,

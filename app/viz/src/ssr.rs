@@ -54,7 +54,7 @@ pub fn load_with(
             .collect::<Vec<_>>()
             .join(", "),
         layout.models.display(),
-        layout.demos.join(task.as_str()).display()
+        layout.task_demos(task).display()
     );
     Ok((Box::new(policy), note))
 }

@@ -44,6 +44,7 @@ fn state_and_frame_documents_keep_their_schema() {
             "decided_progress",
             "decider",
             "decider_note",
+            "demonstrate",
             "end",
             "end_words",
             "error",
@@ -105,4 +106,45 @@ fn state_and_frame_documents_keep_their_schema() {
         })
         .is_err()
     );
+}
+
+#[test]
+fn the_demonstrate_document_names_its_fields_and_shows_the_demonstrations_world() {
+    let factory = registry::factory(
+        DeciderKind::Oracle,
+        seespot_ssr::Layout::new("models", "demos"),
+    );
+    let config = SessionConfig {
+        task: TaskId::Stack,
+        seed: 1,
+        world: WorldConfig::default(),
+    };
+    let mut s = Session::new(factory, config, None).expect("session");
+    let state = serde_json::to_value(s.state()).expect("state");
+    assert!(state["demonstrate"].is_null());
+    s.demonstrate(TaskId::Row, Some(4), false)
+        .expect("demonstrate");
+    let state = serde_json::to_value(s.state()).expect("state");
+    assert_eq!(
+        keys(&state["demonstrate"]),
+        [
+            "actions",
+            "colours_matter",
+            "progress",
+            "saved",
+            "seed",
+            "task"
+        ]
+    );
+    assert_eq!(state["demonstrate"]["task"], "row");
+    // The blocks shown are the demonstration's start (row, seed 4), not the trial's.
+    let start = seespot_sim::Trial::new(WorldConfig::default(), TaskId::Row, 4)
+        .world()
+        .block_poses();
+    assert_eq!(state["blocks"], serde_json::to_value(start).expect("poses"));
+    // Stepping the trial waits until the demonstration is saved or left.
+    let e = s.next_phase().expect_err("demonstrating");
+    assert!(e.to_string().contains("Demonstrate mode"), "{e}");
+    s.demo_stop();
+    s.next_phase().expect("the trial goes on");
 }

@@ -59,10 +59,12 @@ pub const REFERENCE_PIXEL: f32 = 0.002;
 
 /// Side of the square that dilates the object pixels into the place mask at
 /// test time, per test task, metres; `None`: no place mask at all (unstack).
+/// A custom task (seespot's) may place beside blocks or on them, so it gets
+/// the dilation of row and vertical square, which allow both.
 pub fn place_dilation(task: TaskId) -> Option<f32> {
     match task {
         TaskId::Stack => Some(0.0),
-        TaskId::Row | TaskId::VerticalSquare => Some(0.05),
+        TaskId::Row | TaskId::VerticalSquare | TaskId::Custom(_) => Some(0.05),
         TaskId::Unstack => None,
     }
 }

@@ -1,0 +1,199 @@
+// Demonstrate mode in headless Chromium: the live heightmap is the
+// controller. A built-in task demonstrated by clicking the oracle's pixels and
+// rotations saves the folder `seespot demo record` saves; a custom task
+// demonstrated twice by clicks saves the shipped demonstrations
+// (demos/custom/l-shape, made by scripts/demonstrate-custom through the same
+// recorder), and See-SPOT-Run then runs on it with all four policies. The
+// server saves into a copy of demos/ in a temporary folder; the screenshot
+// demonstrate.png goes where page.test.js puts its screenshots.
+//
+// Server: $SEESPOT_BIN (default ../target/release/seespot).
+import { test, before, after } from 'node:test';
+import assert from 'node:assert/strict';
+import { spawn, spawnSync } from 'node:child_process';
+import { mkdtempSync, mkdirSync, rmSync, existsSync, readFileSync, readdirSync, cpSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { join, dirname, resolve } from 'node:path';
+import { fileURLToPath } from 'node:url';
+import { chromium } from 'playwright-core';
+
+const here = dirname(fileURLToPath(import.meta.url));
+const root = resolve(here, '..', '..');
+const shots = process.env.SEESPOT_SCREENSHOTS
+  ? resolve(process.env.SEESPOT_SCREENSHOTS)
+  : mkdtempSync(join(tmpdir(), 'seespot-screenshots-'));
+const BIN = process.env.SEESPOT_BIN || join(root, 'target', 'release', 'seespot');
+const CHROMIUM = process.env.CHROMIUM || '/usr/bin/chromium';
+const FLAGS = ['--headless', '--no-sandbox', '--disable-gpu', '--no-first-run',
+  '--disable-background-networking', '--disable-component-update', '--disable-sync'];
+
+let server, pageUrl, context, page, tmp, demos;
+const pageErrors = [];
+
+function startServer() {
+  return new Promise((ok, fail) => {
+    const args = ['view', '--port', '0', '--no-viewer', '--task', 'stack', '--seed', '1', '--demos', demos];
+    server = spawn(BIN, args, { cwd: root, stdio: ['ignore', 'pipe', 'pipe'] });
+    let out = '';
+    const timer = setTimeout(() => fail(new Error(`server did not print its URL in 120 s:\n${out}`)), 120_000);
+    const onData = (d) => {
+      out += d.toString();
+      const m = out.match(/seespot page:\s+(\S+)/);
+      if (m) { clearTimeout(timer); pageUrl = m[1]; ok(); }
+    };
+    server.stdout.on('data', onData);
+    server.stderr.on('data', (d) => { out += d.toString(); });
+    server.on('exit', (code) => { clearTimeout(timer); fail(new Error(`server exited with ${code}:\n${out}`)); });
+  });
+}
+
+before(async () => {
+  assert.ok(existsSync(BIN), `no server binary at ${BIN}; build it with cargo build --release`);
+  mkdirSync(shots, { recursive: true });
+  tmp = mkdtempSync(join(tmpdir(), 'seespot-demonstrate-'));
+  demos = join(tmp, 'demos');
+  cpSync(join(root, 'demos'), demos, { recursive: true });
+  // The custom task is demonstrated anew here.
+  rmSync(join(demos, 'custom', 'l-shape'), { recursive: true, force: true });
+  await startServer();
+  context = await chromium.launchPersistentContext(join(tmp, 'profile'), {
+    executablePath: CHROMIUM, headless: true, args: FLAGS, viewport: { width: 1500, height: 1150 },
+  });
+  page = await context.newPage();
+  page.on('pageerror', (e) => pageErrors.push(String(e)));
+  await page.goto(pageUrl);
+  await page.waitForFunction(() => window.seespot && window.seespot.state && window.seespot.frameVersion >= 0);
+});
+
+after(async () => {
+  if (context) await context.close();
+  if (server && server.exitCode === null) {
+    const exited = new Promise((r) => server.once('exit', r));
+    server.kill('SIGINT');
+    await exited;
+  }
+  if (tmp) rmSync(tmp, { recursive: true, force: true });
+});
+
+const state = () => page.evaluate(() => window.seespot.state);
+
+/** Starts Demonstrate mode for `task` from `seed` by the page's controls. */
+async function startDemonstrating(task, seed) {
+  await page.getByTestId('demo-task').fill(task);
+  await page.getByTestId('seed').fill(String(seed));
+  await page.getByTestId('demo-start').click();
+  await page.waitForFunction(([t, s]) => {
+    const d = window.seespot.state.demonstrate;
+    return d && d.task === t && d.seed === s && d.actions.length === 0;
+  }, [task, seed]);
+}
+
+/** Turns the gripper to `rotation` with `]` and clicks the live heightmap at
+ * pixel (y, x); waits until the server has executed the action. */
+async function click(action, n) {
+  const current = await page.evaluate(() => window.seespot.demoRotation);
+  for (let k = 0; k < (action.rotation - current + 16) % 16; k++) await page.keyboard.press(']');
+  assert.equal(await page.evaluate(() => window.seespot.demoRotation), action.rotation);
+  const canvas = page.getByTestId('live-canvas');
+  const box = await canvas.boundingBox();
+  const res = (await state()).resolution;
+  const position = { x: ((action.x + 0.5) / res) * box.width, y: ((action.y + 0.5) / res) * box.height };
+  await canvas.hover({ position });
+  await canvas.click({ position });
+  await page.waitForFunction((k) => window.seespot.state.demonstrate.actions.length === k, n);
+  const done = (await state()).demonstrate.actions[n - 1];
+  assert.deepEqual(done, action, 'the click became the intended action');
+}
+
+/** Saves and returns the folder the server wrote. */
+async function save() {
+  const before = await page.evaluate(() => window.seespot.saved);
+  await page.getByTestId('demo-save').click();
+  await page.waitForFunction((b) => window.seespot.saved && window.seespot.saved !== b, before);
+  return page.evaluate(() => window.seespot.saved);
+}
+
+function sameFiles(a, b) {
+  const names = readdirSync(b).sort();
+  assert.deepEqual(readdirSync(a).sort(), names);
+  for (const f of names) assert.ok(readFileSync(join(a, f)).equals(readFileSync(join(b, f))), `${f} differs`);
+}
+
+test('a built-in task demonstrated by clicking the oracle\'s actions saves what `seespot demo record` saves', async () => {
+  const ref = join(tmp, 'reference');
+  const r = spawnSync(BIN, ['demo', 'record', '--task', 'stack', '--seed', '1', '--out', ref], { cwd: root, encoding: 'utf8' });
+  assert.equal(r.status, 0, r.stderr);
+  const actions = JSON.parse(readFileSync(join(ref, 'meta.json'), 'utf8')).steps.map((s) => s.action);
+  await startDemonstrating('stack', 1);
+  for (let i = 0; i < actions.length; i++) {
+    await click(actions[i], i + 1);
+    if (i === 2) {
+      // Undo goes back one action; clicking it again continues.
+      await page.getByTestId('demo-undo').click();
+      await page.waitForFunction(() => window.seespot.state.demonstrate.actions.length === 2);
+      await click(actions[i], i + 1);
+    }
+  }
+  assert.equal((await state()).demonstrate.progress, 4);
+  await page.screenshot({ path: join(shots, 'demonstrate.png') });
+  const dir = await save();
+  assert.equal(dir, join(demos, 'stack', '1'));
+  sameFiles(dir, ref);
+  // Saving over it again needs overwrite.
+  await startDemonstrating('stack', 1);
+  for (let i = 0; i < actions.length; i++) await click(actions[i], i + 1);
+  const errors = (await page.evaluate(() => window.seespot.errors.length));
+  await page.getByTestId('demo-save').click();
+  await page.waitForFunction((n) => window.seespot.errors.length > n, errors);
+  const last = await page.evaluate(() => window.seespot.errors.at(-1));
+  assert.match(last, /holds a demonstration already; save with overwrite/, last);
+  await page.getByTestId('demo-stop').click();
+  await page.waitForFunction(() => !window.seespot.state.demonstrate);
+  sameFiles(dir, ref);
+});
+
+test('bad demonstrations are refused with what is wrong', async () => {
+  await startDemonstrating('stack', 3);
+  const errors = () => page.evaluate(() => window.seespot.errors.join('\n'));
+  // Nothing to save yet: a clear error, and nothing written.
+  await page.getByTestId('demo-save').click();
+  await page.waitForFunction(() => window.seespot.errors.some((e) => e.includes('no actions')));
+  assert.ok(!existsSync(join(demos, 'stack', '3')));
+  // An action outside the workspace (sent as the page would).
+  await page.evaluate(() => window.seespot.ws.send(JSON.stringify({ type: 'demo_act', action: { primitive: 'grasp', rotation: 0, y: 500, x: 3 } })));
+  await page.waitForFunction(() => window.seespot.errors.some((e) => e.includes('outside the')));
+  // A task name with a path in it.
+  await page.getByTestId('demo-task').fill('custom:../escape');
+  await page.getByTestId('demo-start').click();
+  await page.waitForFunction(() => window.seespot.errors.some((e) => e.includes('holds no path')));
+  assert.match(await errors(), /outside the 112 x 112 workspace/);
+  assert.ok(!existsSync(join(tmp, 'escape')));
+  await page.getByTestId('demo-stop').click();
+});
+
+test('a custom task demonstrated twice by clicks is what See-SPOT-Run then does, with all four policies', async () => {
+  const shipped = join(root, 'demos', 'custom', 'l-shape');
+  for (const n of ['0', '1']) {
+    const meta = JSON.parse(readFileSync(join(shipped, n, 'meta.json'), 'utf8'));
+    await startDemonstrating('custom:l-shape', meta.seed);
+    for (let i = 0; i < meta.steps.length; i++) await click(meta.steps[i].action, i + 1);
+    const dir = await save();
+    assert.equal(dir, join(demos, 'custom', 'l-shape', n));
+    // The clicks give the shipped demonstration, byte for byte.
+    sameFiles(dir, join(shipped, n));
+  }
+  // Run See-SPOT-Run on it: the task box takes the new task.
+  await page.getByTestId('task').selectOption('custom:l-shape');
+  await page.getByTestId('seed').fill('1');
+  await page.getByTestId('reset').click();
+  await page.waitForFunction(() => window.seespot.state.task === 'custom:l-shape', null, { timeout: 120_000 });
+  const v0 = (await state()).version;
+  await page.getByTestId('next-phase').click();
+  await page.waitForFunction((v) => window.seespot.state.version > v && window.seespot.state.pairs.length > 0, v0, { timeout: 120_000 });
+  const s = await state();
+  assert.deepEqual([...s.policies].sort(), ['row', 'stack', 'unstack', 'vertical-square']);
+  const rows = await page.$$eval('[data-testid=pairs] tbody tr[data-pair]', (trs) => trs.map((tr) => tr.children[1].textContent));
+  assert.deepEqual([...new Set(rows)].sort(), ['row', 'stack', 'unstack', 'vertical-square']);
+  assert.equal(rows.length, 8, 'four policies x two demonstrations');
+  assert.deepEqual(pageErrors, []);
+});
