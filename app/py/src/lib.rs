@@ -17,6 +17,7 @@ use pyo3::prelude::*;
 
 mod arrays;
 mod correspond;
+mod demo;
 mod eval;
 mod policy;
 mod ssr;
@@ -44,6 +45,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<eval::OutputLock>()?;
     m.add_function(wrap_pyfunction!(arrays::check_resolution, m)?)?;
     m.add_function(wrap_pyfunction!(eval::test_seeds, m)?)?;
+    m.add_function(wrap_pyfunction!(demo::record_demo, m)?)?;
     m.add_function(wrap_pyfunction!(eval::records_path, m)?)?;
     m.add_function(wrap_pyfunction!(eval::record_name, m)?)?;
     m.add_function(wrap_pyfunction!(eval::run_spec, m)?)?;
