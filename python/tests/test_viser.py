@@ -4,15 +4,18 @@ the next decision (the drag-end handler is called as viser would)."""
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import socket
 import subprocess
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 
+from conftest import ROOT
 from seespot.viz.viser import ViserView, pixel_to_world
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -116,3 +119,30 @@ def test_viser_page_renders_in_chromium(page_url, tmp_path):
     colours = img.getcolors(maxcolors=1 << 20) or []
     red = sum(n for n, (r, g, b) in colours if r > 180 and g < 120 and b < 120)
     assert red > 200, f"no red block in {out} ({red} red pixels)"
+
+
+def test_viser_demonstrates_by_clicks_on_the_table(page_url):
+    """A click on the table (the handler viser calls, with a ray from above)
+    becomes the demonstration's action, as on the page: the oracle's first
+    actions from its demonstration of stack, seed 0, clicked at their world
+    poses, give the same actions."""
+    view = ViserView(page_url, port=free_port())
+    try:
+        meta = json.loads((ROOT / "demos" / "stack" / "0" / "meta.json").read_text())
+        state = view.demonstrate("stack", meta["seed"])
+        assert state["demonstrate"]["task"] == "stack" and state["demonstrate"]["actions"] == []
+        for k, step in enumerate(meta["steps"][:4]):
+            x, y = step["world_pose"][0], step["world_pose"][1]
+            view.gui_rotation.value = step["action"]["rotation"]
+            ray = SimpleNamespace(ray_origin=(x, y, 0.6), ray_direction=(0.0, 0.0, -1.0))
+            view._on_click(ray)
+            done = view.client.state()["demonstrate"]["actions"]
+            assert done[k] == step["action"], (k, done)
+        # Undo through the same request the GUI's button sends.
+        assert len(view.step("demo_undo")["demonstrate"]["actions"]) == 3
+        # A click outside the workspace is refused with what is wrong.
+        with pytest.raises(RuntimeError, match="outside the"):
+            view.click_table(0.5, 0.0)
+        assert view.step("demo_stop")["demonstrate"] is None
+    finally:
+        view.close()

@@ -10,6 +10,12 @@ dragged: dropping one sends the four poses to the server (``set_blocks``), which
 starts a new trial from them, settles the physics and decides again, so the
 page and this view show what See-SPOT-Run would do now.
 
+Demonstrate mode works here as on the page: **Demonstrate** starts a
+demonstration of the task typed in **demonstrate** (built-in, or
+``custom:NAME``), a click on the table grasps or places at that point with the
+gripper turned to **rotation** (0-15), and **Undo**, **Save** and **Leave**
+send what the page's buttons send, so both views show the same demonstration.
+
 The viser server binds to 127.0.0.1 only and its share button (a tunnel
 through an outside service) is off.
 
@@ -202,6 +208,65 @@ class ViserView:
         g.add_button("Next action").on_click(lambda _e: self.step("next_action"))
         g.add_button("Back").on_click(lambda _e: self.back())
         g.add_button("Live").on_click(lambda _e: self.step("live"))
+        with g.add_folder("Demonstrate"):
+            self.gui_demo_task = g.add_text("demonstrate", "stack")
+            self.gui_rotation = g.add_slider("rotation", min=0, max=15, step=1, initial_value=0)
+            self.gui_colours = g.add_checkbox("colours matter", False)
+            self.gui_overwrite = g.add_checkbox("overwrite", False)
+            g.add_button("Demonstrate").on_click(
+                lambda _e: self._guarded(
+                    lambda: self.demonstrate(
+                        self.gui_demo_task.value, int(self.gui_seed.value), self.gui_colours.value
+                    )
+                )
+            )
+            g.add_button("Undo").on_click(lambda _e: self._guarded(lambda: self.step("demo_undo")))
+            g.add_button("Save").on_click(
+                lambda _e: self._guarded(lambda: self.demo_save(self.gui_overwrite.value))
+            )
+            g.add_button("Leave").on_click(lambda _e: self._guarded(lambda: self.step("demo_stop")))
+        s.on_pointer_event(event_type="click")(self._on_click)
+
+    def _guarded(self, f: Callable[[], Any]) -> Any:
+        """Runs a GUI action; a refusal shows in the status line."""
+        try:
+            return f()
+        except RuntimeError as e:
+            self.gui_status.content = f"**refused:** {e}"
+            return None
+
+    def _on_click(self, event: Any) -> None:
+        """A click in the scene: where its ray meets the table, demonstrate."""
+        o, d = event.ray_origin, event.ray_direction
+        if o is None or d is None or abs(d[2]) < 1e-9:
+            return
+        t = -o[2] / d[2]
+        if t <= 0:
+            return
+        self._guarded(lambda: self.click_table(o[0] + t * d[0], o[1] + t * d[1]))
+
+    def demonstrate(self, task: str, seed: int, colours_matter: bool = False) -> dict[str, Any]:
+        """Starts a demonstration of ``task`` from the start of ``seed``."""
+        return self.client.request(
+            {"type": "demonstrate", "task": task, "seed": seed, "colours_matter": colours_matter}
+        )
+
+    def click_table(self, x: float, y: float, rotation: int | None = None) -> dict[str, Any]:
+        """A click on the table at world ``(x, y)``: the next primitive at the
+        heightmap pixel under it, turned to ``rotation`` (default: the GUI's)."""
+        state = self.client.state()
+        if state.get("demonstrate") is None:
+            raise RuntimeError("not demonstrating: press Demonstrate first")
+        n = state["resolution"]
+        res = WORKSPACE_SIZE / n
+        px, py = round((x + WORKSPACE_SIZE / 2) / res), round((y + WORKSPACE_SIZE / 2) / res)
+        r = int(self.gui_rotation.value) if rotation is None else rotation
+        action = {"primitive": state["primitive"], "rotation": r, "y": py, "x": px}
+        return self.client.request({"type": "demo_act", "action": action})
+
+    def demo_save(self, overwrite: bool = False) -> dict[str, Any]:
+        """Saves the demonstration (see the page's Save)."""
+        return self.client.request({"type": "demo_save", "overwrite": overwrite})
 
     def _on_gizmo(self, i: int, phase: str) -> None:
         if phase == "start":
