@@ -25,6 +25,7 @@ __all__ = [
     "distance_map",
     "match_queries",
     "read_records",
+    "record_demo",
     "record_name",
     "records_path",
     "rematch",
