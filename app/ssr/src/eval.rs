@@ -168,6 +168,33 @@ pub fn records_files(out_dir: &Path) -> Result<Vec<PathBuf>, RecordError> {
     Ok(files)
 }
 
+/// The records files of custom tasks in `out_dir`
+/// (`trials/<run>/custom/<name>.jsonl`), sorted; none when there are none.
+pub fn custom_records_files(out_dir: &Path) -> Result<Vec<PathBuf>, RecordError> {
+    let trials = crate::layout::trials_dir(out_dir);
+    let io = |e: std::io::Error| RecordError::Io {
+        path: trials.display().to_string(),
+        source: e,
+    };
+    let mut files = Vec::new();
+    if !trials.is_dir() {
+        return Ok(files);
+    }
+    for run in std::fs::read_dir(&trials).map_err(io)? {
+        let custom = run.map_err(io)?.path().join("custom");
+        if custom.is_dir() {
+            for f in std::fs::read_dir(&custom).map_err(io)? {
+                let f = f.map_err(io)?.path();
+                if f.extension().is_some_and(|e| e == "jsonl") {
+                    files.push(f);
+                }
+            }
+        }
+    }
+    files.sort();
+    Ok(files)
+}
+
 /// sha256 (hex) of a file's bytes.
 pub fn sha256_file(path: &Path) -> Result<String, EvalError> {
     use sha2::{Digest, Sha256};

@@ -341,8 +341,6 @@ pub fn csv(summaries: &[Summary]) -> String {
 pub enum ReportError {
     #[error("{path}: drawing the plot failed: {message}")]
     Plot { path: String, message: String },
-    #[error("{0}: {1}")]
-    Io(PathBuf, std::io::Error),
     #[error("{0}")]
     Records(String),
 }
@@ -823,32 +821,19 @@ pub fn plot_figure4(summaries: &[Summary], path: &Path) -> Result<PathBuf, Repor
 /// against SSR L2CD and against random on paired seeds, per task and pooled.
 pub fn custom_markdown(out_dir: &Path) -> Result<String, ReportError> {
     use std::fmt::Write as _;
-    let trials = crate::layout::trials_dir(out_dir);
     let mut records: Vec<TrialRecord> = Vec::new();
     let mut runs: Vec<String> = Vec::new();
-    for entry in std::fs::read_dir(&trials).map_err(|e| ReportError::Io(trials.clone(), e))? {
-        let run_dir = entry
-            .map_err(|e| ReportError::Io(trials.clone(), e))?
-            .path();
-        let custom = run_dir.join("custom");
-        let Ok(files) = std::fs::read_dir(&custom) else {
-            continue;
-        };
-        let mut files: Vec<PathBuf> = files
-            .filter_map(|f| f.ok().map(|f| f.path()))
-            .filter(|p| p.extension().is_some_and(|e| e == "jsonl"))
-            .collect();
-        files.sort();
-        for f in files {
-            let rs = seespot_sim::record::read_records(&f)
-                .map_err(|e| ReportError::Records(e.to_string()))?;
-            if let Some(r) = rs.first()
-                && !runs.contains(&r.method)
-            {
-                runs.push(r.method.clone());
-            }
-            records.extend(rs);
+    let files = crate::eval::custom_records_files(out_dir)
+        .map_err(|e| ReportError::Records(e.to_string()))?;
+    for f in files {
+        let rs = seespot_sim::record::read_records(&f)
+            .map_err(|e| ReportError::Records(e.to_string()))?;
+        if let Some(r) = rs.first()
+            && !runs.contains(&r.method)
+        {
+            runs.push(r.method.clone());
         }
+        records.extend(rs);
     }
     runs.sort_by_key(|m| {
         let rank = ["ssr-ccd", "ssr-l2cd", "random"]

@@ -114,10 +114,11 @@ pub struct ReviewedTrial {
     pub file: PathBuf,
 }
 
-/// Every trial of every records file under `<out>/trials/`, in (method, task,
-/// seed) order.
+/// Every trial of every records file under `<out>/trials/` (custom tasks'
+/// too, `trials/<run>/custom/<name>.jsonl`), in (method, task, seed) order.
 pub fn review_dir(out: &Path) -> Result<Vec<ReviewedTrial>, RecordError> {
-    let files = crate::eval::records_files(out)?;
+    let mut files = crate::eval::records_files(out)?;
+    files.extend(crate::eval::custom_records_files(out)?);
     let mut out = Vec::new();
     for f in files {
         for r in read_records(&f)? {

@@ -1,0 +1,145 @@
+//! Tasks defined by their demonstrations from the command line: evaluation,
+//! review and the refusals that name what is wrong.
+
+mod common;
+use common::{root, run, run_in};
+
+#[test]
+fn a_custom_task_evaluates_as_the_committed_records_say() {
+    let out = tempfile::tempdir().expect("tempdir");
+    let out_s = out.path().to_str().expect("utf-8");
+    let (code, stdout, err) = run_in(
+        &root(),
+        &[
+            "eval",
+            "--method",
+            "random",
+            "--task",
+            "custom:l-shape",
+            "--trials",
+            "2",
+            "--seed",
+            "1",
+            "--out",
+            out_s,
+        ],
+    );
+    assert_eq!(code, 0, "{err}");
+    assert!(stdout.contains("Tasks no policy saw"), "{stdout}");
+    let fresh =
+        seespot_sim::record::read_records(&out.path().join("trials/random/custom/l-shape.jsonl"))
+            .expect("records");
+    let committed = seespot_sim::record::read_records(
+        &root().join("results/custom/trials/random/custom/l-shape.jsonl"),
+    )
+    .expect("committed records");
+    assert_eq!(fresh.len(), 2);
+    for r in &fresh {
+        let c = committed
+            .iter()
+            .find(|c| c.seed == r.seed)
+            .expect("the committed record of the seed");
+        let actions = |x: &seespot_sim::TrialRecord| {
+            x.actions_log.iter().map(|a| a.action).collect::<Vec<_>>()
+        };
+        assert_eq!(actions(r), actions(c), "seed {}", r.seed);
+        assert_eq!((r.success, r.final_progress), (c.success, c.final_progress));
+    }
+}
+
+#[test]
+fn review_lists_the_custom_tasks_trials() {
+    let (code, stdout, err) = run_in(&root(), &["review", "results/custom", "--json"]);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&stdout).expect("json");
+    let text = v.to_string();
+    for task in ["custom:l-shape", "custom:pyramid"] {
+        assert!(text.contains(task), "{task} missing from the review");
+    }
+}
+
+#[test]
+fn what_a_custom_task_cannot_do_is_refused_by_name() {
+    let out = tempfile::tempdir().expect("tempdir");
+    let out_s = out.path().to_str().expect("utf-8");
+    let cases: [(&[&str], &str); 5] = [
+        (
+            &[
+                "eval",
+                "--method",
+                "spot-q",
+                "--task",
+                "custom:l-shape",
+                "--trials",
+                "1",
+                "--out",
+                out_s,
+            ],
+            "has no policy, oracle or TransporterNet of its own",
+        ),
+        (
+            &[
+                "eval",
+                "--method",
+                "ssr-ccd",
+                "--task",
+                "custom:never-shown",
+                "--trials",
+                "1",
+                "--out",
+                out_s,
+            ],
+            "no demonstrations of custom:never-shown",
+        ),
+        (
+            &[
+                "demo",
+                "record",
+                "--task",
+                "custom:l-shape",
+                "--seed",
+                "0",
+                "--out",
+                out_s,
+            ],
+            "has no scripted oracle: pass --actions",
+        ),
+        (
+            &[
+                "demo",
+                "record",
+                "--task",
+                "stack",
+                "--seed",
+                "0",
+                "--colours-matter",
+                "--out",
+                out_s,
+            ],
+            "--colours-matter",
+        ),
+        (
+            &[
+                "eval",
+                "--method",
+                "ssr-ccd",
+                "--task",
+                "custom:a/b",
+                "--trials",
+                "1",
+                "--out",
+                out_s,
+            ],
+            "holds no path",
+        ),
+    ];
+    for (args, want) in cases {
+        let (code, err) = run(args);
+        assert_ne!(code, 0, "{args:?} was accepted");
+        assert!(err.contains(want), "{args:?}: {err}");
+    }
+    assert!(
+        std::fs::read_dir(out.path()).expect("dir").next().is_none(),
+        "nothing written"
+    );
+}
