@@ -89,7 +89,7 @@ function drawTrials() {
     if (r.ok) {
       const q = new URLSearchParams({ method: t.method, task: t.task, seed: String(t.seed) });
       a.href = `/api/replay.rrd?${q}`;
-      a.download = `${t.method}-${t.task}-${t.seed}.rrd`;
+      a.download = `${t.method}-${t.task.replace(":", "-")}-${t.seed}.rrd`;
     } else a.hidden = true;
     td.append(b, ' ', a);
     if (!r.ok) {

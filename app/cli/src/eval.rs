@@ -307,7 +307,10 @@ fn record_failed(
     let out = config.out_dir.join("recordings").join(name);
     let stop = live::ctrl_c_flag();
     for r in records.iter().filter(|r| !r.success) {
-        if out.join(format!("{}-{}.rrd", r.task, r.seed)).exists() {
+        if out
+            .join(format!("{}-{}.rrd", r.task.file_stem(), r.seed))
+            .exists()
+        {
             continue;
         }
         let opts = RecordOptions {

@@ -211,6 +211,12 @@ impl TaskId {
         }
     }
 
+    /// The id as a file name's stem: the id, with a custom task's `:` made
+    /// a `-` (`custom-l-shape`).
+    pub fn file_stem(self) -> String {
+        self.as_str().replace(':', "-")
+    }
+
     /// The custom task, if this is one.
     pub fn custom(self) -> Option<CustomTask> {
         match self {

@@ -261,7 +261,7 @@ pub fn record_trials(
         if stop.load(Ordering::SeqCst) {
             break;
         }
-        let path = out.join(format!("{}-{seed}.rrd", task.as_str()));
+        let path = out.join(format!("{}-{seed}.rrd", task.file_stem()));
         let recorder = Recorder::to_file(task, &path)?;
         let config = SessionConfig { task, seed, world };
         let f: DeciderFactory = {

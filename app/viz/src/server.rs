@@ -279,7 +279,10 @@ async fn api_replay_rrd(
         Ok(p) => p,
         Err(e) => return (StatusCode::BAD_REQUEST, e).into_response(),
     };
-    let name = format!("attachment; filename=\"{method}-{task}-{seed}.rrd\"");
+    let name = format!(
+        "attachment; filename=\"{method}-{}-{seed}.rrd\"",
+        task.file_stem()
+    );
     blocking_or_conflict(
         move || src.record(&method, task, seed),
         |bytes| {

@@ -225,7 +225,7 @@ class ViserView:
                 lambda _e: self._guarded(lambda: self.demo_save(self.gui_overwrite.value))
             )
             g.add_button("Leave").on_click(lambda _e: self._guarded(lambda: self.step("demo_stop")))
-        s.on_pointer_event(event_type="click")(self._on_click)
+        s.on_click()(self._on_click)
 
     def _guarded(self, f: Callable[[], Any]) -> Any:
         """Runs a GUI action; a refusal shows in the status line."""
