@@ -46,3 +46,14 @@ def test_bad_demonstrations_name_what_is_wrong(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="no actions"):
         seespot.record_demo("custom:empty", 0, [], tmp_path / "x")
     assert not (tmp_path / "x").exists()
+
+
+def test_a_custom_task_runs_from_its_demonstrations() -> None:
+    """A trial of a custom task reads its goal from demos/custom/NAME (the
+    tests run from the repository root); one with no demonstrations is
+    refused by name instead of failing later."""
+    t = seespot.Trial("custom:pyramid", 1)
+    assert t.task == "custom:pyramid"
+    assert 1 <= t.progress <= 4
+    with pytest.raises(ValueError, match="no demonstrations of custom:never-shown"):
+        seespot.Trial("custom:never-shown", 1)

@@ -53,6 +53,10 @@ fn run_trials(args: RunArgs) -> anyhow::Result<()> {
         .task
         .or(scene.as_ref().map(|s| s.task))
         .context("give --task or --scene")?;
+    // A custom task is defined by its demonstrations in demos/custom/NAME.
+    seespot_ssr::Layout::default()
+        .load_task(task)
+        .with_context(|| format!("task {task}"))?;
     let mut config = scene.as_ref().map(|s| s.world_config()).unwrap_or_default();
     if let Some(r) = args.resolution {
         config.grid = Grid::new(r);

@@ -72,6 +72,13 @@ fn bar(len: u64, quiet: bool, template: &str) -> indicatif::ProgressBar {
 
 pub fn run(args: TrainArgs) -> anyhow::Result<()> {
     let task = args.task;
+    if !task.is_builtin() {
+        anyhow::bail!(
+            "--task {task}: SPOT-Q policies are trained on the four built-in tasks; a task \
+             defined by its demonstrations needs no training (see-spot-run it: \
+             `seespot eval --method ssr-ccd --task {task}`)"
+        );
+    }
     let (run, models) = if args.pure_rl {
         ("train-pure-rl", new_layout().models.join("pure-rl"))
     } else {

@@ -62,6 +62,12 @@ pub fn run(c: TransporterCommand) -> anyhow::Result<()> {
 
 fn train(args: TrainArgs) -> anyhow::Result<()> {
     let task = args.task;
+    if !task.is_builtin() {
+        anyhow::bail!(
+            "--task {task}: the TransporterNet baseline is trained for the four built-in tasks \
+             (a custom task has no scripted oracle to validate it with)"
+        );
+    }
     let run_dir = args
         .run_dir
         .clone()

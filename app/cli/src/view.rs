@@ -231,6 +231,10 @@ pub struct RecordArgs {
 
 /// Runs `seespot record`; Ctrl-C finishes the current file and stops.
 pub fn run_record(args: RecordArgs) -> anyhow::Result<()> {
+    args.decider
+        .layout()
+        .load_task(args.task)
+        .with_context(|| format!("task {}", args.task))?;
     let factory = args.decider.factory()?;
     let stop = live::ctrl_c_flag();
     let seeds = seespot_sim::Seeds::new(args.seed, args.trials)?;
@@ -309,6 +313,10 @@ pub struct BenchViewArgs {
 
 /// Runs `seespot bench view`.
 pub fn run_bench_view(args: BenchViewArgs) -> anyhow::Result<()> {
+    args.decider
+        .layout()
+        .load_task(args.task)
+        .with_context(|| format!("task {}", args.task))?;
     let b = live::bench_view(
         args.task,
         args.seed,

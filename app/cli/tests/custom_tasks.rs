@@ -48,6 +48,26 @@ fn a_custom_task_evaluates_as_the_committed_records_say() {
 }
 
 #[test]
+fn sim_run_plays_a_custom_task_from_its_demonstrations() {
+    let (code, stdout, err) = run_in(
+        &root(),
+        &[
+            "sim",
+            "run",
+            "--task",
+            "custom:pyramid",
+            "--policy",
+            "random",
+            "--trials",
+            "2",
+            "--json",
+        ],
+    );
+    assert_eq!(code, 0, "{err}");
+    assert!(stdout.contains("custom:pyramid"), "{stdout}");
+}
+
+#[test]
 fn review_lists_the_custom_tasks_trials() {
     let (code, stdout, err) = run_in(&root(), &["review", "results/custom", "--json"]);
     assert_eq!(code, 0, "{err}");
@@ -62,7 +82,47 @@ fn review_lists_the_custom_tasks_trials() {
 fn what_a_custom_task_cannot_do_is_refused_by_name() {
     let out = tempfile::tempdir().expect("tempdir");
     let out_s = out.path().to_str().expect("utf-8");
-    let cases: [(&[&str], &str); 5] = [
+    let cases: [(&[&str], &str); 9] = [
+        (
+            &[
+                "train",
+                "--task",
+                "custom:l-shape",
+                "--actions",
+                "10",
+                "--out",
+                out_s,
+            ],
+            "needs no training",
+        ),
+        (
+            &[
+                "transporter",
+                "train",
+                "--task",
+                "custom:l-shape",
+                "--models",
+                out_s,
+            ],
+            "built-in tasks",
+        ),
+        (
+            &[
+                "sim",
+                "run",
+                "--task",
+                "custom:never-shown",
+                "--policy",
+                "random",
+                "--trials",
+                "1",
+            ],
+            "no demonstrations of custom:never-shown",
+        ),
+        (
+            &["record", "--task", "custom:never-shown", "--out", out_s],
+            "no demonstrations of custom:never-shown",
+        ),
         (
             &[
                 "eval",

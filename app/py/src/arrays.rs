@@ -92,8 +92,15 @@ pub fn resolution(resolution: usize, arg: &str) -> PyResult<usize> {
     seespot_sim::scene::check_resolution(resolution).map_err(|e| bad(arg, e))
 }
 
+/// A task by its id; a custom task (`custom:NAME`) is defined by its
+/// demonstrations in `demos/custom/NAME` (relative to the working folder, as
+/// the policies and demonstrations are read from `models/` and `demos/`).
 pub fn task(s: &str) -> PyResult<TaskId> {
-    s.parse().map_err(|e| bad("task", e))
+    let task: TaskId = s.parse().map_err(|e| bad("task", e))?;
+    seespot_ssr::Layout::default()
+        .load_task(task)
+        .map_err(|e| bad("task", e))?;
+    Ok(task)
 }
 
 pub fn primitive(s: &str) -> PyResult<Primitive> {
