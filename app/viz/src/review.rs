@@ -101,6 +101,7 @@ impl ReviewSource {
         let want = seespot_ssr::layout::records_path(&self.dir, method, task);
         records_files(&self.dir)?
             .into_iter()
+            .chain(seespot_ssr::eval::custom_records_files(&self.dir)?)
             .find(|f| *f == want)
             .with_context(|| {
                 format!(
@@ -196,6 +197,19 @@ mod tests {
             assert!(format!("{e:#}").contains("no records of method"), "{e:#}");
         }
         assert!(s.records_file("ssr-ccd", TaskId::Stack).is_ok());
+    }
+
+    #[test]
+    fn a_custom_tasks_trial_replays_from_the_review() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let s = ReviewSource {
+            dir: root.join("results/custom"),
+            layout: Layout::new(root.join("models"), root.join("demos")),
+        };
+        let task: TaskId = "custom:pyramid".parse().expect("task");
+        assert!(s.records_file("ssr-ccd", task).is_ok());
+        let replay = s.replay("ssr-ccd", task, 7).expect("replay");
+        assert_eq!((replay.task, replay.seed), (task, 7));
     }
 
     #[test]
