@@ -848,8 +848,8 @@ pub fn custom_markdown(out_dir: &Path) -> Result<String, ReportError> {
     let _ = writeln!(
         md,
         "## Tasks no policy saw\n\nSuccess (successes / trials) and mean final progress P / 4 \
-         on tasks defined by their demonstrations; SSR embeds with all four shipped policies \
-         (M = 4).\n"
+         on tasks defined by their demonstrations; SSR embeds with all four policies of the \
+         model set (M = 4).\n"
     );
     let _ = write!(md, "| method |");
     for t in &tasks {
@@ -864,6 +864,9 @@ pub fn custom_markdown(out_dir: &Path) -> Result<String, ReportError> {
                 .iter()
                 .filter(|r| &r.method == run && task.is_none_or(|t| r.task == t))
                 .collect();
+            if rs.is_empty() {
+                return " — |".to_owned();
+            }
             let ok = rs.iter().filter(|r| r.success).count();
             let p = rs.iter().map(|r| f64::from(r.final_progress)).sum::<f64>()
                 / (4.0 * rs.len().max(1) as f64);
