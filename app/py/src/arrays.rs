@@ -104,10 +104,7 @@ pub fn task(s: &str) -> PyResult<TaskId> {
 }
 
 pub fn primitive(s: &str) -> PyResult<Primitive> {
-    Primitive::ALL
-        .into_iter()
-        .find(|p| p.as_str() == s)
-        .ok_or_else(|| bad("primitive", format!("'{s}' is not 'grasp' or 'place'")))
+    s.parse().map_err(|e| bad("primitive", e))
 }
 
 /// Validates a heightmap resolution (a multiple of 8 in 32..=448 pixels).

@@ -44,16 +44,9 @@ pub fn record_demo(
         .into_iter()
         .enumerate()
         .map(|(i, (p, r, y, x))| {
-            let primitive = match p.as_str() {
-                "grasp" => Primitive::Grasp,
-                "place" => Primitive::Place,
-                other => {
-                    return Err(bad(
-                        "actions",
-                        format!("action {i}: primitive '{other}' is not 'grasp' or 'place'"),
-                    ));
-                }
-            };
+            let primitive: Primitive = p
+                .parse()
+                .map_err(|e| bad("actions", format!("action {i}: primitive {e}")))?;
             Ok(Action::new(primitive, r, y, x))
         })
         .collect::<PyResult<_>>()?;

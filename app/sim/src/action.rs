@@ -13,6 +13,16 @@ pub enum Primitive {
     Place,
 }
 
+impl std::str::FromStr for Primitive {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Self::ALL
+            .into_iter()
+            .find(|p| p.as_str() == s)
+            .ok_or_else(|| format!("'{s}' is not 'grasp' or 'place'"))
+    }
+}
+
 impl Primitive {
     pub const ALL: [Primitive; 2] = [Primitive::Grasp, Primitive::Place];
 
