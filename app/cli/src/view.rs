@@ -35,6 +35,14 @@ impl DeciderArgs {
     fn factory(&self) -> anyhow::Result<DeciderFactory> {
         Ok(registry::factory(self.decider, self.layout()))
     }
+
+    /// Makes `task` ready to run: a custom task is defined by its
+    /// demonstrations in `--demos` ([`Layout::load_task`]).
+    fn load_task(&self, task: TaskId) -> anyhow::Result<()> {
+        self.layout()
+            .load_task(task)
+            .with_context(|| format!("task {task}"))
+    }
 }
 
 /// `seespot view`: run a live SSR trial and debug it in the browser.
@@ -140,10 +148,7 @@ pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
         );
     }
     // A custom task is defined by its demonstrations: read their final layout.
-    args.decider
-        .layout()
-        .load_task(task)
-        .with_context(|| format!("task {task}"))?;
+    args.decider.load_task(task)?;
     let opts = ViewOptions {
         task,
         seed,
@@ -231,10 +236,7 @@ pub struct RecordArgs {
 
 /// Runs `seespot record`; Ctrl-C finishes the current file and stops.
 pub fn run_record(args: RecordArgs) -> anyhow::Result<()> {
-    args.decider
-        .layout()
-        .load_task(args.task)
-        .with_context(|| format!("task {}", args.task))?;
+    args.decider.load_task(args.task)?;
     let factory = args.decider.factory()?;
     let stop = live::ctrl_c_flag();
     let seeds = seespot_sim::Seeds::new(args.seed, args.trials)?;
@@ -313,10 +315,7 @@ pub struct BenchViewArgs {
 
 /// Runs `seespot bench view`.
 pub fn run_bench_view(args: BenchViewArgs) -> anyhow::Result<()> {
-    args.decider
-        .layout()
-        .load_task(args.task)
-        .with_context(|| format!("task {}", args.task))?;
+    args.decider.load_task(args.task)?;
     let b = live::bench_view(
         args.task,
         args.seed,

@@ -66,6 +66,8 @@ struct Recorded {
     blocks_before: Vec<(usize, BlockPose)>,
     action: Action,
     world_pose: [f32; 4],
+    /// A block was out of the workspace after the action.
+    out_of_workspace: bool,
 }
 
 /// A demonstration being made, one action at a time.
@@ -156,6 +158,7 @@ impl Recorder {
             blocks_before,
             action,
             world_pose: outcome.pose,
+            out_of_workspace: self.world.block_out_of_workspace(),
         });
         Ok(())
     }
@@ -195,15 +198,11 @@ impl Recorder {
             Some(g) => g.progress_in_place(blocks),
             None => self.task.progress_of(blocks),
         };
-        // Re-simulate to find the first action after which a block was out
-        // of the workspace (the world reports the present only).
-        let mut replay = start(self.task, self.seed, self.config);
         let mut meta = DemoMeta::new(self.task, self.seed, self.config.grid);
         meta.goal = goal.clone();
         let mut steps = Vec::with_capacity(self.steps.len());
         for (i, s) in self.steps.iter().enumerate() {
-            replay.execute(s.action);
-            if replay.block_out_of_workspace() {
+            if s.out_of_workspace {
                 return Err(RecordError::OutOfWorkspace { step: i });
             }
             let after_blocks = match self.steps.get(i + 1) {

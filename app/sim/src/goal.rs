@@ -84,12 +84,7 @@ impl Goal {
             .assignments(blocks)
             .into_iter()
             .map(|assignment| {
-                let pairs: Vec<(usize, usize)> = assignment
-                    .iter()
-                    .enumerate()
-                    .filter_map(|(i, p)| p.map(|p| (i, p)))
-                    .collect();
-                self.count(blocks, &pairs, &identity)
+                self.count(blocks, &matched(&assignment), &identity)
                     .into_iter()
                     .filter(|b| *b)
                     .count()
@@ -115,12 +110,7 @@ impl Goal {
             places: vec![None; blocks.len()],
         };
         for assignment in self.assignments(blocks) {
-            // Pairs (live index, place index) this assignment matches.
-            let pairs: Vec<(usize, usize)> = assignment
-                .iter()
-                .enumerate()
-                .filter_map(|(i, p)| p.map(|p| (i, p)))
-                .collect();
+            let pairs = matched(&assignment);
             // A single block is a hypothesis of its own (any turn, its shift).
             for &(i, p) in &pairs {
                 let (l, g) = (xy(&blocks[i].1), xy(&self.places[p].1));
@@ -259,6 +249,15 @@ fn permute(
         permute(n, used, current, out);
         current.pop();
     }
+}
+
+/// The pairs (live block index, place index) an assignment matches.
+fn matched(assignment: &[Option<usize>]) -> Vec<(usize, usize)> {
+    assignment
+        .iter()
+        .enumerate()
+        .filter_map(|(i, p)| p.map(|p| (i, p)))
+        .collect()
 }
 
 fn xy(pose: &BlockPose) -> Vector2<f32> {

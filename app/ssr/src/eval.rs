@@ -147,16 +147,26 @@ pub use crate::layout::records_path;
 /// Every records file under `<out_dir>/trials/` (`<method>/<task>.jsonl`),
 /// sorted; what the report and `seespot review` read.
 pub fn records_files(out_dir: &Path) -> Result<Vec<PathBuf>, RecordError> {
+    records_files_below(out_dir, None)
+}
+
+/// The `.jsonl` files of every run folder of `out_dir`'s `trials/` (or of
+/// its subfolder `below`), sorted.
+fn records_files_below(out_dir: &Path, below: Option<&str>) -> Result<Vec<PathBuf>, RecordError> {
     let trials = crate::layout::trials_dir(out_dir);
     let io = |e: std::io::Error| RecordError::Io {
         path: trials.display().to_string(),
         source: e,
     };
     let mut files = Vec::new();
-    for method in std::fs::read_dir(&trials).map_err(io)? {
-        let method = method.map_err(io)?.path();
-        if method.is_dir() {
-            for f in std::fs::read_dir(&method).map_err(io)? {
+    for run in std::fs::read_dir(&trials).map_err(io)? {
+        let run = run.map_err(io)?.path();
+        let dir = match below {
+            Some(sub) => run.join(sub),
+            None => run,
+        };
+        if dir.is_dir() {
+            for f in std::fs::read_dir(&dir).map_err(io)? {
                 let f = f.map_err(io)?.path();
                 if f.extension().is_some_and(|e| e == "jsonl") {
                     files.push(f);
@@ -171,28 +181,10 @@ pub fn records_files(out_dir: &Path) -> Result<Vec<PathBuf>, RecordError> {
 /// The records files of custom tasks in `out_dir`
 /// (`trials/<run>/custom/<name>.jsonl`), sorted; none when there are none.
 pub fn custom_records_files(out_dir: &Path) -> Result<Vec<PathBuf>, RecordError> {
-    let trials = crate::layout::trials_dir(out_dir);
-    let io = |e: std::io::Error| RecordError::Io {
-        path: trials.display().to_string(),
-        source: e,
-    };
-    let mut files = Vec::new();
-    if !trials.is_dir() {
-        return Ok(files);
+    if !crate::layout::trials_dir(out_dir).is_dir() {
+        return Ok(Vec::new());
     }
-    for run in std::fs::read_dir(&trials).map_err(io)? {
-        let custom = run.map_err(io)?.path().join("custom");
-        if custom.is_dir() {
-            for f in std::fs::read_dir(&custom).map_err(io)? {
-                let f = f.map_err(io)?.path();
-                if f.extension().is_some_and(|e| e == "jsonl") {
-                    files.push(f);
-                }
-            }
-        }
-    }
-    files.sort();
-    Ok(files)
+    records_files_below(out_dir, Some("custom"))
 }
 
 /// sha256 (hex) of a file's bytes.

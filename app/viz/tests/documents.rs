@@ -16,8 +16,8 @@ fn keys(v: &serde_json::Value) -> Vec<&str> {
     k
 }
 
-#[test]
-fn state_and_frame_documents_keep_their_schema() {
+/// A session of stack seed 1 with the oracle deciding.
+fn oracle_session() -> Session {
     let factory = registry::factory(
         DeciderKind::Oracle,
         seespot_ssr::Layout::new("models", "demos"),
@@ -27,7 +27,12 @@ fn state_and_frame_documents_keep_their_schema() {
         seed: 1,
         world: WorldConfig::default(),
     };
-    let mut s = Session::new(factory, config, None).expect("session");
+    Session::new(factory, config, None).expect("session")
+}
+
+#[test]
+fn state_and_frame_documents_keep_their_schema() {
+    let mut s = oracle_session();
     s.next_phase().expect("phase");
     let state = serde_json::to_value(s.state()).expect("state");
     assert_eq!(state["type"], "state");
@@ -110,16 +115,7 @@ fn state_and_frame_documents_keep_their_schema() {
 
 #[test]
 fn the_demonstrate_document_names_its_fields_and_shows_the_demonstrations_world() {
-    let factory = registry::factory(
-        DeciderKind::Oracle,
-        seespot_ssr::Layout::new("models", "demos"),
-    );
-    let config = SessionConfig {
-        task: TaskId::Stack,
-        seed: 1,
-        world: WorldConfig::default(),
-    };
-    let mut s = Session::new(factory, config, None).expect("session");
+    let mut s = oracle_session();
     let state = serde_json::to_value(s.state()).expect("state");
     assert!(state["demonstrate"].is_null());
     s.demonstrate(TaskId::Row, Some(4), false)
