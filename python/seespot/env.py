@@ -9,6 +9,14 @@ change in task progress (Sec. 3 of the paper; progress runs 1..=4).
 ``terminated`` on success or a block leaving the workspace, ``truncated`` at
 30 actions; ``info`` holds ``progress``, ``max_progress``, ``seed`` and the
 last step's outcome.
+
+``gym.make_vec("seespot/Stack-v0", num_envs=8)`` gives the native vector
+environment, :class:`SeespotVectorEnv` (the ``vector_entry_point``): the N
+trials step together on Rust threads with the GIL released, and the batch
+comes back as one array per field. Its autoreset mode is ``NEXT_STEP``, as
+gymnasium's own vector environments: the step after an episode ends starts
+it again from a new seed (that step's action for it is ignored, its reward
+is 0 and it is neither terminated nor truncated).
 """
 
 from __future__ import annotations
@@ -18,8 +26,10 @@ from typing import Any, SupportsFloat
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
 
-from seespot._core import MAX_TRIAL_ACTIONS, NUM_ROTATIONS, Trial, check_resolution
+from seespot._core import MAX_TRIAL_ACTIONS, NUM_ROTATIONS, Trial, VectorTrials, check_resolution
 
 ENV_IDS = {
     "stack": "seespot/Stack-v0",
@@ -116,6 +126,98 @@ class SeespotEnv(gym.Env[Obs, np.ndarray]):
         return None
 
 
+def _spaces(resolution: int) -> tuple[spaces.Dict, spaces.MultiDiscrete]:
+    n = resolution
+    observation = spaces.Dict(
+        {
+            "color": spaces.Box(0, 255, shape=(n, n, 3), dtype=np.uint8),
+            "depth": spaces.Box(0.0, MAX_DEPTH, shape=(n, n), dtype=np.float32),
+            "primitive": spaces.Discrete(2),
+        }
+    )
+    return observation, spaces.MultiDiscrete([NUM_ROTATIONS, n, n])
+
+
+#: ``VectorTrials``' end codes.
+_SUCCESS, _ACTION_LIMIT, _OUT_OF_WORKSPACE = 1, 2, 3
+
+
+class SeespotVectorEnv(VectorEnv[Obs, np.ndarray, np.ndarray]):
+    """``num_envs`` trials of one task stepped together in Rust
+    (``seespot._core.VectorTrials``): the same observations, rewards and
+    ends as ``num_envs`` copies of :class:`SeespotEnv`, batched. Seeds:
+    ``reset(seed=s)`` starts trial i from ``s + i`` (a list gives each its
+    own); without one, and at every autoreset, seeds are drawn from
+    ``np_random``. ``info`` holds ``progress``, ``seed``, ``actions`` and
+    ``primitive_success`` arrays, each with its ``_name`` mask."""
+
+    metadata: dict[str, Any] = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
+
+    def __init__(self, task: str, num_envs: int = 1, resolution: int = 112, **kwargs: Any):
+        if task not in ENV_IDS:
+            raise ValueError(f"task: unknown task '{task}' (expected one of {sorted(ENV_IDS)})")
+        if not isinstance(num_envs, int) or num_envs < 1:
+            raise ValueError(f"num_envs: {num_envs!r} is not a positive integer")
+        if kwargs.get("render_mode") is not None:
+            raise ValueError("render_mode: the vector environment renders nothing")
+        self.task = task
+        self.num_envs = num_envs
+        self.resolution = check_resolution(resolution)
+        self.single_observation_space, self.single_action_space = _spaces(self.resolution)
+        self.observation_space = batch_space(self.single_observation_space, num_envs)
+        self.action_space = batch_space(self.single_action_space, num_envs)
+        self._trials: VectorTrials | None = None
+        self._ended = np.zeros(num_envs, dtype=bool)
+
+    def _seeds(self) -> list[int]:
+        return [int(s) for s in self.np_random.integers(0, 2**31, self.num_envs)]
+
+    def _obs_info(self, batch: dict[str, Any]) -> tuple[Obs, dict[str, Any]]:
+        depth = batch["depth"]
+        np.clip(depth, 0.0, MAX_DEPTH, out=depth)
+        obs = {"color": batch["color"], "depth": depth, "primitive": batch["primitive"]}
+        info: dict[str, Any] = {}
+        every = np.ones(self.num_envs, dtype=bool)
+        for key in ("progress", "seed", "actions", "primitive_success"):
+            info[key] = batch[key]
+            info[f"_{key}"] = every
+        return obs, info
+
+    def reset(
+        self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[Obs, dict[str, Any]]:
+        if isinstance(seed, list):
+            if len(seed) != self.num_envs:
+                raise ValueError(f"seed: {len(seed)} seeds for {self.num_envs} environments")
+            super().reset(seed=seed[0])
+            seeds = [int(s) for s in seed]
+        else:
+            super().reset(seed=seed)
+            seeds = [seed + i for i in range(self.num_envs)] if seed is not None else self._seeds()
+        if self._trials is None:
+            self._trials = VectorTrials(self.task, seeds, self.resolution)
+        batch = self._trials.reset(seeds)
+        self._ended[:] = False
+        return self._obs_info(batch)
+
+    def step(self, actions: Any) -> tuple[Obs, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        if self._trials is None:
+            raise RuntimeError("step() before reset()")
+        a = np.asarray(actions, dtype=np.int64)
+        if a.shape != (self.num_envs, 3):
+            raise ValueError(f"actions: expected shape ({self.num_envs}, 3), got {a.shape}")
+        resets = np.where(self._ended, np.asarray(self._seeds(), dtype=np.int64), -1)
+        batch = self._trials.step(a, resets)
+        end = batch["end"]
+        stepped = ~self._ended
+        reward = np.where(stepped, batch["progress"] - batch["progress_before"], 0).astype(np.float64)
+        terminated = stepped & ((end == _SUCCESS) | (end == _OUT_OF_WORKSPACE))
+        truncated = stepped & ((end == _ACTION_LIMIT) | ((end == 0) & (batch["actions"] >= MAX_TRIAL_ACTIONS)))
+        self._ended = terminated | truncated
+        obs, info = self._obs_info(batch)
+        return obs, reward, terminated, truncated, info
+
+
 def register_envs() -> None:
     """Registers the four environments (idempotent)."""
     for task, env_id in ENV_IDS.items():
@@ -123,6 +225,7 @@ def register_envs() -> None:
             gym.register(
                 id=env_id,
                 entry_point="seespot.env:SeespotEnv",
+                vector_entry_point="seespot.env:SeespotVectorEnv",
                 kwargs={"task": task},
                 max_episode_steps=None,
             )

@@ -69,3 +69,51 @@ def test_async_vector_env() -> None:
         assert reward.shape == (2,)
     finally:
         envs.close()
+
+
+def test_native_vector_env_matches_the_single_environments() -> None:
+    """`gym.make_vec` gives the native vector environment (Rust threads):
+    the same observations, rewards and ends as one `SeespotEnv` per slot,
+    and NEXT_STEP autoreset (the step after an end starts that slot again)."""
+    from gymnasium.vector import AutoresetMode
+
+    from seespot.env import SeespotVectorEnv
+
+    n = 3
+    venv = gym.make_vec("seespot/Stack-v0", num_envs=n, resolution=RES)
+    assert isinstance(venv.unwrapped, SeespotVectorEnv)
+    assert venv.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
+    singles = [gym.make("seespot/Stack-v0", resolution=RES) for _ in range(n)]
+    obs, info = venv.reset(seed=5)
+    assert venv.observation_space.contains(obs)
+    for i, env in enumerate(singles):
+        o, inf = env.reset(seed=5 + i)
+        np.testing.assert_array_equal(obs["color"][i], o["color"])
+        np.testing.assert_array_equal(obs["depth"][i], o["depth"])
+        assert info["progress"][i] == inf["progress"]
+    rng = np.random.default_rng(3)
+    ended = np.zeros(n, dtype=bool)
+    autoresets = 0
+    for _ in range(40):
+        actions = np.stack([rng.integers([0, 0, 0], [16, RES, RES]) for _ in range(n)])
+        obs, reward, terminated, truncated, info = venv.step(actions)
+        for i, env in enumerate(singles):
+            if ended[i]:
+                # The slot started again: no reward, no end, a fresh trial.
+                assert reward[i] == 0 and not terminated[i] and not truncated[i]
+                assert info["actions"][i] == 0
+                o, _ = env.reset(seed=int(info["seed"][i]))
+                autoresets += 1
+            else:
+                o, r, te, tr, _ = env.step(actions[i])
+                assert (reward[i], terminated[i], truncated[i]) == (r, te, tr)
+            np.testing.assert_array_equal(obs["color"][i], o["color"])
+            np.testing.assert_array_equal(obs["depth"][i], o["depth"])
+            assert obs["primitive"][i] == o["primitive"]
+        ended = terminated | truncated
+    assert autoresets > 0, "no slot ended in 40 random actions (30 is the limit)"
+    with pytest.raises(ValueError, match="actions"):
+        venv.step(np.zeros((n, 2), dtype=np.int64))
+    with pytest.raises(ValueError, match=r"actions\[0\]"):
+        venv.step(np.full((n, 3), RES, dtype=np.int64))
+    venv.close()

@@ -1,4 +1,9 @@
 //! `seespot`: every user command of the See-SPOT-Run toolkit.
+//!
+//! The command line is a library ([`run_command_line`]) so that two programs
+//! share it: the `seespot` binary (`src/main.rs`) and the Python package's
+//! `seespot` console script, which calls it through `seespot._core.cli` and so
+//! gives a `pip install` the whole tool without cargo.
 
 /// `println!` that returns the error (a full disk, a closed pipe) as an
 /// `anyhow::Result` instead of panicking.
@@ -13,6 +18,7 @@ macro_rules! outln {
 mod bench;
 mod demo;
 mod eval;
+mod export;
 mod review;
 mod sim;
 mod train;
@@ -41,6 +47,9 @@ enum Command {
     Sim(sim::SimCommand),
     /// Leave-one-out evaluation of SSR and baselines, with the paper's numbers beside.
     Eval(eval::EvalArgs),
+    /// Demonstrations and trials for other tools: a LeRobotDataset v3.0.
+    #[command(subcommand)]
+    Export(export::ExportCommand),
     /// The trials of an evaluation with their failure kinds, and how to replay each.
     Review(review::ReviewArgs),
     /// Train one task's SPOT-Q policy (resumable from its run directory).
@@ -59,28 +68,49 @@ enum Command {
     Bench(bench::BenchCommand),
 }
 
-fn main() -> std::process::ExitCode {
+/// Runs the command line `args` (the program name first, as
+/// `std::env::args_os` gives it) and returns the process's exit status: 0 on
+/// success, 1 when the command failed (its error is printed on stderr), 2 for
+/// a usage error (clap's message; `--help` and `--version` print and return 0).
+///
+/// It resets SIGPIPE to its default action, as a command-line tool's process
+/// does; call it only as a process's main command.
+pub fn run_command_line<I, T>(args: I) -> u8
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
     // Like other command-line tools, end quietly when the reader of our
     // output goes away (`seespot review | head`): the default action of
-    // SIGPIPE, which Rust's runtime sets to ignore.
-    // SAFETY: setting a signal's disposition to its default at startup,
-    // before any thread exists.
+    // SIGPIPE, which Rust's runtime (and Python's) set to ignore.
+    // SAFETY: setting a signal's disposition to its default; the binary does
+    // it before any thread exists, the console script before it starts any.
     #[allow(unsafe_code)]
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse_from(args) {
+        Ok(cli) => cli,
+        Err(e) => {
+            // --help and --version are "errors" that print to stdout and exit 0.
+            let code = e.exit_code();
+            if e.print().is_err() {
+                return 2;
+            }
+            return u8::try_from(code).unwrap_or(2);
+        }
+    };
     if let Err(e) = seespot_policy::simd::cap_from_env() {
         eprintln!("Error: {e}");
-        return std::process::ExitCode::from(2);
+        return 2;
     }
     match run(cli) {
-        Ok(()) => std::process::ExitCode::SUCCESS,
+        Ok(()) => 0,
         // Where SIGPIPE stays ignored (a parent's choice), the same ending.
-        Err(e) if broken_pipe(&e) => std::process::ExitCode::SUCCESS,
+        Err(e) if broken_pipe(&e) => 0,
         Err(e) => {
             eprintln!("Error: {e:?}");
-            std::process::ExitCode::FAILURE
+            1
         }
     }
 }
@@ -98,6 +128,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Sim(c) => sim::run(c),
         Command::Bench(c) => bench::run(c),
         Command::Eval(a) => eval::run(a),
+        Command::Export(c) => export::run(c),
         Command::Train(a) => train::run(a),
         Command::Transporter(c) => transporter::run(c),
         Command::Review(a) => review::run(a),

@@ -92,12 +92,13 @@ pub fn resolution(resolution: usize, arg: &str) -> PyResult<usize> {
     seespot_sim::scene::check_resolution(resolution).map_err(|e| bad(arg, e))
 }
 
-/// A task by its id; a custom task (`custom:NAME`) is defined by its
-/// demonstrations in `demos/custom/NAME` (relative to the working folder, as
-/// the policies and demonstrations are read from `models/` and `demos/`).
-pub fn task(s: &str) -> PyResult<TaskId> {
+/// The task named `s`; a custom task (`custom:NAME`) is defined by its
+/// demonstrations in `demos/custom/NAME/` (`demos` is relative to the working
+/// folder, as the policies and demonstrations are read from `models/` and
+/// `demos/`).
+pub fn task(s: &str, demos: &std::path::Path) -> PyResult<TaskId> {
     let task: TaskId = s.parse().map_err(|e| bad("task", e))?;
-    seespot_ssr::Layout::default()
+    seespot_ssr::Layout::new("models", demos)
         .load_task(task)
         .map_err(|e| bad("task", e))?;
     Ok(task)

@@ -41,7 +41,7 @@ impl Evaluator {
         correspond: &str,
     ) -> PyResult<Self> {
         let eval_method: EvalMethod = method.parse().map_err(|e| bad("method", e))?;
-        let task = arrays::task(task)?;
+        let task = arrays::task(task, &demos_dir)?;
         let resolution = non_negative(resolution, "resolution")?;
         let resolution = arrays::resolution(resolution as usize, "resolution")?;
         let ssr = crate::ssr::ssr_config(
@@ -139,7 +139,8 @@ pub fn test_seeds(start: i64, count: i64) -> PyResult<Vec<u64>> {
 /// The records file `seespot eval` writes for (method, task) under `out_dir`.
 #[pyfunction]
 pub fn records_path(out_dir: PathBuf, method: &str, task: &str) -> PyResult<PathBuf> {
-    let task = arrays::task(task)?;
+    // Only the name matters here: a custom task need not be defined.
+    let task: seespot_sim::TaskId = task.parse().map_err(|e| bad("task", e))?;
     Ok(seespot_ssr::eval::records_path(&out_dir, method, task))
 }
 

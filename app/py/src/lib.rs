@@ -10,6 +10,10 @@
 //! the GIL (`Python::detach`), so threads stepping separate trials run in
 //! parallel.
 //!
+//! `cli(argv)` runs the `seespot` command line (the crate `seespot_cli`) in
+//! this process: the wheel's `seespot` console script, so `pip install` gives
+//! the whole tool.
+//!
 //! The pure-Python parts (the gymnasium environments, `seespot.dist`) live in
 //! `python/seespot`; `python/seespot/_core.pyi` types this module.
 
@@ -22,6 +26,16 @@ mod eval;
 mod policy;
 mod ssr;
 mod trial;
+mod vector;
+
+/// Runs the `seespot` command line with `argv` (program name first) and
+/// returns its exit status, with the GIL released. The console script
+/// `seespot` (`seespot.cli`) calls it; it resets SIGPIPE to its default, as a
+/// command-line process does, so call it only as a process's main command.
+#[pyfunction]
+fn cli(py: Python<'_>, argv: Vec<String>) -> u8 {
+    py.detach(move || seespot_cli::run_command_line(argv))
+}
 
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -39,10 +53,12 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("NUM_ROTATIONS", seespot_sim::NUM_ROTATIONS)?;
     m.add("MAX_TRIAL_ACTIONS", seespot_sim::task::MAX_TRIAL_ACTIONS)?;
     m.add_class::<trial::Trial>()?;
+    m.add_class::<vector::VectorTrials>()?;
     m.add_class::<policy::Policy>()?;
     m.add_class::<ssr::Ssr>()?;
     m.add_class::<eval::Evaluator>()?;
     m.add_class::<eval::OutputLock>()?;
+    m.add_function(wrap_pyfunction!(cli, m)?)?;
     m.add_function(wrap_pyfunction!(arrays::check_resolution, m)?)?;
     m.add_function(wrap_pyfunction!(eval::test_seeds, m)?)?;
     m.add_function(wrap_pyfunction!(demo::record_demo, m)?)?;

@@ -62,7 +62,7 @@ impl Ssr {
         method: &str,
         correspond: &str,
     ) -> PyResult<Self> {
-        let task = arrays::task(task)?;
+        let task = arrays::task(task, &demos_dir)?;
         let config = ssr_config(method, correspond)?;
         let ssr = py
             .detach(|| {

@@ -34,12 +34,19 @@ pub fn heightmap_arrays(py: Python<'_>, hm: Heightmaps) -> PyResult<HeightmapArr
 
 #[pymethods]
 impl Trial {
-    /// A test trial of `task` (stack, row, unstack, vertical-square) from
-    /// `seed` at `resolution` pixels per side.
+    /// A test trial of `task` (stack, row, unstack, vertical-square, or
+    /// `custom:NAME`, defined by `demos_dir/custom/NAME/`) from `seed` at
+    /// `resolution` pixels per side.
     #[new]
-    #[pyo3(signature = (task, seed, resolution = 112))]
-    fn new(py: Python<'_>, task: &str, seed: i64, resolution: i64) -> PyResult<Self> {
-        let task = arrays::task(task)?;
+    #[pyo3(signature = (task, seed, resolution = 112, demos_dir = "demos".into()))]
+    fn new(
+        py: Python<'_>,
+        task: &str,
+        seed: i64,
+        resolution: i64,
+        demos_dir: std::path::PathBuf,
+    ) -> PyResult<Self> {
+        let task = arrays::task(task, &demos_dir)?;
         let seed = non_negative(seed, "seed")?;
         let resolution = non_negative(resolution, "resolution")?;
         let resolution = arrays::resolution(resolution as usize, "resolution")?;
@@ -137,7 +144,9 @@ impl Trial {
 
     /// Executes `(rotation, y, x)` with the next primitive (`grasp` after a
     /// place, `place` while a block is held); returns what happened: the
-    /// primitive, whether it succeeded, progress before and after, and the end.
+    /// primitive, whether it succeeded, the gripper's metric pose `[x, y, z,
+    /// yaw]` (metres in the table frame, radians), progress before and after,
+    /// and the end.
     fn step<'py>(
         &mut self,
         py: Python<'py>,
@@ -162,6 +171,7 @@ impl Trial {
         let d = PyDict::new(py);
         d.set_item("primitive", primitive.as_str())?;
         d.set_item("primitive_success", step.outcome.success)?;
+        d.set_item("pose", step.outcome.pose.to_vec())?;
         d.set_item("progress_before", step.progress_before)?;
         d.set_item("progress_after", step.progress_after)?;
         d.set_item("reversal", step.reversal)?;

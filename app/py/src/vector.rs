@@ -1,0 +1,258 @@
+//! `VectorTrials`: N trials of one task stepped together on Rust threads
+//! (rayon) with the GIL released, their observations written straight into
+//! batched arrays: the core of the native gymnasium vector environment
+//! (`seespot.env.SeespotVectorEnv`).
+
+use std::path::PathBuf;
+
+use numpy::ndarray::{Array1, Array3, Array4};
+use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use rayon::prelude::*;
+use seespot_sim::{Action, TaskId, Trial as SimTrial, TrialEnd, WorldConfig};
+
+use crate::arrays::{self, bad};
+use crate::trial::non_negative;
+
+/// What one trial reports after a step or a reset.
+#[derive(Clone, Copy, Default)]
+struct Outcome {
+    progress_before: u8,
+    progress: u8,
+    primitive_success: bool,
+    /// 0 running, 1 success, 2 action limit, 3 out of workspace.
+    end: i8,
+    actions: u32,
+    place_next: bool,
+    seed: u64,
+}
+
+fn end_code(end: Option<TrialEnd>) -> i8 {
+    match end {
+        None => 0,
+        Some(TrialEnd::Success) => 1,
+        Some(TrialEnd::ActionLimit) => 2,
+        Some(TrialEnd::OutOfWorkspace) => 3,
+    }
+}
+
+/// N trials of one task, stepped together: `step(actions, reset_seeds)`
+/// steps trial i with `actions[i]` (rotation, y, x), or starts it again from
+/// `reset_seeds[i]` where that is not negative (the action is then ignored).
+/// Returns batched arrays: `color` uint8[N, H, W, 3], `depth` float32[N, H, W],
+/// `primitive` int64[N] (0 grasp, 1 place next), `progress`,
+/// `progress_before`, `actions`, `seed` int64[N], `primitive_success`
+/// bool[N], `end` int64[N] (0 running, 1 success, 2 action limit, 3 out of
+/// workspace).
+#[pyclass(module = "seespot._core")]
+pub struct VectorTrials {
+    task: TaskId,
+    config: WorldConfig,
+    trials: Vec<SimTrial>,
+}
+
+impl VectorTrials {
+    /// Runs `work` on every trial in parallel and gathers the batch.
+    fn batch<'py>(
+        &mut self,
+        py: Python<'py>,
+        work: impl Fn(usize, &mut SimTrial) -> (u8, bool) + Sync,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let n = self.config.grid.resolution;
+        let px = n * n;
+        let envs = self.trials.len();
+        let mut color = vec![0u8; envs * px * 3];
+        let mut depth = vec![0f32; envs * px];
+        let mut outs = vec![Outcome::default(); envs];
+        let trials = &mut self.trials;
+        py.detach(|| {
+            trials
+                .par_iter_mut()
+                .zip(color.par_chunks_mut(px * 3))
+                .zip(depth.par_chunks_mut(px))
+                .zip(outs.par_iter_mut())
+                .enumerate()
+                .for_each(|(i, (((trial, c), d), o))| {
+                    let (before, success) = work(i, trial);
+                    let hm = trial.world_mut().observe();
+                    c.copy_from_slice(&hm.color);
+                    d.copy_from_slice(&hm.depth);
+                    *o = Outcome {
+                        progress_before: before,
+                        progress: trial.progress(),
+                        primitive_success: success,
+                        end: end_code(trial.end()),
+                        actions: trial.actions() as u32,
+                        place_next: trial.world().next_primitive() == seespot_sim::Primitive::Place,
+                        seed: trial.seed(),
+                    };
+                });
+        });
+        let d = PyDict::new(py);
+        let shape = |e| bad("batch", e);
+        d.set_item(
+            "color",
+            Array4::from_shape_vec((envs, n, n, 3), color)
+                .map_err(shape)?
+                .into_pyarray(py),
+        )?;
+        d.set_item(
+            "depth",
+            Array3::from_shape_vec((envs, n, n), depth)
+                .map_err(shape)?
+                .into_pyarray(py),
+        )?;
+        let column =
+            |f: fn(&Outcome) -> i64| Array1::from_iter(outs.iter().map(f)).into_pyarray(py);
+        d.set_item("primitive", column(|o| i64::from(o.place_next)))?;
+        d.set_item("progress", column(|o| i64::from(o.progress)))?;
+        d.set_item("progress_before", column(|o| i64::from(o.progress_before)))?;
+        d.set_item("actions", column(|o| i64::from(o.actions)))?;
+        d.set_item("seed", column(|o| o.seed as i64))?;
+        d.set_item("end", column(|o| i64::from(o.end)))?;
+        d.set_item(
+            "primitive_success",
+            Array1::from_iter(outs.iter().map(|o| o.primitive_success)).into_pyarray(py),
+        )?;
+        Ok(d)
+    }
+}
+
+/// Trial seeds from Python integers (each non-negative).
+fn seeds(values: &[i64], arg: &str) -> PyResult<Vec<u64>> {
+    values
+        .iter()
+        .enumerate()
+        .map(|(i, &s)| non_negative(s, &format!("{arg}[{i}]")))
+        .collect()
+}
+
+#[pymethods]
+impl VectorTrials {
+    /// One trial of `task` per seed of `seeds`, at `resolution` pixels per
+    /// side (a custom task is defined by `demos_dir/custom/NAME/`).
+    #[new]
+    #[pyo3(signature = (task, seeds, resolution = 112, demos_dir = "demos".into()))]
+    fn new(
+        py: Python<'_>,
+        task: &str,
+        seeds: Vec<i64>,
+        resolution: i64,
+        demos_dir: PathBuf,
+    ) -> PyResult<Self> {
+        let task = arrays::task(task, &demos_dir)?;
+        let resolution = non_negative(resolution, "resolution")?;
+        let resolution = arrays::resolution(resolution as usize, "resolution")?;
+        if seeds.is_empty() {
+            return Err(bad(
+                "seeds",
+                "is empty: a vector of trials needs at least one",
+            ));
+        }
+        let seeds = self::seeds(&seeds, "seeds")?;
+        let config = seespot_ssr::eval::world_config(resolution);
+        let trials = py.detach(|| {
+            seeds
+                .par_iter()
+                .map(|&s| SimTrial::new(config, task, s))
+                .collect()
+        });
+        Ok(Self {
+            task,
+            config,
+            trials,
+        })
+    }
+
+    /// How many trials step together.
+    #[getter]
+    fn num_envs(&self) -> usize {
+        self.trials.len()
+    }
+
+    /// Starts every trial again, trial i from `seeds[i]`; returns the batch.
+    fn reset<'py>(&mut self, py: Python<'py>, seeds: Vec<i64>) -> PyResult<Bound<'py, PyDict>> {
+        if seeds.len() != self.trials.len() {
+            return Err(bad(
+                "seeds",
+                format!("has {} seeds for {} trials", seeds.len(), self.trials.len()),
+            ));
+        }
+        let seeds = self::seeds(&seeds, "seeds")?;
+        let (config, task) = (self.config, self.task);
+        self.batch(py, |i, trial| {
+            *trial = SimTrial::new(config, task, seeds[i]);
+            (trial.progress(), false)
+        })
+    }
+
+    /// Steps trial i with `actions[i]` = (rotation, y, x), or starts it again
+    /// from `reset_seeds[i]` where that is >= 0; returns the batch. A trial
+    /// that has ended must be started again.
+    fn step<'py>(
+        &mut self,
+        py: Python<'py>,
+        actions: PyReadonlyArray2<'py, i64>,
+        reset_seeds: PyReadonlyArray1<'py, i64>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let envs = self.trials.len();
+        let actions = actions.as_array();
+        let resets = reset_seeds.as_array();
+        if actions.dim() != (envs, 3) {
+            return Err(bad(
+                "actions",
+                format!("has shape {:?}, not ({envs}, 3)", actions.dim()),
+            ));
+        }
+        if resets.len() != envs {
+            return Err(bad(
+                "reset_seeds",
+                format!("has {} entries for {envs} trials", resets.len()),
+            ));
+        }
+        let n = self.config.grid.resolution as i64;
+        let limits = [seespot_sim::NUM_ROTATIONS as i64, n, n];
+        let mut plan: Vec<Option<u64>> = Vec::with_capacity(envs);
+        let mut moves: Vec<[usize; 3]> = Vec::with_capacity(envs);
+        for i in 0..envs {
+            if resets[i] >= 0 {
+                plan.push(Some(resets[i] as u64));
+                moves.push([0; 3]);
+                continue;
+            }
+            if self.trials[i].end().is_some() {
+                return Err(bad(
+                    "reset_seeds",
+                    format!("trial {i} has ended: give it a seed to start again"),
+                ));
+            }
+            let mut a = [0usize; 3];
+            for (k, name) in ["rotation", "y", "x"].iter().enumerate() {
+                let v = actions[[i, k]];
+                if !(0..limits[k]).contains(&v) {
+                    return Err(bad(
+                        "actions",
+                        format!("actions[{i}] {name} {v} is outside 0..{}", limits[k]),
+                    ));
+                }
+                a[k] = v as usize;
+            }
+            plan.push(None);
+            moves.push(a);
+        }
+        let (config, task) = (self.config, self.task);
+        self.batch(py, |i, trial| match plan[i] {
+            Some(seed) => {
+                *trial = SimTrial::new(config, task, seed);
+                (trial.progress(), false)
+            }
+            None => {
+                let [r, y, x] = moves[i];
+                let primitive = trial.world().next_primitive();
+                let step = trial.step(Action::new(primitive, r, y, x));
+                (step.progress_before, step.outcome.success)
+            }
+        })
+    }
+}
