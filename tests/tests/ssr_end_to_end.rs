@@ -673,3 +673,38 @@ fn every_shipped_demo_re_records_to_the_same_bytes() {
         "two demonstrations per task, at 112 and 224 px"
     );
 }
+
+/// A custom task's goal is its demonstrations' final layout, so even a method
+/// that reads no demonstration (random) records their checksums: records
+/// scored against another definition of the task never mix with these.
+#[test]
+fn a_custom_task_records_the_demonstrations_that_define_it() {
+    let layout = Layout::new("models", demos_dir());
+    let task: TaskId = "custom:l-shape".parse().expect("custom task");
+    layout.load_task(task).expect("shipped custom demos");
+    let config = |method| EvalConfig {
+        method,
+        seeds: Seeds::new(1, 1).expect("test seeds"),
+        out_dir: std::env::temp_dir(),
+        layout: layout.clone(),
+        world: world_config(112),
+        correspond: CorrespondOptions::default(),
+        finetune_steps: 0,
+    };
+    let prov =
+        seespot_ssr::eval::provenance(&config(EvalMethod::Random), task).expect("provenance");
+    for n in 0..2 {
+        let meta = format!("custom/l-shape/{n}/meta.json");
+        assert!(
+            prov.files.keys().any(|k| k.ends_with(&meta)),
+            "no {meta} in {:?}",
+            prov.files.keys().collect::<Vec<_>>()
+        );
+    }
+    let builtin = seespot_ssr::eval::provenance(&config(EvalMethod::Random), TaskId::Stack)
+        .expect("provenance");
+    assert!(
+        builtin.files.is_empty(),
+        "random on a built-in task reads no file"
+    );
+}

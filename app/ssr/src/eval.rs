@@ -263,8 +263,9 @@ impl RunSettings {
 }
 
 /// The files `config.method` reads for fold `task` (the models of the other
-/// tasks or of the task itself, every file of the two demonstrations), with
-/// their sha256, the seespot version and the method's settings.
+/// tasks or of the task itself, every file of the two demonstrations; for a
+/// custom task always its demonstrations, which define its goal), with their
+/// sha256, the seespot version and the method's settings.
 pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalError> {
     let mut paths: Vec<PathBuf> = Vec::new();
     let demos = || -> Result<Vec<PathBuf>, EvalError> {
@@ -303,7 +304,13 @@ pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalE
             paths.push(config.layout.transporter(finetune_base(task)));
             paths.extend(demos()?);
         }
-        (EvalMethod::Oracle | EvalMethod::Random, _) => {}
+        // A custom task's goal is its demonstrations' final layout, so they
+        // define what every method's trial is scored against.
+        (EvalMethod::Oracle | EvalMethod::Random, _) => {
+            if task.custom().is_some() {
+                paths.extend(demos()?);
+            }
+        }
     }
     let mut files = std::collections::BTreeMap::new();
     for p in paths {
