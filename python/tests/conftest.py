@@ -3,6 +3,11 @@
 from __future__ import annotations
 
 import os
+import re
+import subprocess
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -30,3 +35,32 @@ def without_timing(record: dict) -> dict:
     r = dict(record)
     r["actions_log"] = [{k: v for k, v in a.items() if k != "decide_ms"} for a in r["actions_log"]]
     return r
+
+
+@contextmanager
+def serving_view(seespot: Path, *args: str) -> Iterator[tuple[str, subprocess.Popen[str]]]:
+    """`seespot view --port 0 --no-viewer ARGS` from the repository root:
+    yields the page's URL (as printed) and the process, then stops it with
+    Ctrl-C (SIGINT) and waits for it."""
+    proc = subprocess.Popen(
+        [str(seespot), "view", "--port", "0", "--no-viewer", *args],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    try:
+        url = None
+        deadline = time.monotonic() + 120
+        assert proc.stdout is not None
+        while url is None and time.monotonic() < deadline:
+            line = proc.stdout.readline()
+            if not line and proc.poll() is not None:
+                break
+            m = re.search(r"seespot page:\s+(\S+)", line)
+            url = m.group(1) if m else None
+        assert url, f"{seespot} view printed no page URL"
+        yield url, proc
+    finally:
+        proc.send_signal(2)
+        proc.wait(timeout=60)

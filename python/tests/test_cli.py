@@ -10,13 +10,12 @@ import os
 import re
 import subprocess
 import sys
-import time
 import urllib.request
 from pathlib import Path
 
 import pytest
 
-from conftest import ROOT
+from conftest import ROOT, serving_view
 
 
 @pytest.fixture(scope="module")
@@ -62,32 +61,12 @@ def test_the_wheel_runs_help_and_an_oracle_evaluation(wheel_seespot: Path, tmp_p
 
 
 def test_the_wheel_serves_the_debugger_page(wheel_seespot: Path) -> None:
-    proc = subprocess.Popen(
-        [str(wheel_seespot), "view", "--port", "0", "--no-viewer", "--task", "stack", "--seed", "1"],
-        cwd=ROOT,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    try:
-        url = None
-        deadline = time.monotonic() + 120
-        assert proc.stdout is not None
-        while url is None and time.monotonic() < deadline:
-            line = proc.stdout.readline()
-            if not line and proc.poll() is not None:
-                break
-            m = re.search(r"seespot page:\s+(\S+)", line)
-            url = m.group(1) if m else None
-        assert url, "seespot view (from the wheel) printed no page URL"
+    with serving_view(wheel_seespot, "--task", "stack", "--seed", "1") as (url, proc):
         with urllib.request.urlopen(url, timeout=30) as page:
             assert page.status == 200
             assert "<html" in page.read().decode().lower()
         with urllib.request.urlopen(url.rstrip("/") + "/api/state", timeout=60) as state:
             assert json.loads(state.read())["task"] == "stack"
-    finally:
-        proc.send_signal(2)
-        proc.wait(timeout=60)
     assert proc.returncode == 0
 
 

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import socket
 import subprocess
 import time
@@ -15,10 +14,8 @@ from types import SimpleNamespace
 
 import pytest
 
-from conftest import ROOT
+from conftest import ROOT, serving_view
 from seespot.viz.viser import ViserView, pixel_to_world
-
-ROOT = Path(__file__).resolve().parents[2]
 
 
 def free_port() -> int:
@@ -29,26 +26,8 @@ def free_port() -> int:
 
 @pytest.fixture
 def page_url(seespot_bin):
-    proc = subprocess.Popen(
-        [str(seespot_bin), "view", "--port", "0", "--no-viewer", "--task", "stack", "--seed", "1"],
-        cwd=ROOT,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    url = None
-    deadline = time.monotonic() + 120
-    assert proc.stdout is not None
-    while time.monotonic() < deadline:
-        line = proc.stdout.readline()
-        m = re.search(r"seespot page:\s+(\S+)", line)
-        if m:
-            url = m.group(1)
-            break
-    assert url, "seespot view printed no page URL"
-    yield url
-    proc.send_signal(2)
-    proc.wait(timeout=60)
+    with serving_view(seespot_bin, "--task", "stack", "--seed", "1") as (url, _):
+        yield url
 
 
 def test_viser_view_shows_the_trial_and_a_drag_changes_the_decision(page_url, tmp_path):

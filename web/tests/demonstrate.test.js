@@ -10,41 +10,23 @@
 // Server: $SEESPOT_BIN (default ../target/release/seespot).
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
-import { spawn, spawnSync } from 'node:child_process';
+import { spawnSync } from 'node:child_process';
 import { mkdtempSync, mkdirSync, rmSync, existsSync, readFileSync, readdirSync, cpSync } from 'node:fs';
 import { tmpdir } from 'node:os';
-import { join, dirname, resolve } from 'node:path';
-import { fileURLToPath } from 'node:url';
+import { join, resolve } from 'node:path';
 import { chromium } from 'playwright-core';
+import { root, BIN, CHROMIUM, FLAGS, startView, stopView } from './serve.js';
 
-const here = dirname(fileURLToPath(import.meta.url));
-const root = resolve(here, '..', '..');
 const shots = process.env.SEESPOT_SCREENSHOTS
   ? resolve(process.env.SEESPOT_SCREENSHOTS)
   : mkdtempSync(join(tmpdir(), 'seespot-screenshots-'));
-const BIN = process.env.SEESPOT_BIN || join(root, 'target', 'release', 'seespot');
-const CHROMIUM = process.env.CHROMIUM || '/usr/bin/chromium';
-const FLAGS = ['--headless', '--no-sandbox', '--disable-gpu', '--no-first-run',
-  '--disable-background-networking', '--disable-component-update', '--disable-sync'];
 
 let server, pageUrl, context, page, tmp, demos;
 const pageErrors = [];
 
-function startServer() {
-  return new Promise((ok, fail) => {
-    const args = ['view', '--port', '0', '--no-viewer', '--task', 'stack', '--seed', '1', '--demos', demos];
-    server = spawn(BIN, args, { cwd: root, stdio: ['ignore', 'pipe', 'pipe'] });
-    let out = '';
-    const timer = setTimeout(() => fail(new Error(`server did not print its URL in 120 s:\n${out}`)), 120_000);
-    const onData = (d) => {
-      out += d.toString();
-      const m = out.match(/seespot page:\s+(\S+)/);
-      if (m) { clearTimeout(timer); pageUrl = m[1]; ok(); }
-    };
-    server.stdout.on('data', onData);
-    server.stderr.on('data', (d) => { out += d.toString(); });
-    server.on('exit', (code) => { clearTimeout(timer); fail(new Error(`server exited with ${code}:\n${out}`)); });
-  });
+async function startServer() {
+  const args = ['view', '--port', '0', '--no-viewer', '--task', 'stack', '--seed', '1', '--demos', demos];
+  ({ server, page: pageUrl } = await startView(args));
 }
 
 before(async () => {
@@ -67,11 +49,7 @@ before(async () => {
 
 after(async () => {
   if (context) await context.close();
-  if (server && server.exitCode === null) {
-    const exited = new Promise((r) => server.once('exit', r));
-    server.kill('SIGINT');
-    await exited;
-  }
+  await stopView(server);
   if (tmp) rmSync(tmp, { recursive: true, force: true });
 });
 

@@ -11,23 +11,19 @@
 // --decider and --models; $RERUN_BIN (pip rerun-sdk==0.36.3) verifies the .rrd.
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
-import { spawn, spawnSync } from 'node:child_process';
+import { spawnSync } from 'node:child_process';
 import { mkdtempSync, mkdirSync, rmSync, statSync, existsSync, writeFileSync, renameSync, readdirSync, readFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
-import { join, dirname, resolve } from 'node:path';
-import { fileURLToPath } from 'node:url';
+import { join, resolve } from 'node:path';
 import net from 'node:net';
 import { chromium } from 'playwright-core';
 import { decodePng, colourStats, showsBlocks } from './png.js';
+import { root, BIN, CHROMIUM, startView, stopView } from './serve.js';
 
-const here = dirname(fileURLToPath(import.meta.url));
-const root = resolve(here, '..', '..');
 // Screenshots never go into the work tree unless asked for (scripts/screenshots).
 const shots = process.env.SEESPOT_SCREENSHOTS
   ? resolve(process.env.SEESPOT_SCREENSHOTS)
   : mkdtempSync(join(tmpdir(), 'seespot-screenshots-'));
-const BIN = process.env.SEESPOT_BIN || join(root, 'target', 'release', 'seespot');
-const CHROMIUM = process.env.CHROMIUM || '/usr/bin/chromium';
 const RES = Number(process.env.SEESPOT_TEST_RESOLUTION || 112);
 const FLAGS = ['--headless', '--no-sandbox', '--disable-gpu', '--enable-unsafe-swiftshader', '--no-first-run',
   '--disable-background-networking', '--disable-component-update', '--disable-sync'];
@@ -35,24 +31,13 @@ const FLAGS = ['--headless', '--no-sandbox', '--disable-gpu', '--enable-unsafe-s
 let server, urls = {}, context, page, profile, tmp, rrd;
 const pageErrors = [];
 
-function startServer() {
-  return new Promise((ok, fail) => {
-    const args = ['view', '--port', '0', '--task', 'stack', '--seed', '1', '--resolution', String(RES), '--save', rrd];
-    if (process.env.SEESPOT_DECIDER) args.push('--decider', process.env.SEESPOT_DECIDER);
-    if (process.env.SEESPOT_MODELS) args.push('--models', process.env.SEESPOT_MODELS);
-    server = spawn(BIN, args, { cwd: root, stdio: ['ignore', 'pipe', 'pipe'] });
-    let out = '';
-    const timer = setTimeout(() => fail(new Error(`server did not print its URLs in 120 s:\n${out}`)), 120_000);
-    const onData = (d) => {
-      out += d.toString();
-      const page = out.match(/seespot page:\s+(\S+)/);
-      const viewer = out.match(/rerun web viewer:\s+(\S+)/);
-      if (page && viewer) { clearTimeout(timer); urls = { page: page[1], viewer: viewer[1] }; ok(); }
-    };
-    server.stdout.on('data', onData);
-    server.stderr.on('data', (d) => { out += d.toString(); });
-    server.on('exit', (code) => { clearTimeout(timer); fail(new Error(`server exited with ${code}:\n${out}`)); });
-  });
+async function startServer() {
+  const args = ['view', '--port', '0', '--task', 'stack', '--seed', '1', '--resolution', String(RES), '--save', rrd];
+  if (process.env.SEESPOT_DECIDER) args.push('--decider', process.env.SEESPOT_DECIDER);
+  if (process.env.SEESPOT_MODELS) args.push('--models', process.env.SEESPOT_MODELS);
+  const started = await startView(args, { viewer: true });
+  server = started.server;
+  urls = { page: started.page, viewer: started.viewer };
 }
 
 before(async () => {
@@ -74,11 +59,7 @@ before(async () => {
 
 after(async () => {
   if (context) await context.close();
-  if (server && server.exitCode === null) {
-    const exited = new Promise((r) => server.once('exit', r));
-    server.kill('SIGINT');
-    await exited;
-  }
+  await stopView(server);
   if (tmp) rmSync(tmp, { recursive: true, force: true });
 });
 
@@ -519,21 +500,9 @@ test('view --replay opens the trial marked as a replay, as the review\'s Replay 
   if (process.env.SEESPOT_MODELS) return; // the records were made with the shipped models
   const [rec] = committedRecords().get('ssr-ccd/unstack');
   const file = join('results', 'trials', 'ssr-ccd', 'unstack.jsonl');
-  const child = spawn(BIN, ['view', '--port', '0', '--no-viewer', '--replay', file, '--seed', String(rec.seed)],
-    { cwd: root, stdio: ['ignore', 'pipe', 'pipe'] });
+  const { server: child, page: url } = await startView(
+    ['view', '--port', '0', '--no-viewer', '--replay', file, '--seed', String(rec.seed)]);
   try {
-    const url = await new Promise((ok, fail) => {
-      let out = '';
-      const timer = setTimeout(() => fail(new Error(`no URL in 120 s:\n${out}`)), 120_000);
-      const onData = (d) => {
-        out += d.toString();
-        const m = out.match(/seespot page:\s+(\S+)/);
-        if (m) { clearTimeout(timer); ok(m[1]); }
-      };
-      child.stdout.on('data', onData);
-      child.stderr.on('data', (d) => { out += d.toString(); });
-      child.on('exit', (code) => { clearTimeout(timer); fail(new Error(`view --replay exited with ${code}:\n${out}`)); });
-    });
     const p = await context.newPage();
     p.on('pageerror', (e) => pageErrors.push(String(e)));
     await p.goto(url);
@@ -542,9 +511,7 @@ test('view --replay opens the trial marked as a replay, as the review\'s Replay 
     assert.ok(await p.getByTestId('replay-banner').isVisible());
     await p.close();
   } finally {
-    const exited = new Promise((r) => child.once('exit', r));
-    child.kill('SIGINT');
-    await exited;
+    await stopView(child);
   }
 });
 

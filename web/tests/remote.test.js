@@ -7,19 +7,12 @@
 // decider at 64 px and no rerun viewer, reached over 127.0.0.1.
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
-import { spawn } from 'node:child_process';
 import { mkdtempSync, rmSync } from 'node:fs';
 import { tmpdir } from 'node:os';
-import { join, dirname, resolve } from 'node:path';
-import { fileURLToPath } from 'node:url';
+import { join } from 'node:path';
 import { chromium } from 'playwright-core';
+import { CHROMIUM, FLAGS, startView, stopView } from './serve.js';
 
-const here = dirname(fileURLToPath(import.meta.url));
-const root = resolve(here, '..', '..');
-const BIN = process.env.SEESPOT_BIN || join(root, 'target', 'release', 'seespot');
-const CHROMIUM = process.env.CHROMIUM || '/usr/bin/chromium';
-const FLAGS = ['--headless', '--no-sandbox', '--disable-gpu', '--no-first-run',
-  '--disable-background-networking', '--disable-component-update', '--disable-sync'];
 
 let server, pageUrl, stderr = '', context, tmp;
 
@@ -27,18 +20,10 @@ before(async () => {
   tmp = mkdtempSync(join(tmpdir(), 'seespot-remote-'));
   const args = ['view', '--bind', '0.0.0.0', '--allow-remote', '--port', '0', '--no-viewer',
     '--decider', 'features', '--task', 'stack', '--seed', '1', '--resolution', '64'];
-  server = spawn(BIN, args, { cwd: root, stdio: ['ignore', 'pipe', 'pipe'] });
-  server.stderr.on('data', (d) => { stderr += d.toString(); });
-  pageUrl = await new Promise((ok, fail) => {
-    let out = '';
-    const timer = setTimeout(() => fail(new Error(`no URL in 120 s:\n${out}\n${stderr}`)), 120_000);
-    server.stdout.on('data', (d) => {
-      out += d.toString();
-      const m = out.match(/seespot page:\s+(\S+)/);
-      if (m) { clearTimeout(timer); ok(m[1]); }
-    });
-    server.on('exit', (code) => { clearTimeout(timer); fail(new Error(`server exited with ${code}:\n${out}\n${stderr}`)); });
-  });
+  let stderrOf;
+  ({ server, page: pageUrl, stderr: stderrOf } = await startView(args));
+  // The warning is printed before the URL.
+  stderr = stderrOf();
   context = await chromium.launchPersistentContext(join(tmp, 'profile'), {
     executablePath: CHROMIUM, headless: true, args: FLAGS,
   });
@@ -46,11 +31,7 @@ before(async () => {
 
 after(async () => {
   if (context) await context.close();
-  if (server && server.exitCode === null) {
-    const exited = new Promise((r) => server.once('exit', r));
-    server.kill('SIGINT');
-    await exited;
-  }
+  await stopView(server);
   if (tmp) rmSync(tmp, { recursive: true, force: true });
 });
 

@@ -45,6 +45,18 @@ pub struct SessionConfig {
     pub world: WorldConfig,
 }
 
+impl SessionConfig {
+    /// Trial `seed` of `task` in a world of `resolution` pixels per side
+    /// without sensor noise (the evaluation's world).
+    pub fn at(task: TaskId, seed: u64, resolution: usize) -> Self {
+        Self {
+            task,
+            seed,
+            world: seespot_ssr::eval::world_config(resolution),
+        }
+    }
+}
+
 /// Phases kept for time travel per trial: every phase of up to 30 actions (a
 /// trial's limit) and a few to spare; older ones are dropped first. Each
 /// action's snapshots share one explanation record and one scene, about 0.7 MB

@@ -5,7 +5,7 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use seespot_sim::{Grid, TaskId, WorldConfig};
+use seespot_sim::TaskId;
 use seespot_viz::live;
 use seespot_viz::registry::{self, DeciderKind};
 use seespot_viz::server::{self, AppState};
@@ -28,14 +28,7 @@ async fn start() -> (std::net::SocketAddr, Arc<AppState>) {
 
 /// A listener on `addr` and a 64 px feature-baseline session to serve.
 async fn bind_session(addr: &str) -> (tokio::net::TcpListener, Arc<AppState>) {
-    let config = SessionConfig {
-        task: TaskId::Stack,
-        seed: 1,
-        world: WorldConfig {
-            grid: Grid::new(64),
-            ..WorldConfig::default()
-        },
-    };
+    let config = SessionConfig::at(TaskId::Stack, 1, 64);
     let factory = registry::factory(
         DeciderKind::Features,
         seespot_ssr::Layout::new("/nonexistent/models", "/nonexistent/demos"),

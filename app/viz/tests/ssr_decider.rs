@@ -2,7 +2,7 @@
 //! models, the shipped demos, one action stepped phase by phase, and a query.
 
 use seespot_policy::PolicyNet;
-use seespot_sim::{Grid, TaskId, WorldConfig};
+use seespot_sim::TaskId;
 use seespot_viz::registry::{self, DeciderKind};
 use seespot_viz::session::{PairQuery, Phase, Session, SessionConfig};
 
@@ -23,14 +23,7 @@ fn ssr_decider_explains_and_answers_queries() {
             .expect("save");
     }
     let factory = registry::factory(DeciderKind::Ssr, seespot_ssr::Layout::new(&models, demos));
-    let config = SessionConfig {
-        task: TaskId::Stack,
-        seed: 1,
-        world: WorldConfig {
-            grid: Grid::new(112),
-            ..WorldConfig::default()
-        },
-    };
+    let config = SessionConfig::at(TaskId::Stack, 1, 112);
     let mut s = Session::new(factory, config, None).expect("session");
     let decider = s.state().decider;
     assert!(decider.starts_with("See-SPOT-Run"), "{decider}");

@@ -2,7 +2,7 @@
 //! phase until it has placed a block; each decision shows the score map of the
 //! action taken as a distance map that is 0 at the action.
 
-use seespot_sim::{Grid, Primitive, TaskId, WorldConfig};
+use seespot_sim::{Primitive, TaskId};
 use seespot_ssr::Method;
 use seespot_viz::registry::{self, DeciderKind};
 use seespot_viz::session::{Phase, Session, SessionConfig};
@@ -20,14 +20,7 @@ fn transporter_decider_shows_its_score_maps() {
         DeciderKind::Transporter,
         seespot_ssr::Layout::new(models, demos),
     );
-    let config = SessionConfig {
-        task: TaskId::Stack,
-        seed: 1,
-        world: WorldConfig {
-            grid: Grid::new(112),
-            ..WorldConfig::default()
-        },
-    };
+    let config = SessionConfig::at(TaskId::Stack, 1, 112);
     let mut s = Session::new(factory, config, None).expect("session");
     let mut seen = Vec::new();
     while !seen.contains(&Primitive::Place) && seen.len() < 12 && s.trial().end().is_none() {
