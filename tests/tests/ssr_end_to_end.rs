@@ -129,9 +129,10 @@ fn global_rematch_measures_c_from_the_live_match() {
     let demos = demos(task);
     let config = SsrConfig {
         method: Method::SsrCcd,
-        correspond: CorrespondOptions {
+        correspond: CorrespondOptions::Reference {
+            demo_features: Default::default(),
+            smoothing: Default::default(),
             rematch: Rematch::Global,
-            ..CorrespondOptions::default()
         },
         loop_break: false,
     };
@@ -336,10 +337,7 @@ fn name_of(
 
 #[test]
 fn noisy_and_extension_runs_have_their_own_record_names() {
-    let plain = CorrespondOptions {
-        mode: Correspondence::Plain,
-        ..Default::default()
-    };
+    let plain = CorrespondOptions::of_mode(Correspondence::Plain);
     let reference = CorrespondOptions::default();
     assert_eq!(name_of(EvalMethod::SsrCcd, 0, reference, false), "ssr-ccd");
     assert_eq!(
@@ -367,19 +365,18 @@ fn noisy_and_extension_runs_have_their_own_record_names() {
         Some(EvalMethod::SsrCcdLoopBreak)
     );
     // The named departures of the reference Correspond.
-    use seespot_ssr::correspond::{DemoFeatures, Smoothing};
-    let normalized = CorrespondOptions {
-        smoothing: Smoothing::Normalized,
-        ..Default::default()
+    use seespot_ssr::correspond::{DemoFeatures, Rematch, Smoothing};
+    let departing = |demo_features, smoothing, rematch| CorrespondOptions::Reference {
+        demo_features,
+        smoothing,
+        rematch,
     };
+    let normalized = departing(DemoFeatures::Zeroed, Smoothing::Normalized, Rematch::Window);
     assert_eq!(
         name_of(EvalMethod::SsrL2cd, 0, normalized, false),
         "ssr-l2cd-normalized"
     );
-    let demo_real = CorrespondOptions {
-        demo_features: DemoFeatures::Real,
-        ..Default::default()
-    };
+    let demo_real = departing(DemoFeatures::Real, Smoothing::Reference, Rematch::Window);
     assert_eq!(
         name_of(EvalMethod::SsrCcd, 0, demo_real, true),
         "ssr-ccd-demo-real-noisy"
@@ -387,20 +384,12 @@ fn noisy_and_extension_runs_have_their_own_record_names() {
     assert_eq!(name_of(EvalMethod::Oracle, 0, normalized, false), "oracle");
     // Combined departures keep every one in the name, so no two settings
     // share a record file.
-    use seespot_ssr::correspond::Rematch;
-    let both = CorrespondOptions {
-        smoothing: Smoothing::Normalized,
-        demo_features: DemoFeatures::Real,
-        ..Default::default()
-    };
+    let both = departing(DemoFeatures::Real, Smoothing::Normalized, Rematch::Window);
     assert_eq!(
         name_of(EvalMethod::SsrCcd, 0, both, false),
         "ssr-ccd-normalized-demo-real"
     );
-    let all = CorrespondOptions {
-        rematch: Rematch::Global,
-        ..both
-    };
+    let all = departing(DemoFeatures::Real, Smoothing::Normalized, Rematch::Global);
     assert_eq!(
         name_of(EvalMethod::SsrCcd, 333, all, true),
         "ssr-ccd-normalized-demo-real-global-rematch-finetuned-noisy"
@@ -480,10 +469,7 @@ fn evaluation_writes_records_and_resumes_after_interruption() {
             .is_some_and(|p| p.settings["correspond"] == "reference" && p.settings.is_object())
     }));
     let mixed = EvalConfig {
-        correspond: CorrespondOptions {
-            mode: Correspondence::Plain,
-            ..CorrespondOptions::default()
-        },
+        correspond: CorrespondOptions::of_mode(Correspondence::Plain),
         ..config.clone()
     };
     let refused = run_task(&mixed, TaskId::Row, &mut |_| {})

@@ -186,29 +186,9 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         out_dir: args.out.clone(),
         layout: Layout::new(&args.models, &args.demos),
         world,
-        correspond: CorrespondOptions {
-            mode: args.correspond,
-            smooth_sigma: args.smooth_sigma,
-            demo_features: args.demo_features,
-            smoothing: args.smoothing,
-            rematch: args.rematch,
-        },
+        correspond: correspond_options(&args)?,
         finetune_steps: args.finetune_steps,
     };
-    if args.correspond == Correspondence::Plain
-        && (args.smoothing != seespot_ssr::correspond::Smoothing::Reference
-            || args.demo_features != seespot_ssr::correspond::DemoFeatures::Zeroed
-            || args.rematch != seespot_ssr::correspond::Rematch::Window)
-    {
-        anyhow::bail!(
-            "--smoothing, --demo-features and --rematch apply to --correspond reference only"
-        );
-    }
-    if args.smooth_sigma.is_some() && args.correspond != Correspondence::Plain {
-        anyhow::bail!(
-            "--smooth-sigma applies to --correspond plain only (the reference smooths at 6 mm)"
-        );
-    }
     // One run per output folder: held until the report is written.
     let _lock = seespot_sim::lock::OutputLock::acquire(&args.out)?;
     let name = RunSpec::of(&config).to_string();
@@ -460,4 +440,37 @@ pub struct Report {
     pub disagreements: Vec<report::Disagreement>,
     /// Per method, per fold: decisions per bucket of `report::C_BUCKETS`.
     pub c_histograms: Vec<(String, report::CHistogram)>,
+}
+
+/// The Correspond options the flags name; a flag of the other formulation is
+/// refused.
+fn correspond_options(args: &EvalArgs) -> anyhow::Result<CorrespondOptions> {
+    use seespot_ssr::correspond::{DemoFeatures, Rematch, Smoothing};
+    Ok(match args.correspond {
+        Correspondence::Plain => {
+            if args.smoothing != Smoothing::Reference
+                || args.demo_features != DemoFeatures::Zeroed
+                || args.rematch != Rematch::Window
+            {
+                anyhow::bail!(
+                    "--smoothing, --demo-features and --rematch apply to --correspond reference only"
+                );
+            }
+            CorrespondOptions::Plain {
+                smooth_sigma: args.smooth_sigma,
+            }
+        }
+        Correspondence::Reference => {
+            if args.smooth_sigma.is_some() {
+                anyhow::bail!(
+                    "--smooth-sigma applies to --correspond plain only (the reference smooths at 6 mm)"
+                );
+            }
+            CorrespondOptions::Reference {
+                demo_features: args.demo_features,
+                smoothing: args.smoothing,
+                rematch: args.rematch,
+            }
+        }
+    })
 }

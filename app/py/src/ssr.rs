@@ -39,10 +39,7 @@ pub fn ssr_config(method: &str, correspond: &str) -> PyResult<SsrConfig> {
     let mode: Correspondence = correspond.parse().map_err(|e| bad("correspond", e))?;
     Ok(SsrConfig {
         method,
-        correspond: CorrespondOptions {
-            mode,
-            ..Default::default()
-        },
+        correspond: CorrespondOptions::of_mode(mode),
         loop_break,
     })
 }

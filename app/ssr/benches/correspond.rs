@@ -40,9 +40,8 @@ fn main() {
     g.bench_function(format!("step_{res}px_3x2"), |b| {
         b.iter(|| black_box(correspond_step(&input, &CorrespondOptions::default())))
     });
-    let smoothed = CorrespondOptions {
+    let smoothed = CorrespondOptions::Plain {
         smooth_sigma: Some(3.0),
-        ..CorrespondOptions::default()
     };
     g.bench_function(format!("step_{res}px_3x2_smoothed_sigma3"), |b| {
         b.iter(|| black_box(correspond_step(&input, &smoothed)))

@@ -226,39 +226,73 @@ impl RunSettings {
     /// The settings of an evaluation configuration.
     pub fn of(config: &EvalConfig) -> Self {
         let c = &config.correspond;
-        let reference_ssr = config.method.is_ssr() && c.mode == Correspondence::Reference;
+        // The reference's options, for SSR (the only methods that correspond).
+        let reference = match *c {
+            CorrespondOptions::Reference {
+                demo_features,
+                smoothing,
+                rematch,
+            } if config.method.is_ssr() => Some((demo_features, smoothing, rematch)),
+            _ => None,
+        };
         Self {
-            correspond: c.mode.as_str().to_owned(),
-            smooth_sigma: c.smooth_sigma,
+            correspond: c.mode().as_str().to_owned(),
+            smooth_sigma: c.smooth_sigma(),
             finetune_steps: config.finetune_steps,
             resolution: config.world.grid.resolution,
             noise: config.world.noise,
-            smoothing: reference_ssr.then(|| c.smoothing.as_str().to_owned()),
-            demo_features: (reference_ssr && c.demo_features != DemoFeatures::Zeroed)
-                .then(|| c.demo_features.as_str().to_owned()),
-            rematch: (reference_ssr && c.rematch != Rematch::Window)
-                .then(|| c.rematch.as_str().to_owned()),
+            smoothing: reference.map(|(_, s, _)| s.as_str().to_owned()),
+            demo_features: reference
+                .filter(|(d, _, _)| *d != DemoFeatures::Zeroed)
+                .map(|(d, _, _)| d.as_str().to_owned()),
+            rematch: reference
+                .filter(|(_, _, r)| *r != Rematch::Window)
+                .map(|(_, _, r)| r.as_str().to_owned()),
         }
     }
 
     /// The Correspond options these settings name.
+    /// A setting of the other formulation is refused, naming it.
     pub fn correspond_options(&self) -> Result<CorrespondOptions, String> {
-        Ok(CorrespondOptions {
-            mode: self.correspond.parse()?,
-            smooth_sigma: self.smooth_sigma,
-            demo_features: self
-                .demo_features
-                .as_deref()
-                .map_or(Ok(DemoFeatures::Zeroed), str::parse)?,
-            smoothing: self
-                .smoothing
-                .as_deref()
-                .map_or(Ok(Smoothing::Reference), str::parse)?,
-            rematch: self
-                .rematch
-                .as_deref()
-                .map_or(Ok(Rematch::Window), str::parse)?,
-        })
+        match self.correspond.parse()? {
+            Correspondence::Plain => {
+                let reference_only = [
+                    ("smoothing", &self.smoothing),
+                    ("demo_features", &self.demo_features),
+                    ("rematch", &self.rematch),
+                ];
+                if let Some((name, _)) = reference_only.iter().find(|(_, v)| v.is_some()) {
+                    return Err(format!(
+                        "settings `{name}` apply to correspond=reference only, not plain"
+                    ));
+                }
+                Ok(CorrespondOptions::Plain {
+                    smooth_sigma: self.smooth_sigma,
+                })
+            }
+            Correspondence::Reference => {
+                if self.smooth_sigma.is_some() {
+                    return Err(
+                        "setting `smooth_sigma` applies to correspond=plain only, not reference"
+                            .to_owned(),
+                    );
+                }
+                Ok(CorrespondOptions::Reference {
+                    demo_features: self
+                        .demo_features
+                        .as_deref()
+                        .map_or(Ok(DemoFeatures::Zeroed), str::parse)?,
+                    smoothing: self
+                        .smoothing
+                        .as_deref()
+                        .map_or(Ok(Smoothing::Reference), str::parse)?,
+                    rematch: self
+                        .rematch
+                        .as_deref()
+                        .map_or(Ok(Rematch::Window), str::parse)?,
+                })
+            }
+        }
     }
 }
 

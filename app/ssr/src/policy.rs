@@ -257,10 +257,14 @@ impl SsrPolicy {
                 s.meta.action.primitive,
                 s.meta.action.rotation,
             )?;
-            if self.config.correspond.mode == Correspondence::Reference
-                && self.config.correspond.demo_features == correspond::DemoFeatures::Zeroed
-                && self.config.correspond.smoothing == correspond::Smoothing::Reference
-            {
+            if matches!(
+                self.config.correspond,
+                CorrespondOptions::Reference {
+                    demo_features: correspond::DemoFeatures::Zeroed,
+                    smoothing: correspond::Smoothing::Reference,
+                    ..
+                }
+            ) {
                 // The reference masked the demo's features with the test
                 // task's masks too (its trainers carry the test-time place
                 // dilation); the rematch reads them as zero embeddings.
@@ -326,7 +330,20 @@ impl SsrPolicy {
                 .collect::<Result<Vec<_>, _>>()?;
         }
         let opts = self.config.correspond;
-        let reference = opts.mode == Correspondence::Reference;
+        // The reference's options; the plain scan reads none of them.
+        let (reference, demo_features, smoothing, rematch_area) = match opts {
+            CorrespondOptions::Reference {
+                demo_features,
+                smoothing,
+                rematch,
+            } => (true, demo_features, smoothing, rematch),
+            CorrespondOptions::Plain { .. } => (
+                false,
+                correspond::DemoFeatures::default(),
+                correspond::Smoothing::default(),
+                correspond::Rematch::default(),
+            ),
+        };
         if reference {
             let mask = correspond::reference::ssr_mask(hm, primitive, self.task);
             for live in &mut self.live {
@@ -351,7 +368,7 @@ impl SsrPolicy {
         let t = Instant::now();
         let pixel = hm.grid.pixel_size();
         let sigma_px = correspond::reference::sigma_pixels(pixel);
-        let global = opts.rematch == correspond::Rematch::Global;
+        let global = rematch_area == correspond::Rematch::Global;
         // The whole plane: a window reaching past every border.
         let half_window = if global {
             n
@@ -359,7 +376,7 @@ impl SsrPolicy {
             correspond::reference::half_window_pixels(pixel)
         };
         let mut pairs = Vec::with_capacity(self.policies.len() * self.demos.len());
-        let demo_masked = match opts.demo_features {
+        let demo_masked = match demo_features {
             correspond::DemoFeatures::Zeroed => seespot_policy::Masked::ZeroFeature,
             correspond::DemoFeatures::Real => seespot_policy::Masked::Real,
         };
@@ -379,9 +396,7 @@ impl SsrPolicy {
             // The plain formulation scans full maps, rebuilt from the cells.
             let live_full = (!reference).then(|| live.to_ase_map());
             let matches = match &live_full {
-                None => {
-                    correspond::cells::match_cells_with(live, &query_refs, sigma_px, opts.smoothing)
-                }
+                None => correspond::cells::match_cells_with(live, &query_refs, sigma_px, smoothing),
                 Some(full) => correspond::match_queries_with(full, &query_refs, &opts),
             };
             for (d, found) in matches.into_iter().enumerate() {
@@ -397,7 +412,7 @@ impl SsrPolicy {
                         half_window,
                         sigma_px,
                         demo_masked,
-                        opts.smoothing,
+                        smoothing,
                     ),
                     Some(_) => correspond::rematch_with(
                         &demo_map.to_ase_map(),
@@ -432,9 +447,9 @@ impl SsrPolicy {
         }
         let correspond_ms = t.elapsed().as_secs_f64() * 1e3;
         // Act.
-        let chosen = choose(&pairs, self.config.method, opts.mode);
-        let ccd_choice = choose(&pairs, Method::SsrCcd, opts.mode);
-        let l2cd_choice = choose(&pairs, Method::SsrL2cd, opts.mode);
+        let chosen = choose(&pairs, self.config.method, opts.mode());
+        let ccd_choice = choose(&pairs, Method::SsrCcd, opts.mode());
+        let l2cd_choice = choose(&pairs, Method::SsrL2cd, opts.mode());
         // The explanation's heatmaps (not part of the timed Correspond step).
         for p in &mut pairs {
             let m = self
@@ -646,7 +661,7 @@ impl Actor for SsrPolicy {
                 &d.pairs,
                 d.chosen,
                 self.config.method,
-                self.config.correspond.mode,
+                self.config.correspond.mode(),
             )),
         })
     }

@@ -18,7 +18,7 @@ use std::fmt;
 use std::str::FromStr;
 use std::sync::OnceLock;
 
-use crate::correspond::{CorrespondOptions, Correspondence, DemoFeatures, Rematch, Smoothing};
+use crate::correspond::{CorrespondOptions, DemoFeatures, Rematch, Smoothing};
 use crate::eval::{EvalConfig, EvalMethod};
 
 /// How SSR's correspondence departs from the reference code's Correspond, as
@@ -48,12 +48,16 @@ impl CorrespondName {
 
     /// The name of a set of Correspond options.
     pub fn of(options: &CorrespondOptions) -> Self {
-        match options.mode {
-            Correspondence::Plain => Self::Plain,
-            Correspondence::Reference => Self::Reference {
-                normalized: options.smoothing == Smoothing::Normalized,
-                demo_real: options.demo_features == DemoFeatures::Real,
-                global_rematch: options.rematch == Rematch::Global,
+        match *options {
+            CorrespondOptions::Plain { .. } => Self::Plain,
+            CorrespondOptions::Reference {
+                demo_features,
+                smoothing,
+                rematch,
+            } => Self::Reference {
+                normalized: smoothing == Smoothing::Normalized,
+                demo_real: demo_features == DemoFeatures::Real,
+                global_rematch: rematch == Rematch::Global,
             },
         }
     }

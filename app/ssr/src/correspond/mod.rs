@@ -112,29 +112,73 @@ impl std::str::FromStr for Correspondence {
     }
 }
 
-/// Options of the Correspond step.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct CorrespondOptions {
-    /// The formulation SSR uses (the scan functions of this module are the
-    /// plain formulation's; [`mod@reference`] holds the reference's).
-    pub mode: Correspondence,
-    /// [`Correspondence::Plain`] only: Gaussian smoothing of each per-rotation `H x W` distance map before the
-    /// argmin, sigma in pixels (the reference code used 3 px). `None` = off.
-    ///
-    /// Cost: smoothing needs the full distance maps instead of a running minimum,
-    /// plus a separable normalized convolution of `2 * (2 * ceil(3 sigma) + 1)`
-    /// taps per pixel for each query; at 16 x 224 x 224 with 2 queries and
-    /// sigma 3 that adds roughly the time of one extra scan (see
-    /// [`bench_correspond`], `correspond_smoothed_ms`).
-    pub smooth_sigma: Option<f32>,
-    /// [`Correspondence::Reference`] only: what the rematch reads at the
-    /// demo's actions outside its test-time mask.
-    pub demo_features: DemoFeatures,
-    /// [`Correspondence::Reference`] only: how the distance maps are smoothed.
-    pub smoothing: Smoothing,
-    /// [`Correspondence::Reference`] only: where the rematch searches and
-    /// what C measures.
-    pub rematch: Rematch,
+/// Options of the Correspond step: each formulation with only its own
+/// options, so a combination that means nothing (a smoothing sigma with the
+/// reference's Correspond, a rematch area with the plain one) is not a value.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CorrespondOptions {
+    /// The reference code's Correspond ([`mod@reference`]), the faithful
+    /// default; each option's default is the reference's choice, the others
+    /// are named departures.
+    Reference {
+        /// What the rematch reads at the demo's actions outside its test-time mask.
+        demo_features: DemoFeatures,
+        /// How the distance maps are smoothed.
+        smoothing: Smoothing,
+        /// Where the rematch searches and what C measures.
+        rematch: Rematch,
+    },
+    /// seespot's first formulation (the scan functions of this module).
+    Plain {
+        /// Gaussian smoothing of each per-rotation `H x W` distance map before
+        /// the argmin, sigma in pixels (the reference code used 3 px). `None` = off.
+        ///
+        /// Cost: smoothing needs the full distance maps instead of a running minimum,
+        /// plus a separable normalized convolution of `2 * (2 * ceil(3 sigma) + 1)`
+        /// taps per pixel for each query; at 16 x 224 x 224 with 2 queries and
+        /// sigma 3 that adds roughly the time of one extra scan (see
+        /// [`bench_correspond`], `correspond_smoothed_ms`).
+        smooth_sigma: Option<f32>,
+    },
+}
+
+impl Default for CorrespondOptions {
+    /// The reference's Correspond with the reference's choices.
+    fn default() -> Self {
+        Self::of_mode(Correspondence::Reference)
+    }
+}
+
+impl CorrespondOptions {
+    /// `mode` with its default options (the reference's choices; no smoothing
+    /// for the plain scan).
+    pub fn of_mode(mode: Correspondence) -> Self {
+        match mode {
+            Correspondence::Reference => Self::Reference {
+                demo_features: DemoFeatures::default(),
+                smoothing: Smoothing::default(),
+                rematch: Rematch::default(),
+            },
+            Correspondence::Plain => Self::Plain { smooth_sigma: None },
+        }
+    }
+
+    /// Which formulation these are options of.
+    pub fn mode(&self) -> Correspondence {
+        match self {
+            Self::Reference { .. } => Correspondence::Reference,
+            Self::Plain { .. } => Correspondence::Plain,
+        }
+    }
+
+    /// The plain scan's smoothing sigma, pixels (`None` for the reference's
+    /// Correspond, which smooths at 6 mm by [`Smoothing`]).
+    pub fn smooth_sigma(&self) -> Option<f32> {
+        match self {
+            Self::Plain { smooth_sigma } => *smooth_sigma,
+            Self::Reference { .. } => None,
+        }
+    }
 }
 
 /// Where the reference rematch searches, and what C measures.
@@ -636,7 +680,7 @@ pub fn match_queries_with(
     queries: &[&[f32]],
     options: &CorrespondOptions,
 ) -> Vec<Match> {
-    match options.smooth_sigma {
+    match options.smooth_sigma() {
         Some(sigma) if sigma > 0.0 => scan_smoothed(test, 0..test.rotations, queries, sigma),
         _ => match_queries(test, queries),
     }
@@ -647,9 +691,8 @@ pub fn match_queries_smoothed(test: &AseMap, queries: &[&[f32]], sigma: f32) -> 
     match_queries_with(
         test,
         queries,
-        &CorrespondOptions {
+        &CorrespondOptions::Plain {
             smooth_sigma: Some(sigma),
-            ..CorrespondOptions::default()
         },
     )
 }
@@ -690,7 +733,7 @@ pub fn rematch_with(
     rotation: Option<usize>,
     options: &CorrespondOptions,
 ) -> Match {
-    match options.smooth_sigma {
+    match options.smooth_sigma() {
         Some(sigma) if sigma > 0.0 => {
             let rots = match rotation {
                 Some(r) => {
@@ -974,9 +1017,8 @@ mod tests {
             &m,
             q,
             Some(0),
-            &CorrespondOptions {
+            &CorrespondOptions::Plain {
                 smooth_sigma: Some(1.0),
-                ..CorrespondOptions::default()
             },
         );
         assert_eq!(r.index, 10 * n + 10);
