@@ -434,7 +434,7 @@ pub struct Report {
     pub summaries: Vec<Summary>,
     /// Exact McNemar tests of SSR CCD against SSR L2CD, per fold and pooled.
     pub ccd_vs_l2cd: Vec<report::Comparison>,
-    /// Every pair of `report::COMPARISONS` the records allow.
+    /// Every pair of `report::planned_comparisons` the records allow.
     pub comparisons: Vec<report::Comparison>,
     /// How often SSR CCD and SSR L2CD differ on the same state.
     pub disagreements: Vec<report::Disagreement>,

@@ -453,48 +453,61 @@ pub fn ssr_runs(records: &[TrialRecord]) -> Vec<String> {
     specs.iter().map(|s| s.to_string()).collect()
 }
 
-/// The pairs of methods the report tests on paired seeds (exact McNemar), with
-/// what each comparison asks; pairs without shared seeds are skipped.
-pub const COMPARISONS: [(&str, &str, &str); 8] = [
-    (
-        "ssr-ccd",
-        "ssr-l2cd",
-        "the paper's central comparison (Eq. 8 vs Eq. 9)",
-    ),
-    (
-        "ssr-ccd-loopbreak",
-        "ssr-ccd",
-        "seespot's extension against the faithful method",
-    ),
-    ("ssr-ccd-noisy", "ssr-ccd", "sensor noise against none"),
-    (
-        "ssr-ccd-finetuned",
-        "ssr-ccd",
-        "1k finetuning steps against none",
-    ),
-    (
-        "spot-q",
-        "ssr-ccd",
-        "the test task's own policy against SSR",
-    ),
-    ("ssr-ccd", "random", "SSR against random actions"),
-    (
-        "ssr-ccd",
-        "transporter",
-        "SSR against the few-shot baseline trained on the same demonstrations",
-    ),
-    (
-        "transporter-finetuned",
-        "transporter",
-        "TransporterNet finetuned from another task against trained from scratch",
-    ),
-];
+/// The pairs of runs the report tests on paired seeds (exact McNemar), with
+/// what each comparison asks; pairs without shared seeds are skipped. Runs
+/// are [`crate::RunSpec`] values, so a comparison cannot name a run that
+/// does not exist.
+pub fn planned_comparisons() -> [(crate::RunSpec, crate::RunSpec, &'static str); 8] {
+    use crate::RunSpec;
+    use crate::eval::EvalMethod::{Random, SpotQ, SsrCcd, SsrCcdLoopBreak, SsrL2cd, Transporter};
+    let run = RunSpec::new;
+    // Both methods have a policy to finetune.
+    let finetuned = |spec: RunSpec| spec.finetuned().unwrap_or(spec);
+    [
+        (
+            run(SsrCcd),
+            run(SsrL2cd),
+            "the paper's central comparison (Eq. 8 vs Eq. 9)",
+        ),
+        (
+            run(SsrCcdLoopBreak),
+            run(SsrCcd),
+            "seespot's extension against the faithful method",
+        ),
+        (
+            run(SsrCcd).noisy(),
+            run(SsrCcd),
+            "sensor noise against none",
+        ),
+        (
+            finetuned(run(SsrCcd)),
+            run(SsrCcd),
+            "1k finetuning steps against none",
+        ),
+        (
+            run(SpotQ),
+            run(SsrCcd),
+            "the test task's own policy against SSR",
+        ),
+        (run(SsrCcd), run(Random), "SSR against random actions"),
+        (
+            run(SsrCcd),
+            run(Transporter),
+            "SSR against the few-shot baseline trained on the same demonstrations",
+        ),
+        (
+            finetuned(run(Transporter)),
+            run(Transporter),
+            "TransporterNet finetuned from another task against trained from scratch",
+        ),
+    ]
+}
 
-/// Every comparison of [`COMPARISONS`] that the records allow.
+/// Every comparison of [`planned_comparisons`] that the records allow.
 pub fn comparisons(records: &[TrialRecord]) -> Vec<Comparison> {
-    COMPARISONS
+    planned_comparisons()
         .iter()
-        .flat_map(|(a, b, _)| compare(records, a, b))
+        .flat_map(|(a, b, _)| compare(records, &a.to_string(), &b.to_string()))
         .collect()
 }
 
@@ -578,12 +591,12 @@ pub fn c_histograms(records: &[TrialRecord], method: &str) -> CHistogram {
 /// (exact McNemar), and the chosen C's distribution per fold.
 pub fn statistics_markdown(records: &[TrialRecord]) -> String {
     let mut md = String::new();
-    for (a, b, why) in COMPARISONS {
-        let comps = compare(records, a, b);
+    for (a, b, why) in planned_comparisons() {
+        let comps = compare(records, &a.to_string(), &b.to_string());
         if comps.is_empty() {
             continue;
         }
-        let (da, db) = (display_method(a), display_method(b));
+        let (da, db) = (a.display_name(), b.display_name());
         md.push_str(&format!(
             "\n### {da} vs {db} on paired seeds (exact McNemar): {why}\n\n\
              | fold | paired trials | only {da} succeeded | only {db} succeeded | p |\n|---|---|---|---|---|\n"
@@ -1089,5 +1102,27 @@ mod tests {
             )
             .expect("write");
         }
+    }
+
+    #[test]
+    fn planned_comparisons_name_the_runs_the_records_use() {
+        let names: Vec<(String, String)> = planned_comparisons()
+            .iter()
+            .map(|(a, b, _)| (a.to_string(), b.to_string()))
+            .collect();
+        let want = [
+            ("ssr-ccd", "ssr-l2cd"),
+            ("ssr-ccd-loopbreak", "ssr-ccd"),
+            ("ssr-ccd-noisy", "ssr-ccd"),
+            ("ssr-ccd-finetuned", "ssr-ccd"),
+            ("spot-q", "ssr-ccd"),
+            ("ssr-ccd", "random"),
+            ("ssr-ccd", "transporter"),
+            ("transporter-finetuned", "transporter"),
+        ];
+        assert_eq!(
+            names,
+            want.map(|(a, b)| (a.to_owned(), b.to_owned())).to_vec()
+        );
     }
 }
