@@ -8,9 +8,10 @@
 use std::time::Instant;
 
 use anyhow::Context;
+use seespot_policy::AseMap;
 use seespot_sim::actor::{Actor, ActorError, Choice};
 use seespot_sim::{Action, Demo, Heightmaps, Oracle, Primitive, Seeds, TaskId, Trial, WorldConfig};
-use seespot_ssr::correspond::Correspondence;
+use seespot_ssr::correspond::{self, Correspondence};
 use seespot_ssr::policy::{DEMO_SEEDS, DemoQuery, choose, chosen_pair, demo_step};
 use seespot_ssr::{Decision, Layout, Method, PairExplanation, SsrPolicy};
 
@@ -102,9 +103,11 @@ const FEATURE_DIM: usize = 8;
 /// SSR's embed / match / verify / act loop (paper Sec. 4.2) over a handcrafted,
 /// rotation-invariant per-pixel feature (box-filtered colour and height at two
 /// scales) instead of a network's ASE. Each "policy" weights colour and height
-/// differently, so the pairs disagree the way real policies do. Matches are
-/// searched at the demo action's rotation (the feature does not depend on
-/// rotation).
+/// differently, so the pairs disagree the way real policies do. Match, Verify
+/// and C are SSR's own (`seespot_ssr::correspond`: `match_queries`,
+/// `rematch`, `ccd`, `distance_map`) over those features as a one-rotation
+/// action map; matches are taken at the demo action's rotation (the feature
+/// does not depend on rotation).
 ///
 /// Its use: the debugger's own tests (server, recording, page) run on it at
 /// small resolutions, because it needs no trained weights and decides in
@@ -223,11 +226,6 @@ impl FeatureMap {
         }
     }
 
-    fn feature(&self, y: usize, x: usize) -> &[f32] {
-        let i = (y * self.n + x) * FEATURE_DIM;
-        &self.data[i..i + FEATURE_DIM]
-    }
-
     fn mask(&self, primitive: Primitive) -> &[bool] {
         match primitive {
             Primitive::Grasp => &self.grasp_mask,
@@ -235,36 +233,27 @@ impl FeatureMap {
         }
     }
 
-    /// Weighted distance map from feature `f` to every pixel; `INFINITY` where
-    /// `mask` is given and false.
-    fn distances(&self, f: &[f32], w: [f32; 2], mask: Option<&[bool]>) -> Vec<f32> {
-        (0..self.n * self.n)
-            .map(|i| {
-                if mask.is_some_and(|m| !m[i]) {
-                    return f32::INFINITY;
-                }
-                let g = &self.data[i * FEATURE_DIM..(i + 1) * FEATURE_DIM];
-                let mut s = 0.0;
-                for k in 0..FEATURE_DIM {
-                    let wk = if k < 6 { w[0] } else { w[1] };
-                    let d = wk * (f[k] - g[k]);
-                    s += d * d;
-                }
-                s.sqrt()
+    /// The features weighted by `w` (`[colour, height]`) as a one-rotation
+    /// action map of `primitive`, masked by the primitive's mask when
+    /// `masked`: the L2 distance between two of its features is the weighted
+    /// feature distance, so SSR's own Match, Verify and C apply to it.
+    fn ase(&self, w: [f32; 2], primitive: Primitive, masked: bool) -> AseMap {
+        let features = self
+            .data
+            .chunks_exact(FEATURE_DIM)
+            .flat_map(|f| {
+                f.iter()
+                    .enumerate()
+                    .map(move |(k, v)| v * if k < 6 { w[0] } else { w[1] })
             })
-            .collect()
+            .collect();
+        let mask = if masked {
+            self.mask(primitive).to_vec()
+        } else {
+            vec![true; self.n * self.n]
+        };
+        AseMap::new(primitive, self.n, 1, FEATURE_DIM, features, mask)
     }
-}
-
-/// Index and value of the smallest finite entry (first on ties).
-fn argmin(v: &[f32]) -> Option<(usize, f32)> {
-    let mut best: Option<(usize, f32)> = None;
-    for (i, &d) in v.iter().enumerate() {
-        if d.is_finite() && best.is_none_or(|(_, b)| d < b) {
-            best = Some((i, d));
-        }
-    }
-    best
 }
 
 impl Actor for FeatureDecider {
@@ -290,26 +279,29 @@ impl Actor for FeatureDecider {
                 let step = &demo.steps[step_index];
                 let a_demo = step.meta.action;
                 let demo_map = FeatureMap::new(&step.heightmaps);
-                let match_map = live.distances(
-                    demo_map.feature(a_demo.y, a_demo.x),
-                    w,
-                    Some(live.mask(primitive)),
-                );
-                let Some((fi, l)) = argmin(&match_map) else {
+                // The feature is rotation-invariant: one rotation plane, the
+                // matches at the demo action's rotation.
+                let live_ase = live.ase(w, primitive, true);
+                let demo_ase = demo_map.ase(w, primitive, true);
+                let query = demo_ase.feature(a_demo.y * n + a_demo.x);
+                let found = correspond::match_queries(&live_ase, &[query])[0];
+                if !found.distance.is_finite() {
                     continue;
+                }
+                let l = found.distance;
+                let matched =
+                    Action::new(primitive, a_demo.rotation, found.index / n, found.index % n);
+                let f = live_ase.feature(found.index);
+                let re = correspond::rematch(&demo_ase, f, None);
+                let (ri, rematch_l) = if re.distance.is_finite() {
+                    (re.index, re.distance)
+                } else {
+                    (a_demo.y * n + a_demo.x, 0.0)
                 };
-                let matched = Action::new(primitive, a_demo.rotation, fi / n, fi % n);
-                let rematch_map = demo_map.distances(
-                    live.feature(matched.y, matched.x),
-                    w,
-                    Some(demo_map.mask(primitive)),
-                );
-                let (ri, rematch_l) =
-                    argmin(&rematch_map).unwrap_or((a_demo.y * n + a_demo.x, 0.0));
                 let rematch = Action::new(primitive, a_demo.rotation, ri / n, ri % n);
-                let c = ((rematch.y as f32 - a_demo.y as f32).powi(2)
-                    + (rematch.x as f32 - a_demo.x as f32).powi(2))
-                .sqrt();
+                let c = correspond::ccd(&a_demo, &rematch);
+                let match_map = correspond::distance_map(&live_ase, query, 0);
+                let rematch_map = correspond::distance_map(&demo_ase, f, 0);
                 pairs.push(PairExplanation {
                     policy: self.policies[m],
                     demo: d,
@@ -405,12 +397,14 @@ impl Decider for FeatureDecider {
             "demo resolution {n} differs from the live resolution {}",
             hm.grid.resolution
         );
-        let demo_map = FeatureMap::new(&step.heightmaps);
-        let live = FeatureMap::new(hm);
-        Ok(Some(live.distances(
-            demo_map.feature(y, x),
-            self.weights(policy),
-            None,
+        let w = self.weights(policy);
+        let primitive = step.meta.action.primitive;
+        let demo_ase = FeatureMap::new(&step.heightmaps).ase(w, primitive, false);
+        let live_ase = FeatureMap::new(hm).ase(w, primitive, false);
+        Ok(Some(correspond::distance_map(
+            &live_ase,
+            demo_ase.feature(y * n + x),
+            0,
         )))
     }
 }
