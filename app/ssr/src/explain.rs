@@ -37,7 +37,10 @@ pub struct PairExplanation {
     pub rematch: Action,
     /// Embedding distance of the rematch.
     pub rematch_l: f32,
-    /// C_{m,n}: cycle consistency distance, pixels (Eq. 7).
+    /// C_{m,n}: cycle consistency distance (Eq. 7), in squared 2 mm pixels
+    /// with [`crate::correspond::Correspondence::Reference`] (one 4 mm pixel
+    /// away = 4) and in heightmap pixels (rotation steps counted as pixels)
+    /// with [`crate::correspond::Correspondence::Plain`].
     pub c: f32,
     /// Match distances over the live scene at the matched rotation, `H x W`
     /// (row-major; `f32::INFINITY` where masked).

@@ -116,7 +116,9 @@ pub struct PairDoc {
     /// L: embedding distance of the best match (Eq. 4).
     pub l: Option<f32>,
     pub matched: Option<Action>,
-    /// C: cycle consistency distance, in pixels of the heightmap (Eq. 7).
+    /// C: cycle consistency distance (Eq. 7): squared 2 mm pixels with the
+    /// reference's Correspond (the default), heightmap pixels with the plain
+    /// scan and the feature baseline.
     pub c: Option<f32>,
     pub rematch: Option<Action>,
 }
