@@ -188,6 +188,16 @@ pub async fn serve_view(
         viewer: viewer_url,
         grpc: grpc_url,
     };
+    // Poll `shutdown` once before saying we are ready, so the signal
+    // listeners it sets up on first poll (`ctrl_c`) are in place: a Ctrl-C,
+    // SIGTERM or SIGHUP sent as soon as the URLs are printed finishes the
+    // run instead of killing it, or being lost where SIGHUP is ignored.
+    let mut shutdown: std::pin::Pin<Box<dyn std::future::Future<Output = ()> + Send>> =
+        Box::pin(shutdown);
+    if futures_util::FutureExt::now_or_never(&mut shutdown).is_some() {
+        // Already asked to stop: serve nothing, finish as on a later signal.
+        shutdown = Box::pin(std::future::ready(()));
+    }
     ready(&urls);
     server::serve_page(listener, state.clone(), token, shutdown).await?;
     // Finish the recording: stop any run, then drop the stream (writes the footer).
@@ -439,7 +449,10 @@ pub async fn ctrl_c() {
 pub fn ctrl_c_flag() -> Arc<AtomicBool> {
     let flag = Arc::new(AtomicBool::new(false));
     let f = flag.clone();
-    let _ = std::thread::Builder::new()
+    // The listeners are in place when this returns (the thread says so after
+    // polling them once), so a signal sent right after is not lost.
+    let (listening, ready) = std::sync::mpsc::channel::<()>();
+    let spawned = std::thread::Builder::new()
         .name("ctrl-c".into())
         .spawn(move || {
             let Ok(rt) = tokio::runtime::Builder::new_current_thread()
@@ -449,10 +462,19 @@ pub fn ctrl_c_flag() -> Arc<AtomicBool> {
                 return;
             };
             rt.block_on(async {
-                ctrl_c().await;
+                let mut signal = Box::pin(ctrl_c());
+                let early = futures_util::FutureExt::now_or_never(&mut signal).is_some();
+                let _ = listening.send(());
+                if !early {
+                    signal.await;
+                }
                 eprintln!("\ninterrupted: finishing the current recording…");
                 f.store(true, Ordering::SeqCst);
             });
         });
+    if spawned.is_ok() {
+        // An error means the thread ended without listening: nothing to wait for.
+        let _ = ready.recv();
+    }
     flag
 }
