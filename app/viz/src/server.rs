@@ -183,24 +183,31 @@ async fn api_decision(
     blocking(move || st.session().decision_json(maps)).await
 }
 
+/// The `pair` query field (0 when absent); `None` when it is not a
+/// non-negative integer.
+fn pair_param(q: &HashMap<String, String>) -> Option<usize> {
+    q.get("pair").map_or(Some(0), |p| p.parse().ok())
+}
+
+/// The 400 for a malformed `pair`: the error message document naming `request`.
+fn bad_pair(request: &'static str) -> Response {
+    (
+        StatusCode::BAD_REQUEST,
+        ServerMessage::Error {
+            message: "`pair` must be a non-negative integer".into(),
+            request: Some(request),
+        }
+        .to_text(),
+    )
+        .into_response()
+}
+
 async fn api_frame(
     State(s): State<Arc<AppState>>,
     Query(q): Query<HashMap<String, String>>,
 ) -> Response {
-    let pair = match q.get("pair").map(|p| p.parse::<usize>()) {
-        None => 0,
-        Some(Ok(p)) => p,
-        Some(Err(_)) => {
-            return (
-                StatusCode::BAD_REQUEST,
-                ServerMessage::Error {
-                    message: "`pair` must be a non-negative integer".into(),
-                    request: Some("frame"),
-                }
-                .to_text(),
-            )
-                .into_response();
-        }
+    let Some(pair) = pair_param(&q) else {
+        return bad_pair("frame");
     };
     let st = s.clone();
     blocking(move || st.session().frame(pair)).await
@@ -212,12 +219,8 @@ async fn api_embedding(
     State(s): State<Arc<AppState>>,
     Query(q): Query<HashMap<String, String>>,
 ) -> Response {
-    let pair = match q.get("pair").map(|p| p.parse::<usize>()) {
-        None => 0,
-        Some(Ok(p)) => p,
-        Some(Err(e)) => {
-            return (StatusCode::BAD_REQUEST, format!("query field `pair`: {e}")).into_response();
-        }
+    let Some(pair) = pair_param(&q) else {
+        return bad_pair("embedding");
     };
     let st = s.clone();
     blocking_or_conflict(

@@ -200,6 +200,16 @@ async fn malformed_and_unknown_messages_get_errors_and_the_server_keeps_running(
     let s = ws.until("state").await;
     assert_eq!(s["phase"], "embed");
     assert_eq!(raw_get(addr, "/api/state").await.0, 200);
+    // A malformed `pair` on either route gets the same 400 error document.
+    for (route, request) in [("frame", "frame"), ("embedding", "embedding")] {
+        let (status, body) = raw_get(addr, &format!("/api/{route}?pair=-1")).await;
+        assert_eq!(status, 400, "{route}: {body}");
+        assert!(
+            body.contains("`pair` must be a non-negative integer")
+                && body.contains(&format!("\"request\":\"{request}\"")),
+            "{route}: {body}"
+        );
+    }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
