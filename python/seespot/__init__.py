@@ -19,6 +19,7 @@ The gymnasium environments ``seespot/Stack-v0``, ``seespot/Row-v0``,
 from __future__ import annotations
 
 import json
+from collections.abc import Iterator
 from typing import Any
 
 from seespot._core import (
@@ -36,6 +37,7 @@ from seespot._core import (
     ccd,
     check_resolution,
     correspond,
+    demo_dirs,
     distance_map,
     match_queries,
     read_records,
@@ -63,6 +65,7 @@ __all__ = [
     "ccd",
     "check_resolution",
     "correspond",
+    "demo_dirs",
     "distance_map",
     "match_queries",
     "read_records",
@@ -70,6 +73,7 @@ __all__ = [
     "record_name",
     "records_path",
     "rematch",
+    "replay",
     "run_spec",
     "run_trial",
     "test_seeds",
@@ -93,6 +97,38 @@ def run_trial(
     ev = Evaluator(method, task, models_dir, demos_dir, resolution, correspond)
     record: dict[str, Any] = json.loads(ev.run(seed, index))
     return record
+
+
+def replay(
+    trial: Trial,
+    record: dict[str, Any],
+    where: str,
+    observe: bool = False,
+    limit: int | None = None,
+) -> Iterator[tuple[dict[str, Any], dict[str, Any], Any]]:
+    """Steps ``trial`` (started from ``record``'s task and seed) through the
+    record's ``actions_log`` (the first ``limit`` actions when given),
+    yielding for each action its log entry, what :meth:`Trial.step` returned
+    and, with ``observe``, the heightmaps ``(color, depth)`` it was taken in
+    (else None). The simulator is deterministic, so a start or a step that
+    does not reach the record's progress (or primitive) means other inputs or
+    another seespot version: ``ValueError`` naming ``where`` and the field."""
+    if trial.progress != record["start_progress"]:
+        raise ValueError(
+            f"{where}: the re-simulated start has progress {trial.progress}, "
+            f"the record `start_progress` {record['start_progress']}"
+        )
+    for i, entry in enumerate(record["actions_log"][:limit]):
+        a = entry["action"]
+        seen = trial.observe() if observe else None
+        step = trial.step(int(a["rotation"]), int(a["y"]), int(a["x"]))
+        if step["primitive"] != a["primitive"] or step["progress_after"] != entry["progress_after"]:
+            raise ValueError(
+                f"{where}: field `actions_log[{i}]`: re-simulated {step['primitive']} reached progress "
+                f"{step['progress_after']}, the record says {a['primitive']} reached {entry['progress_after']} "
+                "(made by another simulator version?)"
+            )
+        yield entry, step, seen
 
 
 register_envs()

@@ -202,17 +202,11 @@ def _png_bytes(pixels: np.ndarray) -> bytes:
 
 def _replay(path: Path, line_no: int, record: dict[str, Any], demos: Path) -> _Episode:
     """One trial record re-simulated from its seed and actions."""
-    from seespot import _core
+    from seespot import _core, replay
 
-    where = f"{path}: record {line_no}"
     resolution = record["provenance"]["settings"]["resolution"]
     task, seed = record["task"], int(record["seed"])
     trial = _core.Trial(task, seed, resolution, demos)
-    if trial.progress != record["start_progress"]:
-        raise ValueError(
-            f"{where}: the re-simulated start has progress {trial.progress}, "
-            f"the record `start_progress` {record['start_progress']}"
-        )
     ep = _Episode(
         task=task,
         seed=seed,
@@ -224,16 +218,8 @@ def _replay(path: Path, line_no: int, record: dict[str, Any], demos: Path) -> _E
             "end": str(record["end"]),
         },
     )
-    for i, entry in enumerate(record["actions_log"]):
+    for entry, step, (color, depth) in replay(trial, record, f"{path}: record {line_no}", observe=True):
         a = entry["action"]
-        color, depth = trial.observe()
-        step = trial.step(int(a["rotation"]), int(a["y"]), int(a["x"]))
-        if step["primitive"] != a["primitive"] or step["progress_after"] != entry["progress_after"]:
-            raise ValueError(
-                f"{where}: field `actions_log[{i}]`: re-simulated {step['primitive']} reached progress "
-                f"{step['progress_after']}, the record says {a['primitive']} reached {entry['progress_after']} "
-                "(made by another simulator version?)"
-            )
         ep.frames.append(
             _Frame(
                 color_png=_png_bytes(np.asarray(color)),

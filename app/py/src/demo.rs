@@ -65,3 +65,14 @@ pub fn record_demo(
     })
     .map_err(|e: String| bad("actions", e))
 }
+
+/// `task`'s demonstration folders under `demos_dir`, in the order SSR pairs
+/// them (a pair's `demo` indexes this list): for a built-in task its
+/// demonstration seeds' folders, for `custom:NAME` every numbered folder of
+/// `demos_dir/custom/NAME/` (as `seespot_ssr::Layout::demo_dirs`).
+#[pyfunction]
+#[pyo3(signature = (task, demos_dir = "demos".into()))]
+pub fn demo_dirs(task: &str, demos_dir: PathBuf) -> PyResult<Vec<PathBuf>> {
+    let task: TaskId = task.parse().map_err(|e| bad("task", e))?;
+    Ok(seespot_ssr::Layout::new("models", demos_dir).demo_dirs(task))
+}

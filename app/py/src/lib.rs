@@ -62,6 +62,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(arrays::check_resolution, m)?)?;
     m.add_function(wrap_pyfunction!(eval::test_seeds, m)?)?;
     m.add_function(wrap_pyfunction!(demo::record_demo, m)?)?;
+    m.add_function(wrap_pyfunction!(demo::demo_dirs, m)?)?;
     m.add_function(wrap_pyfunction!(eval::records_path, m)?)?;
     m.add_function(wrap_pyfunction!(eval::record_name, m)?)?;
     m.add_function(wrap_pyfunction!(eval::run_spec, m)?)?;

@@ -61,8 +61,6 @@ PARK_POSITION = (0.0, 0.6, 0.4)
 PLACE_CLEARANCE = 0.004
 #: How far the gripper lifts after an action, metres (a grasp lifts 10 cm).
 LIFT = 0.1
-#: Half the finger window over which the action height is taken, metres.
-FINGER_WINDOW_HALF = 0.02
 #: Seconds per action in the animation, and how long before an action's end
 #: the gripper reaches its pose.
 SECONDS_PER_ACTION = 1.0
@@ -86,9 +84,6 @@ CAMERA_OFFSET = (0.0, -0.32, 0.52)
 #: Methods decided here with :class:`seespot.Ssr` (with the pair explanation);
 #: the others are run by :class:`seespot.Evaluator` and replayed.
 SSR_METHODS = ("ssr-ccd", "ssr-l2cd", "ssr-ccd-loopbreak")
-#: Demonstration seeds of a built-in task, in pair order (``DEMO_SEEDS`` in
-#: app/ssr/src/layout.rs).
-DEMO_SEEDS = (0, 2)
 
 
 @dataclass
@@ -155,38 +150,15 @@ class TrialFrames:
 # Running a trial.
 
 
-def _action_pose(depth: np.ndarray, action: tuple[int, int, int], resolution: int) -> tuple[float, float, float, float]:
-    """The gripper pose of ``action`` on the depth heightmap ``float32[H, W]``
-    (metres): as the simulator's, the highest point in the finger window."""
-    r, y, x = action
-    half = round(FINGER_WINDOW_HALF / (WORKSPACE_SIZE / resolution))
-    window = depth[max(y - half, 0) : y + half + 1, max(x - half, 0) : x + half + 1]
-    wx, wy = pixel_to_world(y, x, resolution)
-    return (float(wx), float(wy), float(window.max()), r * 2 * math.pi / 16)
-
-
-def _step_pose(step: dict[str, Any], depth: np.ndarray, action: tuple[int, int, int], n: int) -> tuple[float, float, float, float]:
-    pose = step.get("pose")  # wheels before Trial.step returned the pose: from the heightmap
-    if pose is not None:
-        x, y, z, yaw = (float(v) for v in pose)
-        return (x, y, z, yaw)
-    return _action_pose(depth, action, n)
-
-
 def demo_dir(demos_dir: str | Path, task: str, index: int) -> Path:
     """The folder of ``task``'s demonstration number ``index`` (a pair's
-    ``demo``): ``demos/<task>/<seed>`` in :data:`DEMO_SEEDS` order, or the
-    ``index``-th numbered folder of ``demos/custom/NAME``."""
-    demos = Path(demos_dir)
-    if task.startswith("custom:"):
-        root = demos / "custom" / task.split(":", 1)[1]
-        numbered = sorted(
-            (int(p.name), p) for p in root.iterdir() if p.name.isdigit() and (p / "meta.json").is_file()
-        )
-        if index >= len(numbered):
-            raise ValueError(f"{root}: has no demonstration number {index}")
-        return numbered[index][1]
-    return demos / task / str(DEMO_SEEDS[index])
+    ``demo``), as SSR orders them (:func:`seespot.demo_dirs`)."""
+    from seespot import _core
+
+    dirs = _core.demo_dirs(task, demos_dir)
+    if index >= len(dirs):
+        raise ValueError(f"{demos_dir}: {task} has no demonstration number {index}")
+    return Path(dirs[index])
 
 
 def _demo_step(demos_dir: str | Path, task: str, index: int, step: int) -> tuple[np.ndarray, tuple[float, float, float, float]]:
@@ -221,20 +193,20 @@ def record_trial(
     other methods (``oracle``, ``spot-q``, ``random``, ``transporter``) run as
     ``seespot eval`` does and their logged actions are replayed (the simulator
     is deterministic). ``max_actions`` stops early (e.g. for a short test)."""
-    from seespot import _core, run_trial
+    from seespot import _core, replay, run_trial
 
-    trial = _core.Trial(task, seed, resolution)
+    trial = _core.Trial(task, seed, resolution, demos_dir)
     n = trial.resolution
     frames = TrialFrames(task=task, seed=seed, method=method, resolution=n, start=trial.block_poses())
     limit = _core.MAX_TRIAL_ACTIONS if max_actions is None else max_actions
 
-    def act(action: tuple[int, int, int], depth: np.ndarray, pair: ChosenPair | None) -> dict[str, Any]:
-        step = trial.step(*action)
+    def keep(action: tuple[int, int, int], step: dict[str, Any], pair: ChosenPair | None) -> None:
+        x, y, z, yaw = (float(v) for v in step["pose"])
         frames.actions.append(
             ActionFrame(
                 primitive=step["primitive"],
                 action=action,
-                pose=_step_pose(step, depth, action, n),
+                pose=(x, y, z, yaw),
                 success=bool(step["primitive_success"]),
                 progress_before=int(step["progress_before"]),
                 progress_after=int(step["progress_after"]),
@@ -242,7 +214,6 @@ def record_trial(
                 pair=pair,
             )
         )
-        return step
 
     if method in SSR_METHODS:
         ssr = _core.Ssr(task, models_dir, demos_dir, method=method, correspond=correspond)
@@ -263,20 +234,15 @@ def record_trial(
                 demo_blocks=demo_blocks,
                 demo_pose=demo_pose,
             )
-            act(tuple(d["action"]), np.asarray(depth), pair)
+            action = tuple(d["action"])
+            keep(action, trial.step(*action), pair)
     else:
         record = run_trial(
             method, task, seed, models_dir=str(models_dir), demos_dir=str(demos_dir), resolution=n, correspond=correspond
         )
-        for i, entry in enumerate(record["actions_log"][:limit]):
+        for entry, step, _ in replay(trial, record, f"{method} {task} seed {seed}", limit=limit):
             a = entry["action"]
-            _color, depth = trial.observe()
-            step = act((int(a["rotation"]), int(a["y"]), int(a["x"])), np.asarray(depth), None)
-            if step["progress_after"] != entry["progress_after"]:
-                raise RuntimeError(
-                    f"{method} {task} seed {seed}: field `actions_log[{i}]`: replayed, it reached progress "
-                    f"{step['progress_after']}; the trial reached {entry['progress_after']}"
-                )
+            keep((int(a["rotation"]), int(a["y"]), int(a["x"])), step, None)
     frames.end = trial.end
     return frames
 
