@@ -44,6 +44,19 @@ MAX_DEPTH = 1.0
 Obs = dict[str, Any]
 
 
+def _spaces(resolution: int) -> tuple[spaces.Dict, spaces.MultiDiscrete]:
+    """One environment's observation and action spaces at ``resolution``."""
+    n = resolution
+    observation = spaces.Dict(
+        {
+            "color": spaces.Box(0, 255, shape=(n, n, 3), dtype=np.uint8),
+            "depth": spaces.Box(0.0, MAX_DEPTH, shape=(n, n), dtype=np.float32),
+            "primitive": spaces.Discrete(2),
+        }
+    )
+    return observation, spaces.MultiDiscrete([NUM_ROTATIONS, n, n])
+
+
 class SeespotEnv(gym.Env[Obs, np.ndarray]):
     """One task of the block world as a gymnasium environment. Seeds: an
     explicit ``reset(seed=s)`` starts trial ``s`` (odd seeds are the test
@@ -59,15 +72,7 @@ class SeespotEnv(gym.Env[Obs, np.ndarray]):
         self.task = task
         self.resolution = check_resolution(resolution)
         self.render_mode = render_mode
-        n = self.resolution
-        self.observation_space = spaces.Dict(
-            {
-                "color": spaces.Box(0, 255, shape=(n, n, 3), dtype=np.uint8),
-                "depth": spaces.Box(0.0, MAX_DEPTH, shape=(n, n), dtype=np.float32),
-                "primitive": spaces.Discrete(2),
-            }
-        )
-        self.action_space = spaces.MultiDiscrete([NUM_ROTATIONS, n, n])
+        self.observation_space, self.action_space = _spaces(self.resolution)
         self._trial: Trial | None = None
         self._color: np.ndarray | None = None
 
@@ -124,18 +129,6 @@ class SeespotEnv(gym.Env[Obs, np.ndarray]):
         if self.render_mode == "rgb_array" and self._color is not None:
             return self._color
         return None
-
-
-def _spaces(resolution: int) -> tuple[spaces.Dict, spaces.MultiDiscrete]:
-    n = resolution
-    observation = spaces.Dict(
-        {
-            "color": spaces.Box(0, 255, shape=(n, n, 3), dtype=np.uint8),
-            "depth": spaces.Box(0.0, MAX_DEPTH, shape=(n, n), dtype=np.float32),
-            "primitive": spaces.Discrete(2),
-        }
-    )
-    return observation, spaces.MultiDiscrete([NUM_ROTATIONS, n, n])
 
 
 #: ``VectorTrials``' end codes.
