@@ -113,3 +113,17 @@ pub fn primitive(s: &str) -> PyResult<Primitive> {
 pub fn check_resolution(resolution: usize) -> PyResult<usize> {
     self::resolution(resolution, "resolution")
 }
+
+/// `(rotation, y, x)` as indices into an `R x n x n` action map; for the
+/// first that is outside its range, its name, value and bound.
+pub fn action_indices(a: [i64; 3], n: usize) -> Result<[usize; 3], (&'static str, i64, i64)> {
+    let limits = [seespot_sim::NUM_ROTATIONS as i64, n as i64, n as i64];
+    let mut out = [0; 3];
+    for (k, name) in ["rotation", "y", "x"].into_iter().enumerate() {
+        if !(0..limits[k]).contains(&a[k]) {
+            return Err((name, a[k], limits[k]));
+        }
+        out[k] = a[k] as usize;
+    }
+    Ok(out)
+}

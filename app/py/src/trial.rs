@@ -157,15 +157,10 @@ impl Trial {
         if self.trial.end().is_some() {
             return Err(bad("step", "the trial has ended; make a new one"));
         }
-        let n = self.resolution() as i64;
-        let r_max = seespot_sim::NUM_ROTATIONS as i64;
-        for (arg, v, max) in [("rotation", rotation, r_max), ("y", y, n), ("x", x, n)] {
-            if !(0..max).contains(&v) {
-                return Err(bad(arg, format!("{v} is outside 0..{max}")));
-            }
-        }
+        let [r, y, x] = arrays::action_indices([rotation, y, x], self.resolution())
+            .map_err(|(arg, v, max)| bad(arg, format!("{v} is outside 0..{max}")))?;
         let primitive = self.trial.world().next_primitive();
-        let action = Action::new(primitive, rotation as usize, y as usize, x as usize);
+        let action = Action::new(primitive, r, y, x);
         let trial = &mut self.trial;
         let step = py.detach(|| trial.step(action).clone());
         let d = PyDict::new(py);

@@ -211,8 +211,7 @@ impl VectorTrials {
                 format!("has {} entries for {envs} trials", resets.len()),
             ));
         }
-        let n = self.config.grid.resolution as i64;
-        let limits = [seespot_sim::NUM_ROTATIONS as i64, n, n];
+        let n = self.config.grid.resolution;
         let mut plan: Vec<Option<u64>> = Vec::with_capacity(envs);
         let mut moves: Vec<[usize; 3]> = Vec::with_capacity(envs);
         for i in 0..envs {
@@ -227,17 +226,14 @@ impl VectorTrials {
                     format!("trial {i} has ended: give it a seed to start again"),
                 ));
             }
-            let mut a = [0usize; 3];
-            for (k, name) in ["rotation", "y", "x"].iter().enumerate() {
-                let v = actions[[i, k]];
-                if !(0..limits[k]).contains(&v) {
-                    return Err(bad(
+            let a = arrays::action_indices([0, 1, 2].map(|k| actions[[i, k]]), n).map_err(
+                |(name, v, max)| {
+                    bad(
                         "actions",
-                        format!("actions[{i}] {name} {v} is outside 0..{}", limits[k]),
-                    ));
-                }
-                a[k] = v as usize;
-            }
+                        format!("actions[{i}] {name} {v} is outside 0..{max}"),
+                    )
+                },
+            )?;
             plan.push(None);
             moves.push(a);
         }
