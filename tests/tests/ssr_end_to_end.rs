@@ -1,12 +1,15 @@
 //! SSR end to end on small inputs: identity scenes, tie order, resumable evaluation.
 
+use seespot_eval::EvalMethod;
+use seespot_eval::RunSpec;
+use seespot_eval::run::CorrespondName;
+use seespot_eval::runner::{EvalConfig, run_task, world_config};
 use seespot_policy::PolicyNet;
 use seespot_sim::{Demo, Primitive, Seeds, TaskId, TrialRecord};
 use seespot_ssr::correspond::Correspondence;
-use seespot_ssr::eval::{EvalConfig, EvalMethod, records_path, run_task, world_config};
+use seespot_ssr::layout::records_path;
 use seespot_ssr::policy::{DemoQuery, SsrConfig, SsrPolicy, choose, chosen_pair};
-use seespot_ssr::run::CorrespondName;
-use seespot_ssr::{CorrespondOptions, Layout, Method, RunSpec};
+use seespot_ssr::{CorrespondOptions, Layout, Method};
 
 fn demos_dir() -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../demos")
@@ -330,7 +333,7 @@ fn name_of(
             color_jitter: 8,
         };
     }
-    let spec = RunSpec::of(&config);
+    let spec = config.spec();
     assert_eq!(spec.to_string().parse::<RunSpec>(), Ok(spec));
     spec.to_string()
 }
@@ -496,7 +499,7 @@ fn evaluation_writes_records_and_resumes_after_interruption() {
 /// same trial again, and a refusal once a demonstration file has changed.
 #[test]
 fn a_record_replays_exactly_and_is_refused_after_its_files_change() {
-    use seespot_ssr::eval::replay_config;
+    use seespot_eval::runner::replay_config;
     let tmp = tempfile::tempdir().expect("tempdir");
     let demos = tmp.path().join("demos");
     for dir in Layout::new("models", demos_dir()).demo_dirs(TaskId::Unstack) {
@@ -555,7 +558,7 @@ fn a_record_replays_exactly_and_is_refused_after_its_files_change() {
 /// gets a kind.
 #[test]
 fn the_review_of_the_committed_results_counts_every_record() {
-    use seespot_ssr::review::{counts, review_dir};
+    use seespot_eval::review::{counts, review_dir};
     let results = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../results");
     let trials = review_dir(&results).expect("review");
     let mut lines = 0;
@@ -583,7 +586,7 @@ fn the_review_of_the_committed_results_counts_every_record() {
 /// that match the shipped files, and records of one file agree on them.
 #[test]
 fn committed_records_carry_the_checksums_of_the_shipped_files() {
-    use seespot_ssr::eval::sha256_file;
+    use seespot_eval::runner::sha256_file;
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let mut known = std::collections::BTreeMap::<String, String>::new();
     let (mut records, mut files_checked) = (0, 0);
@@ -598,7 +601,7 @@ fn committed_records_carry_the_checksums_of_the_shipped_files() {
                 if path.extension().is_none_or(|e| e != "jsonl") {
                     continue;
                 }
-                for r in seespot_sim::record::read_records(&path).expect("records") {
+                for r in seespot_eval::records::read_records(&path).expect("records") {
                     records += 1;
                     let p = r.provenance.unwrap_or_else(|| {
                         panic!("{}: a record without provenance", path.display())
@@ -678,7 +681,7 @@ fn a_custom_task_records_the_demonstrations_that_define_it() {
         finetune_steps: 0,
     };
     let prov =
-        seespot_ssr::eval::provenance(&config(EvalMethod::Random), task).expect("provenance");
+        seespot_eval::runner::provenance(&config(EvalMethod::Random), task).expect("provenance");
     for n in 0..2 {
         let meta = format!("custom/l-shape/{n}/meta.json");
         assert!(
@@ -687,7 +690,7 @@ fn a_custom_task_records_the_demonstrations_that_define_it() {
             prov.files.keys().collect::<Vec<_>>()
         );
     }
-    let builtin = seespot_ssr::eval::provenance(&config(EvalMethod::Random), TaskId::Stack)
+    let builtin = seespot_eval::runner::provenance(&config(EvalMethod::Random), TaskId::Stack)
         .expect("provenance");
     assert!(
         builtin.files.is_empty(),

@@ -1,16 +1,14 @@
 //! `seespot eval`: the leave-one-out evaluation and its report.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::Context;
-use seespot_sim::TaskId;
-use seespot_sim::metrics::{annotated_actions, summarize_all};
-use seespot_sim::record::read_records;
-use seespot_sim::{Seeds, Summary};
+use seespot_eval::EvalMethod;
+use seespot_eval::Summary;
+use seespot_eval::report::{self, write_report};
+use seespot_eval::runner::{EvalConfig, run_task, world_config};
+use seespot_sim::{Seeds, TaskId};
 use seespot_ssr::correspond::Correspondence;
-use seespot_ssr::eval::{EvalConfig, EvalMethod, run_task, world_config};
-use seespot_ssr::report;
-use seespot_ssr::run::{RunSpec, TaskTraining};
 use seespot_ssr::{CorrespondOptions, Layout};
 
 #[derive(clap::Args, Debug)]
@@ -190,8 +188,8 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         finetune_steps: args.finetune_steps,
     };
     // One run per output folder: held until the report is written.
-    let _lock = seespot_sim::lock::OutputLock::acquire(&args.out)?;
-    let name = RunSpec::of(&config).to_string();
+    let _lock = seespot_eval::lock::OutputLock::acquire(&args.out)?;
+    let name = config.spec().to_string();
     let bar = crate::progress_bar(tasks.len() as u64 * args.trials, false);
     for task in &tasks {
         let (mut ok, mut n) = (0, 0);
@@ -209,7 +207,7 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
     bar.finish_and_clear();
     if custom {
         let path = args.out.join("custom.md");
-        let text = seespot_ssr::report::custom_markdown(&args.out)?;
+        let text = seespot_eval::report::custom_markdown(&args.out)?;
         std::fs::write(&path, &text).with_context(|| format!("writing {}", path.display()))?;
         if args.json {
             return crate::print_json(&serde_json::json!({
@@ -326,120 +324,6 @@ fn record_failed(
     _: &indicatif::ProgressBar,
 ) -> anyhow::Result<()> {
     anyhow::bail!("--record needs seespot built with the `viewer` feature")
-}
-
-/// Summarizes every record under `<out>/trials/` into `summary.md`,
-/// `summary.csv` and `figure4.png` (the paper's numbers beside ours).
-///
-/// Train steps on the test task: 0 for SSR, oracle and random; the model's
-/// recorded SPOT-Q steps for `spot-q`; 3 x `finetune_steps` for finetuned rows.
-/// Annotated actions: for the methods that see the test task's demonstrations
-/// (SSR and the finetuned rows) the actions they hold, counted as at least the
-/// paper's 12; 0 for the others.
-pub fn write_report(out: &Path, layout: &Layout, finetune_steps: usize) -> anyhow::Result<Report> {
-    let mut records = Vec::new();
-    let files = seespot_ssr::eval::records_files(out)
-        .with_context(|| format!("reading {}", out.join("trials").display()))?;
-    let mut by_file = Vec::new();
-    for f in files {
-        let rs = read_records(&f)?;
-        by_file.push((f, rs));
-    }
-    report::check_provenance(&by_file).map_err(anyhow::Error::msg)?;
-    for (_, rs) in by_file {
-        records.extend(rs);
-    }
-    // Finetuning steps per (method, task), as the records' provenance states.
-    let mut finetuned = std::collections::BTreeMap::new();
-    for r in &records {
-        if let Some(n) = r
-            .provenance
-            .as_ref()
-            .and_then(|p| p.settings.get("finetune_steps")?.as_u64())
-        {
-            finetuned.insert((r.method.clone(), r.task), n);
-        }
-    }
-    let train_steps = |method: &str, task: TaskId| -> u64 {
-        let Ok(spec) = method.parse::<RunSpec>() else {
-            return 0;
-        };
-        match spec.task_training() {
-            TaskTraining::Nothing => 0,
-            TaskTraining::Finetuning { factor } => {
-                factor
-                    * finetuned
-                        .get(&(method.to_owned(), task))
-                        .copied()
-                        .unwrap_or(finetune_steps as u64)
-            }
-            TaskTraining::OwnTransporter => {
-                seespot_policy::TransporterNet::load(&layout.transporter(task))
-                    .ok()
-                    .and_then(|n| n.meta.extra.get("iterations").and_then(|s| s.parse().ok()))
-                    .unwrap_or(0)
-            }
-            TaskTraining::OwnSpotQ => seespot_policy::PolicyNet::load(&layout.model(task))
-                .ok()
-                .and_then(|p| p.meta.extra.get("train_steps").and_then(|s| s.parse().ok()))
-                .unwrap_or(0),
-        }
-    };
-    let mut demo_actions = std::collections::BTreeMap::new();
-    for task in TaskId::ALL {
-        let mut n = 0;
-        for dir in layout.demo_dirs(task) {
-            if dir.exists() {
-                n += seespot_sim::Demo::read(&dir)
-                    .with_context(|| format!("counting the actions of {}", dir.display()))?
-                    .steps
-                    .len();
-            }
-        }
-        demo_actions.insert(task, n);
-    }
-    let annotated = |method: &str, task: TaskId| -> usize {
-        if method.parse::<RunSpec>().is_ok_and(|s| s.sees_demos()) {
-            annotated_actions(demo_actions.get(&task).copied().unwrap_or(0))
-        } else {
-            0
-        }
-    };
-    let summaries = summarize_all(&records, train_steps, annotated);
-    let mut table = report::markdown_table(&summaries, true);
-    table.push_str(&report::statistics_markdown(&records));
-    std::fs::write(out.join("summary.md"), &table)?;
-    std::fs::write(
-        out.join("summary.csv"),
-        report::csv(&report::with_means(&summaries)),
-    )?;
-    report::plot_figure4(&summaries, &out.join("figure4.png"))?;
-    Ok(Report {
-        summaries: report::with_means(&summaries),
-        ccd_vs_l2cd: report::compare(&records, "ssr-ccd", "ssr-l2cd"),
-        comparisons: report::comparisons(&records),
-        disagreements: report::disagreements(&records),
-        c_histograms: report::ssr_runs(&records)
-            .into_iter()
-            .map(|m| {
-                let h = report::c_histograms(&records, &m);
-                (m, h)
-            })
-            .collect(),
-    })
-}
-
-/// What `write_report` wrote, for `--json`.
-pub struct Report {
-    pub summaries: Vec<Summary>,
-    /// Exact McNemar tests of SSR CCD against SSR L2CD, per fold and pooled.
-    pub ccd_vs_l2cd: Vec<report::Comparison>,
-    /// Every pair of `report::planned_comparisons` the records allow.
-    pub comparisons: Vec<report::Comparison>,
-    /// How often SSR CCD and SSR L2CD differ on the same state.
-    pub disagreements: Vec<report::Disagreement>,
-    /// Per method, per fold: decisions per bucket of `report::C_BUCKETS`.
-    pub c_histograms: Vec<(String, report::CHistogram)>,
 }
 
 /// The Correspond options the flags name; a flag of the other formulation is

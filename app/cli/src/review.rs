@@ -1,12 +1,12 @@
 //! `seespot review`: the trials of an evaluation, their outcomes and failure
-//! kinds (see `seespot_ssr::review`), with the command that replays each
+//! kinds (see `seespot_eval::review`), with the command that replays each
 //! failure in the debugger.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use seespot_ssr::review::{FailureKind, counts, failures_json, review_dir};
+use seespot_eval::review::{FailureKind, counts, failures_json, review_dir};
 
 #[derive(clap::Args, Debug)]
 pub struct ReviewArgs {
@@ -35,7 +35,7 @@ pub struct ReviewArgs {
 /// (`seespot_viz::review::replay_status`).
 #[cfg(feature = "viewer")]
 fn replayable(
-    trials: &[seespot_ssr::review::ReviewedTrial],
+    trials: &[seespot_eval::review::ReviewedTrial],
     args: &ReviewArgs,
 ) -> BTreeMap<PathBuf, Result<(), String>> {
     let layout = seespot_ssr::Layout::new(&args.models, &args.demos);
@@ -47,7 +47,7 @@ fn replayable(
 
 #[cfg(not(feature = "viewer"))]
 fn replayable(
-    trials: &[seespot_ssr::review::ReviewedTrial],
+    trials: &[seespot_eval::review::ReviewedTrial],
     _: &ReviewArgs,
 ) -> BTreeMap<PathBuf, Result<(), String>> {
     let why = "this seespot was built without the debugger (feature `viewer`)";
@@ -102,7 +102,7 @@ pub fn run(args: ReviewArgs) -> anyhow::Result<()> {
         outln!("| {m} | {t} | {n} | {ok} | {} |", cells.join(" | "))?;
     }
     let can =
-        |t: &&seespot_ssr::review::ReviewedTrial| matches!(replays.get(&t.file), Some(Ok(())));
+        |t: &&seespot_eval::review::ReviewedTrial| matches!(replays.get(&t.file), Some(Ok(())));
     for kind in FailureKind::ALL {
         // The ones that replay first: the first command listed works.
         let mut of_kind: Vec<_> = trials.iter().filter(|t| t.failure == Some(kind)).collect();

@@ -4,8 +4,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::Subcommand;
+use seespot_eval::summarize;
 use seespot_policy::{PolicyNet, RandomActor};
-use seespot_sim::{Actor, Grid, Oracle, Scene, Seeds, Split, TaskId, Trial, summarize};
+use seespot_sim::{Actor, Grid, Oracle, Scene, Seeds, Split, TaskId, Trial};
 
 #[derive(Subcommand, Debug)]
 pub enum SimCommand {

@@ -4,9 +4,10 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use seespot_eval::{Summary, summarize};
 use seespot_policy::PolicyNet;
 use seespot_policy::trainer::{TrainConfig, TrainOutcome};
-use seespot_sim::{Seeds, Split, Summary, TaskId, summarize};
+use seespot_sim::{Seeds, Split, TaskId};
 use seespot_ssr::Layout;
 use seespot_ssr::layout::new_layout;
 

@@ -5,9 +5,9 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use anyhow::Context;
+use seespot_eval::runner::sha256_file;
 use seespot_policy::transporter::{TransporterTrainConfig, TransporterTrainOutcome};
 use seespot_sim::{Demo, TaskId};
-use seespot_ssr::eval::sha256_file;
 
 /// TransporterNet, the paper's few-shot baseline.
 #[derive(clap::Subcommand, Debug)]

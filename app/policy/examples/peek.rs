@@ -22,7 +22,7 @@ fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
             )
         },
     )?;
-    let s = seespot_sim::summarize(&records, task.ideal_actions(), 0, 0);
-    println!("success {:.2} progress {:.2}", s.success_rate, s.progress);
+    let successes = records.iter().filter(|r| r.success).count();
+    println!("success {successes}/{}", records.len());
     Ok(())
 }

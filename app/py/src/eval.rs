@@ -5,10 +5,11 @@
 use std::path::PathBuf;
 
 use pyo3::prelude::*;
+use seespot_eval::EvalMethod;
+use seespot_eval::runner::EvalConfig;
 use seespot_policy::{PolicyNet, RandomActor};
 use seespot_sim::{Actor, Oracle, Provenance, Seeds, TaskId, Trial};
 use seespot_ssr::SsrPolicy;
-use seespot_ssr::eval::{EvalConfig, EvalMethod};
 
 use crate::arrays::{self, bad};
 use crate::trial::non_negative;
@@ -57,15 +58,15 @@ impl Evaluator {
             seeds: Seeds::new(1, 1).map_err(|e| bad("seeds", e))?,
             out_dir: PathBuf::new(),
             layout: seespot_ssr::Layout::new(models_dir, demos_dir),
-            world: seespot_ssr::eval::world_config(resolution),
+            world: seespot_eval::runner::world_config(resolution),
             correspond: ssr.correspond,
             finetune_steps: 0,
         };
-        let name = seespot_ssr::RunSpec::of(&config).to_string();
+        let name = config.spec().to_string();
         let (actor, provenance) = py
             .detach(|| {
                 let provenance =
-                    seespot_ssr::eval::provenance(&config, task).map_err(|e| e.to_string())?;
+                    seespot_eval::runner::provenance(&config, task).map_err(|e| e.to_string())?;
                 let actor: Box<dyn Actor + Send + Sync> = match eval_method {
                     EvalMethod::SsrCcd | EvalMethod::SsrL2cd | EvalMethod::SsrCcdLoopBreak => {
                         Box::new(
@@ -141,7 +142,7 @@ pub fn test_seeds(start: i64, count: i64) -> PyResult<Vec<u64>> {
 pub fn records_path(out_dir: PathBuf, method: &str, task: &str) -> PyResult<PathBuf> {
     // Only the name matters here: a custom task need not be defined.
     let task: seespot_sim::TaskId = task.parse().map_err(|e| bad("task", e))?;
-    Ok(seespot_ssr::eval::records_path(&out_dir, method, task))
+    Ok(seespot_ssr::layout::records_path(&out_dir, method, task))
 }
 
 /// The method's name in records and file names: `method`, with `-plain` for
@@ -150,9 +151,9 @@ pub fn records_path(out_dir: PathBuf, method: &str, task: &str) -> PyResult<Path
 pub fn record_name(method: &str, correspond: &str) -> PyResult<String> {
     let m: EvalMethod = method.parse().map_err(|e| bad("method", e))?;
     let config = crate::ssr::ssr_config("ssr-ccd", correspond)?;
-    let spec = seespot_ssr::RunSpec::new(m);
+    let spec = seespot_eval::RunSpec::new(m);
     let spec = if m.is_ssr() {
-        spec.with_correspond(seespot_ssr::run::CorrespondName::of(&config.correspond))
+        spec.with_correspond(seespot_eval::run::CorrespondName::of(&config.correspond))
             .map_err(|e| bad("correspond", e))?
     } else {
         spec
@@ -161,22 +162,22 @@ pub fn record_name(method: &str, correspond: &str) -> PyResult<String> {
 }
 
 /// The lock `seespot eval` takes on its output folder
-/// ([`seespot_sim::lock::OutputLock`]), held by the operating system until
+/// ([`seespot_eval::lock::OutputLock`]), held by the operating system until
 /// `release()`, the end of a `with` block, or the process's end: while a
 /// `seespot eval` or another `seespot.dist` run holds it, taking it raises
 /// `BlockingIOError` naming the holder.
 #[pyclass(module = "seespot._core")]
 pub struct OutputLock {
-    lock: Option<seespot_sim::lock::OutputLock>,
+    lock: Option<seespot_eval::lock::OutputLock>,
 }
 
 #[pymethods]
 impl OutputLock {
     #[new]
     fn new(out_dir: PathBuf) -> PyResult<Self> {
-        match seespot_sim::lock::OutputLock::acquire(&out_dir) {
+        match seespot_eval::lock::OutputLock::acquire(&out_dir) {
             Ok(lock) => Ok(Self { lock: Some(lock) }),
-            Err(e @ seespot_sim::lock::LockError::Held { .. }) => {
+            Err(e @ seespot_eval::lock::LockError::Held { .. }) => {
                 Err(pyo3::exceptions::PyBlockingIOError::new_err(e.to_string()))
             }
             Err(e) => Err(pyo3::exceptions::PyOSError::new_err(e.to_string())),
@@ -206,9 +207,9 @@ impl OutputLock {
     }
 }
 
-fn record_error(e: seespot_sim::record::RecordError) -> PyErr {
+fn record_error(e: seespot_eval::records::RecordError) -> PyErr {
     match e {
-        seespot_sim::record::RecordError::Io { .. } => {
+        seespot_eval::records::RecordError::Io { .. } => {
             pyo3::exceptions::PyOSError::new_err(e.to_string())
         }
         _ => pyo3::exceptions::PyValueError::new_err(e.to_string()),
@@ -221,7 +222,7 @@ fn record_error(e: seespot_sim::record::RecordError) -> PyErr {
 /// or task's record in a `<method>/<task>.jsonl` file refused (`ValueError`).
 #[pyfunction]
 pub fn read_records(path: PathBuf) -> PyResult<Vec<String>> {
-    seespot_sim::record::read_records(&path)
+    seespot_eval::records::read_records(&path)
         .map_err(record_error)?
         .iter()
         .map(|r| r.to_json_line().map_err(|e| bad("path", e)))
@@ -239,11 +240,11 @@ pub fn append_record(path: PathBuf, line: &str) -> PyResult<()> {
         std::fs::create_dir_all(dir)
             .map_err(|e| pyo3::exceptions::PyOSError::new_err(format!("{}: {e}", dir.display())))?;
     }
-    seespot_sim::record::append_record(&path, &record).map_err(record_error)
+    seespot_eval::records::append_record(&path, &record).map_err(record_error)
 }
 
 /// What a record name (a records folder's name, `TrialRecord.method`) says
-/// about its run, read by the same [`seespot_ssr::RunSpec`] the CLI's report
+/// about its run, read by the same [`seespot_eval::RunSpec`] the CLI's report
 /// uses: `{"name", "method", "display_name", "finetuned", "noisy",
 /// "correspond"}` (`correspond`: `reference` with its departures, e.g.
 /// `reference+global-rematch`, or `plain`; `None` for methods without one).
@@ -251,8 +252,8 @@ pub fn append_record(path: PathBuf, line: &str) -> PyResult<()> {
 #[pyfunction]
 pub fn run_spec(py: Python<'_>, name: &str) -> PyResult<Py<pyo3::types::PyDict>> {
     use pyo3::types::PyDict;
-    use seespot_ssr::run::CorrespondName;
-    let spec: seespot_ssr::RunSpec = name.parse().map_err(|e| bad("name", e))?;
+    use seespot_eval::run::CorrespondName;
+    let spec: seespot_eval::RunSpec = name.parse().map_err(|e| bad("name", e))?;
     let correspond = match spec.correspond() {
         _ if !spec.is_ssr() => None,
         CorrespondName::Plain => Some("plain".to_owned()),

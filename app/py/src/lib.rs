@@ -46,9 +46,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     )?;
     m.add(
         "METHODS",
-        seespot_ssr::eval::EvalMethod::ALL
-            .map(|m| m.as_str())
-            .to_vec(),
+        seespot_eval::EvalMethod::ALL.map(|m| m.as_str()).to_vec(),
     )?;
     m.add("NUM_ROTATIONS", seespot_sim::NUM_ROTATIONS)?;
     m.add("MAX_TRIAL_ACTIONS", seespot_sim::task::MAX_TRIAL_ACTIONS)?;

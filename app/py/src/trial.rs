@@ -50,7 +50,7 @@ impl Trial {
         let seed = non_negative(seed, "seed")?;
         let resolution = non_negative(resolution, "resolution")?;
         let resolution = arrays::resolution(resolution as usize, "resolution")?;
-        let config = seespot_ssr::eval::world_config(resolution);
+        let config = seespot_eval::runner::world_config(resolution);
         let trial = py.detach(|| SimTrial::new(config, task, seed));
         Ok(Self { trial })
     }

@@ -151,7 +151,7 @@ impl VectorTrials {
             ));
         }
         let seeds = self::seeds(&seeds, "seeds")?;
-        let config = seespot_ssr::eval::world_config(resolution);
+        let config = seespot_eval::runner::world_config(resolution);
         let trials = py.detach(|| {
             seeds
                 .par_iter()

@@ -7,8 +7,9 @@
 //!
 //! It also owns what every method shares about trials: the [`Actor`] trait that
 //! picks actions and the one trial loop [`run_trial`], the seed scheme
-//! ([`seeds`]: training even, test odd, validation odd from 10 001), the one
-//! [`TrialRecord`] of a finished trial and the paper's [`metrics`] over records.
+//! ([`seeds`]: training even, test odd, validation odd from 10 001) and the one
+//! [`TrialRecord`] of a finished trial (its files, the metrics over them and
+//! the report are the evaluation crate's, `seespot_eval`).
 //!
 //! Frames and units: the world frame has z up, metres, the table top at z = 0.
 //! The workspace is a 0.448 m square centred on the origin. A pixel `(y, x)` of a
@@ -32,8 +33,6 @@ pub mod custom;
 pub mod demo;
 pub mod goal;
 pub mod heightmap;
-pub mod lock;
-pub mod metrics;
 pub mod noise;
 pub mod oracle;
 pub mod pose;
@@ -41,7 +40,6 @@ pub mod progress;
 pub mod record;
 pub mod scene;
 pub mod seeds;
-pub mod stats;
 pub mod task;
 pub mod trial;
 pub mod workspace;
@@ -52,7 +50,6 @@ pub use actor::{Actor, ActorError, Choice, ChosenPair, run_trial, run_trials, ru
 pub use demo::{Demo, DemoError, DemoMeta, DemoStep, PlaceMask};
 pub use goal::Goal;
 pub use heightmap::Heightmaps;
-pub use metrics::{Summary, summarize};
 pub use noise::SensorNoise;
 pub use oracle::Oracle;
 pub use record::{ActionLog, Provenance, TrialRecord};

@@ -1,17 +1,13 @@
 //! See-SPOT-Run: repurpose SPOT-Q policies trained on other tasks to do a new
-//! task from two demonstrations (paper Sec. 4.2), and the leave-one-out
-//! evaluation (its trial records and metrics live in [`seespot_sim::record`] and
-//! [`seespot_sim::metrics`]).
+//! task from two demonstrations (paper Sec. 4.2). The leave-one-out
+//! evaluation that runs it beside the baselines, its records, metrics and
+//! report live one crate up, in `seespot_eval`.
 
 pub mod correspond;
-pub mod eval;
 pub mod explain;
 pub mod layout;
 pub mod pca;
 pub mod policy;
-pub mod report;
-pub mod review;
-pub mod run;
 
 pub use correspond::{
     CorrespondOptions, Match, bench_correspond, ccd, distance_map, match_queries,
@@ -20,4 +16,3 @@ pub use correspond::{
 pub use explain::{Decision, Method, PairExplanation};
 pub use layout::Layout;
 pub use policy::{SsrConfig, SsrError, SsrPolicy};
-pub use run::RunSpec;

@@ -4,9 +4,9 @@
 //! below the session, the review and the server, which all take deciders
 //! from it.
 
+use seespot_eval::EvalMethod;
 use seespot_sim::{Grid, Oracle, TaskId, WorldConfig};
 use seespot_ssr::Layout;
-use seespot_ssr::eval::EvalMethod;
 use serde::Serialize;
 
 use crate::decider::{Decider, FeatureDecider, load_demos};

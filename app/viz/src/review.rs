@@ -1,5 +1,5 @@
 //! Review of an evaluation in the debugger: the page's `/review` route lists
-//! every trial of an evaluation's records (`seespot_ssr::review`: outcome and
+//! every trial of an evaluation's records (`seespot_eval::review`: outcome and
 //! failure kind), and one click replays a trial in the live session or
 //! downloads a rerun recording of it.
 //!
@@ -12,10 +12,11 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use seespot_eval::records::records_files;
+use seespot_eval::review::{FailureKind, counts, review_dir};
+use seespot_eval::runner::replay_config;
 use seespot_sim::TaskId;
 use seespot_ssr::Layout;
-use seespot_ssr::eval::{records_files, replay_config};
-use seespot_ssr::review::{FailureKind, counts, review_dir};
 use serde_json::{Value, json};
 
 use crate::recording::Recorder;
@@ -27,7 +28,7 @@ use crate::session::{Session, SessionConfig};
 /// the settings) differ from the ones the record was made with, and for
 /// methods the debugger cannot run (SPOT-Q, random, finetuned, noisy).
 pub fn replay(path: &Path, seed: u64, layout: &Layout) -> anyhow::Result<Replay> {
-    let records = seespot_sim::record::read_records(path)?;
+    let records = seespot_eval::records::read_records(path)?;
     let record = records.iter().find(|r| r.seed == seed).with_context(|| {
         format!(
             "{}: no trial of seed {seed} (it holds seeds {})",
@@ -75,7 +76,7 @@ pub fn replay(path: &Path, seed: u64, layout: &Layout) -> anyhow::Result<Replay>
 /// why not, by file (one record stands for its file: a file never mixes
 /// provenances). The page's review and `seespot review` both say so.
 pub fn replay_status(
-    trials: &[seespot_ssr::review::ReviewedTrial],
+    trials: &[seespot_eval::review::ReviewedTrial],
     layout: &Layout,
 ) -> std::collections::BTreeMap<PathBuf, anyhow::Result<()>> {
     let mut out = std::collections::BTreeMap::new();
@@ -101,7 +102,7 @@ impl ReviewSource {
         let want = seespot_ssr::layout::records_path(&self.dir, method, task);
         records_files(&self.dir)?
             .into_iter()
-            .chain(seespot_ssr::eval::custom_records_files(&self.dir)?)
+            .chain(seespot_eval::records::custom_records_files(&self.dir)?)
             .find(|f| *f == want)
             .with_context(|| {
                 format!(
@@ -137,7 +138,7 @@ impl ReviewSource {
                 };
                 json!({
                     "method": method, "task": task, "trials": n, "successes": ok,
-                    "failures": seespot_ssr::review::failures_json(kinds),
+                    "failures": seespot_eval::review::failures_json(kinds),
                     "replay": replay,
                 })
             })

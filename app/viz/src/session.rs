@@ -52,7 +52,7 @@ impl SessionConfig {
         Self {
             task,
             seed,
-            world: seespot_ssr::eval::world_config(resolution),
+            world: seespot_eval::runner::world_config(resolution),
         }
     }
 }

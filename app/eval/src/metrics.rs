@@ -9,8 +9,8 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use crate::record::TrialRecord;
-use crate::task::{MAX_PROGRESS, TaskId};
+use seespot_sim::TrialRecord;
+use seespot_sim::task::{MAX_PROGRESS, TaskId};
 
 /// Annotated actions the paper counts for two demonstrations, for every task
 /// (Table 1: 2 demonstrations x 6 actions).
@@ -242,7 +242,7 @@ mod tests {
     use super::*;
 
     fn rec(trial: usize, success: bool, actions: usize, max_p: u8, reversal: bool) -> TrialRecord {
-        crate::record::tests::example(trial, success, actions, max_p, reversal)
+        crate::records::tests::example(trial, success, actions, max_p, reversal)
     }
 
     /// Five trials: successes of 6 and 10 actions (one after a reversal), and

@@ -10,84 +10,19 @@ use std::path::{Path, PathBuf};
 
 use seespot_policy::transporter::finetune_transporter;
 use seespot_policy::{PolicyNet, RandomActor, TransporterActor, TransporterNet, finetune};
-use seespot_sim::record::{RecordError, append_record, read_records};
 use seespot_sim::{
     Actor, Demo, Grid, Oracle, Provenance, Seeds, TaskId, Trial, TrialRecord, WorldConfig,
 };
 
-use crate::correspond::{CorrespondOptions, Correspondence, DemoFeatures, Rematch, Smoothing};
-use crate::explain::Method;
-use crate::layout::Layout;
-use crate::policy::{SsrConfig, SsrError, SsrPolicy};
+use seespot_ssr::correspond::{
+    CorrespondOptions, Correspondence, DemoFeatures, Rematch, Smoothing,
+};
+use seespot_ssr::explain::Method;
+use seespot_ssr::layout::{Layout, records_path};
+use seespot_ssr::policy::{SsrConfig, SsrError, SsrPolicy};
 
-/// A method of the evaluation table.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum EvalMethod {
-    /// SSR acting on the smallest cycle consistency distance (Eq. 8).
-    SsrCcd,
-    /// SSR acting on the smallest embedding distance (Eq. 9).
-    SsrL2cd,
-    /// seespot's extension, not the paper's: SSR CCD that does not repeat an
-    /// action which left the scene unchanged ([`crate::policy::LOOP_BREAK_RADIUS`]).
-    SsrCcdLoopBreak,
-    /// The test task's own SPOT-Q policy, greedy: the ceiling row.
-    SpotQ,
-    /// The scripted oracle.
-    Oracle,
-    /// Uniform random actions under the common-sense masks.
-    Random,
-    /// The paper's few-shot baseline: a TransporterNet trained by imitation on
-    /// the test task's two demonstrations (`models/transporter/<task>`); with
-    /// finetuning steps, another task's TransporterNet finetuned on them.
-    Transporter,
-}
-
-impl EvalMethod {
-    pub const ALL: [EvalMethod; 7] = [
-        Self::SsrCcd,
-        Self::SsrL2cd,
-        Self::SsrCcdLoopBreak,
-        Self::SpotQ,
-        Self::Oracle,
-        Self::Random,
-        Self::Transporter,
-    ];
-
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::SsrCcd => "ssr-ccd",
-            Self::SsrL2cd => "ssr-l2cd",
-            Self::SsrCcdLoopBreak => "ssr-ccd-loopbreak",
-            Self::SpotQ => "spot-q",
-            Self::Oracle => "oracle",
-            Self::Random => "random",
-            Self::Transporter => "transporter",
-        }
-    }
-
-    pub fn parse(s: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|m| m.as_str() == s)
-    }
-
-    /// Whether the method is See-SPOT-Run (faithful or extended).
-    pub fn is_ssr(self) -> bool {
-        matches!(self, Self::SsrCcd | Self::SsrL2cd | Self::SsrCcdLoopBreak)
-    }
-}
-
-impl std::str::FromStr for EvalMethod {
-    type Err = String;
-
-    /// A method's id, or an error listing every method's.
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Self::parse(s).ok_or_else(|| {
-            format!(
-                "unknown method '{s}' (expected {})",
-                Self::ALL.map(|m| m.as_str()).join(", ")
-            )
-        })
-    }
-}
+use crate::records::{RecordError, append_record, read_records};
+use crate::run::{EvalMethod, RunSpec};
 
 /// What to evaluate.
 #[derive(Clone, Debug)]
@@ -109,6 +44,16 @@ pub struct EvalConfig {
 }
 
 impl EvalConfig {
+    /// The run this configuration makes: its record name and meaning.
+    pub fn spec(&self) -> RunSpec {
+        RunSpec::of_parts(
+            self.method,
+            &self.correspond,
+            self.finetune_steps,
+            !self.world.noise.is_none(),
+        )
+    }
+
     /// How See-SPOT-Run runs for this configuration's method: CCD (also for
     /// the loop-breaking extension) or L2CD, the correspondence, and whether
     /// loops are broken.
@@ -140,51 +85,6 @@ pub enum EvalError {
     Invalid(String),
     #[error("{0}")]
     Actor(seespot_sim::ActorError),
-}
-
-pub use crate::layout::records_path;
-
-/// Every records file under `<out_dir>/trials/` (`<method>/<task>.jsonl`),
-/// sorted; what the report and `seespot review` read.
-pub fn records_files(out_dir: &Path) -> Result<Vec<PathBuf>, RecordError> {
-    records_files_below(out_dir, None)
-}
-
-/// The `.jsonl` files of every run folder of `out_dir`'s `trials/` (or of
-/// its subfolder `below`), sorted.
-fn records_files_below(out_dir: &Path, below: Option<&str>) -> Result<Vec<PathBuf>, RecordError> {
-    let trials = crate::layout::trials_dir(out_dir);
-    let io = |e: std::io::Error| RecordError::Io {
-        path: trials.display().to_string(),
-        source: e,
-    };
-    let mut files = Vec::new();
-    for run in std::fs::read_dir(&trials).map_err(io)? {
-        let run = run.map_err(io)?.path();
-        let dir = match below {
-            Some(sub) => run.join(sub),
-            None => run,
-        };
-        if dir.is_dir() {
-            for f in std::fs::read_dir(&dir).map_err(io)? {
-                let f = f.map_err(io)?.path();
-                if f.extension().is_some_and(|e| e == "jsonl") {
-                    files.push(f);
-                }
-            }
-        }
-    }
-    files.sort();
-    Ok(files)
-}
-
-/// The records files of custom tasks in `out_dir`
-/// (`trials/<run>/custom/<name>.jsonl`), sorted; none when there are none.
-pub fn custom_records_files(out_dir: &Path) -> Result<Vec<PathBuf>, RecordError> {
-    if !crate::layout::trials_dir(out_dir).is_dir() {
-        return Ok(Vec::new());
-    }
-    records_files_below(out_dir, Some("custom"))
 }
 
 /// sha256 (hex) of a file's bytes.
@@ -376,7 +276,7 @@ pub fn replay_config(record: &TrialRecord, layout: &Layout) -> Result<EvalConfig
             prov.settings
         ))
     })?;
-    let spec: crate::RunSpec = record.method.parse().map_err(EvalError::Invalid)?;
+    let spec: RunSpec = record.method.parse().map_err(EvalError::Invalid)?;
     if let Some(why) = spec.replay_refusal() {
         return Err(EvalError::Invalid(why));
     }
@@ -461,7 +361,7 @@ pub fn run_task(
     task: TaskId,
     on_trial: &mut dyn FnMut(&TrialRecord),
 ) -> Result<Vec<TrialRecord>, EvalError> {
-    let name = crate::RunSpec::of(config).to_string();
+    let name = config.spec().to_string();
     let path = records_path(&config.out_dir, &name, task);
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir)

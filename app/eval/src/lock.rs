@@ -14,10 +14,10 @@
 //! again.
 //!
 //! ```no_run
-//! use seespot_sim::lock::OutputLock;
+//! use seespot_eval::lock::OutputLock;
 //! let _lock = OutputLock::acquire(std::path::Path::new("results"))?;
 //! // ... write records; the lock goes when `_lock` is dropped.
-//! # Ok::<(), seespot_sim::lock::LockError>(())
+//! # Ok::<(), seespot_eval::lock::LockError>(())
 //! ```
 
 use std::io::Write;
@@ -188,8 +188,10 @@ fn same_file(file: &std::fs::File, path: &Path) -> bool {
 /// created by another run that has not written it: read it again shortly.
 fn read_holder(path: &Path) -> std::io::Result<Option<Holder>> {
     for _ in 0..5 {
-        if let Some(h) = Holder::parse(&crate::bounds::read_text(path, crate::bounds::files::LOCK)?)
-        {
+        if let Some(h) = Holder::parse(&seespot_sim::bounds::read_text(
+            path,
+            seespot_sim::bounds::files::LOCK,
+        )?) {
             return Ok(Some(h));
         }
         std::thread::sleep(std::time::Duration::from_millis(50));

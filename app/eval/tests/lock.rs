@@ -1,8 +1,8 @@
-//! The evaluation output lock (`seespot_sim::lock`): one run per folder, held
+//! The evaluation output lock (`seespot_eval::lock`): one run per folder, held
 //! by the operating system, so a file left by a killed run or a damaged one
 //! does not stand in the way; the file gone when the run ends.
 
-use seespot_sim::lock::{LOCK_FILE, LockError, OutputLock};
+use seespot_eval::lock::{LOCK_FILE, LockError, OutputLock};
 
 /// The pid of a process that has exited (and been reaped).
 fn dead_pid() -> u32 {

@@ -15,7 +15,7 @@
 
 use std::path::{Path, PathBuf};
 
-use seespot_sim::record::{RecordError, read_records};
+use crate::records::{RecordError, read_records};
 use seespot_sim::{Primitive, TaskId, TrialEnd, TrialRecord};
 use serde::Serialize;
 
@@ -117,8 +117,8 @@ pub struct ReviewedTrial {
 /// Every trial of every records file under `<out>/trials/` (custom tasks'
 /// too, `trials/<run>/custom/<name>.jsonl`), in (method, task, seed) order.
 pub fn review_dir(out: &Path) -> Result<Vec<ReviewedTrial>, RecordError> {
-    let mut files = crate::eval::records_files(out)?;
-    files.extend(crate::eval::custom_records_files(out)?);
+    let mut files = crate::records::records_files(out)?;
+    files.extend(crate::records::custom_records_files(out)?);
     let mut out = Vec::new();
     for f in files {
         for r in read_records(&f)? {

@@ -7,11 +7,14 @@ use std::sync::OnceLock;
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use seespot_sim::stats::paired_success;
 use seespot_sim::{TaskId, TrialRecord};
+use seespot_ssr::Layout;
 use serde::Serialize;
 
-use seespot_sim::metrics::{PAPER_ANNOTATED_ACTIONS, Summary, mean_over_tasks};
+use crate::run::{RunSpec, TaskTraining};
+use crate::stats::paired_success;
+
+use crate::metrics::{PAPER_ANNOTATED_ACTIONS, Summary, mean_over_tasks};
 
 /// Trials per task in the paper's evaluation.
 pub const PAPER_TRIALS: usize = 50;
@@ -117,9 +120,9 @@ pub fn paper_results() -> Vec<PaperResult> {
 }
 
 /// The display name of a record name (`ssr-ccd` -> `SSR CCD`, see
-/// [`crate::RunSpec::display_name`]); a name that is no run's as given.
+/// [`RunSpec::display_name`]); a name that is no run's as given.
 pub fn display_method(id: &str) -> String {
-    id.parse::<crate::RunSpec>()
+    id.parse::<RunSpec>()
         .map_or_else(|_| id.to_string(), |spec| spec.display_name())
 }
 
@@ -336,11 +339,12 @@ pub fn csv(summaries: &[Summary]) -> String {
     out
 }
 
-/// A problem drawing the plot.
+/// A problem reading the records or writing the report.
 #[derive(Debug, thiserror::Error)]
 pub enum ReportError {
     #[error("{path}: drawing the plot failed: {message}")]
     Plot { path: String, message: String },
+    /// The records (or demonstrations) the report reads, or a file it writes.
     #[error("{0}")]
     Records(String),
 }
@@ -367,7 +371,7 @@ pub struct Comparison {
     pub b: String,
     /// The fold; `None` for all folds pooled.
     pub task: Option<TaskId>,
-    pub paired: seespot_sim::stats::Paired,
+    pub paired: crate::stats::Paired,
 }
 
 /// Exact McNemar tests of `a` against `b` on the seeds both ran, per task and
@@ -440,12 +444,12 @@ pub fn check_provenance(files: &[(PathBuf, Vec<TrialRecord>)]) -> Result<(), Str
     Ok(())
 }
 
-/// The SSR runs among `records` (their record names, in [`crate::RunSpec`]
+/// The SSR runs among `records` (their record names, in [`RunSpec`]
 /// order): the ones whose C and CCD/L2CD disagreements the report shows.
 pub fn ssr_runs(records: &[TrialRecord]) -> Vec<String> {
-    let mut specs: Vec<crate::RunSpec> = records
+    let mut specs: Vec<RunSpec> = records
         .iter()
-        .filter_map(|r| r.method.parse::<crate::RunSpec>().ok())
+        .filter_map(|r| r.method.parse::<RunSpec>().ok())
         .filter(|s| s.is_ssr())
         .collect();
     specs.sort();
@@ -455,11 +459,11 @@ pub fn ssr_runs(records: &[TrialRecord]) -> Vec<String> {
 
 /// The pairs of runs the report tests on paired seeds (exact McNemar), with
 /// what each comparison asks; pairs without shared seeds are skipped. Runs
-/// are [`crate::RunSpec`] values, so a comparison cannot name a run that
+/// are [`RunSpec`] values, so a comparison cannot name a run that
 /// does not exist.
-pub fn planned_comparisons() -> [(crate::RunSpec, crate::RunSpec, &'static str); 8] {
-    use crate::RunSpec;
-    use crate::eval::EvalMethod::{Random, SpotQ, SsrCcd, SsrCcdLoopBreak, SsrL2cd, Transporter};
+pub fn planned_comparisons() -> [(RunSpec, RunSpec, &'static str); 8] {
+    use crate::run::EvalMethod::{Random, SpotQ, SsrCcd, SsrCcdLoopBreak, SsrL2cd, Transporter};
+    use RunSpec;
     let run = RunSpec::new;
     // Both methods have a policy to finetune.
     let finetuned = |spec: RunSpec| spec.finetuned().unwrap_or(spec);
@@ -836,11 +840,11 @@ pub fn custom_markdown(out_dir: &Path) -> Result<String, ReportError> {
     use std::fmt::Write as _;
     let mut records: Vec<TrialRecord> = Vec::new();
     let mut runs: Vec<String> = Vec::new();
-    let files = crate::eval::custom_records_files(out_dir)
+    let files = crate::records::custom_records_files(out_dir)
         .map_err(|e| ReportError::Records(e.to_string()))?;
     for f in files {
-        let rs = seespot_sim::record::read_records(&f)
-            .map_err(|e| ReportError::Records(e.to_string()))?;
+        let rs =
+            crate::records::read_records(&f).map_err(|e| ReportError::Records(e.to_string()))?;
         if let Some(r) = rs.first()
             && !runs.contains(&r.method)
         {
@@ -932,10 +936,137 @@ pub fn custom_markdown(out_dir: &Path) -> Result<String, ReportError> {
     Ok(md)
 }
 
+/// Summarizes every record under `<out>/trials/` into `summary.md`,
+/// `summary.csv` and `figure4.png` (the paper's numbers beside ours).
+///
+/// Train steps on the test task: 0 for SSR, oracle and random; the model's
+/// recorded SPOT-Q steps for `spot-q`; 3 x `finetune_steps` for finetuned rows.
+/// Annotated actions: for the methods that see the test task's demonstrations
+/// (SSR and the finetuned rows) the actions they hold, counted as at least the
+/// paper's 12; 0 for the others.
+pub fn write_report(
+    out: &Path,
+    layout: &Layout,
+    finetune_steps: usize,
+) -> Result<Report, ReportError> {
+    let mut records = Vec::new();
+    let files = crate::records::records_files(out).map_err(records_error)?;
+    let mut by_file = Vec::new();
+    for f in files {
+        let rs = crate::records::read_records(&f).map_err(records_error)?;
+        by_file.push((f, rs));
+    }
+    check_provenance(&by_file).map_err(ReportError::Records)?;
+    for (_, rs) in by_file {
+        records.extend(rs);
+    }
+    // Finetuning steps per (method, task), as the records' provenance states.
+    let mut finetuned = std::collections::BTreeMap::new();
+    for r in &records {
+        if let Some(n) = r
+            .provenance
+            .as_ref()
+            .and_then(|p| p.settings.get("finetune_steps")?.as_u64())
+        {
+            finetuned.insert((r.method.clone(), r.task), n);
+        }
+    }
+    let train_steps = |method: &str, task: TaskId| -> u64 {
+        let Ok(spec) = method.parse::<RunSpec>() else {
+            return 0;
+        };
+        match spec.task_training() {
+            TaskTraining::Nothing => 0,
+            TaskTraining::Finetuning { factor } => {
+                factor
+                    * finetuned
+                        .get(&(method.to_owned(), task))
+                        .copied()
+                        .unwrap_or(finetune_steps as u64)
+            }
+            TaskTraining::OwnTransporter => {
+                seespot_policy::TransporterNet::load(&layout.transporter(task))
+                    .ok()
+                    .and_then(|n| n.meta.extra.get("iterations").and_then(|s| s.parse().ok()))
+                    .unwrap_or(0)
+            }
+            TaskTraining::OwnSpotQ => seespot_policy::PolicyNet::load(&layout.model(task))
+                .ok()
+                .and_then(|p| p.meta.extra.get("train_steps").and_then(|s| s.parse().ok()))
+                .unwrap_or(0),
+        }
+    };
+    let mut demo_actions = std::collections::BTreeMap::new();
+    for task in TaskId::ALL {
+        let mut n = 0;
+        for dir in layout.demo_dirs(task) {
+            if dir.exists() {
+                n += seespot_sim::Demo::read(&dir)
+                    .map_err(|e| {
+                        ReportError::Records(format!(
+                            "counting the actions of {}: {e}",
+                            dir.display()
+                        ))
+                    })?
+                    .steps
+                    .len();
+            }
+        }
+        demo_actions.insert(task, n);
+    }
+    let annotated = |method: &str, task: TaskId| -> usize {
+        if method.parse::<RunSpec>().is_ok_and(|s| s.sees_demos()) {
+            crate::metrics::annotated_actions(demo_actions.get(&task).copied().unwrap_or(0))
+        } else {
+            0
+        }
+    };
+    let summaries = crate::metrics::summarize_all(&records, train_steps, annotated);
+    let mut table = markdown_table(&summaries, true);
+    table.push_str(&statistics_markdown(&records));
+    write(&out.join("summary.md"), &table)?;
+    write(&out.join("summary.csv"), &csv(&with_means(&summaries)))?;
+    plot_figure4(&summaries, &out.join("figure4.png"))?;
+    Ok(Report {
+        summaries: with_means(&summaries),
+        ccd_vs_l2cd: compare(&records, "ssr-ccd", "ssr-l2cd"),
+        comparisons: comparisons(&records),
+        disagreements: disagreements(&records),
+        c_histograms: ssr_runs(&records)
+            .into_iter()
+            .map(|m| {
+                let h = c_histograms(&records, &m);
+                (m, h)
+            })
+            .collect(),
+    })
+}
+
+/// What [`write_report`] wrote, for `seespot eval --json`.
+pub struct Report {
+    pub summaries: Vec<Summary>,
+    /// Exact McNemar tests of SSR CCD against SSR L2CD, per fold and pooled.
+    pub ccd_vs_l2cd: Vec<Comparison>,
+    /// Every pair of [`planned_comparisons`] the records allow.
+    pub comparisons: Vec<Comparison>,
+    /// How often SSR CCD and SSR L2CD differ on the same state.
+    pub disagreements: Vec<Disagreement>,
+    /// Per method, per fold: decisions per bucket of [`C_BUCKETS`].
+    pub c_histograms: Vec<(String, CHistogram)>,
+}
+
+fn records_error(e: crate::records::RecordError) -> ReportError {
+    ReportError::Records(e.to_string())
+}
+
+fn write(path: &Path, text: &str) -> Result<(), ReportError> {
+    std::fs::write(path, text).map_err(|e| ReportError::Records(format!("{}: {e}", path.display())))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use seespot_sim::metrics::summarize_all;
+    use crate::metrics::summarize_all;
 
     fn records() -> Vec<TrialRecord> {
         let mut out = Vec::new();

@@ -5,8 +5,8 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use crate::record::TrialRecord;
-use crate::task::TaskId;
+use seespot_sim::TrialRecord;
+use seespot_sim::task::TaskId;
 
 /// Two methods' outcomes on the seeds both ran.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -73,7 +73,7 @@ pub fn paired_success(a: &[TrialRecord], b: &[TrialRecord], task: Option<TaskId>
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::record::tests::example;
+    use crate::records::tests::example;
 
     #[test]
     fn exact_mcnemar_matches_the_binomial_tail() {

@@ -18,8 +18,76 @@ use std::fmt;
 use std::str::FromStr;
 use std::sync::OnceLock;
 
-use crate::correspond::{CorrespondOptions, DemoFeatures, Rematch, Smoothing};
-use crate::eval::{EvalConfig, EvalMethod};
+use seespot_ssr::correspond::{CorrespondOptions, DemoFeatures, Rematch, Smoothing};
+
+/// A method of the evaluation table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum EvalMethod {
+    /// SSR acting on the smallest cycle consistency distance (Eq. 8).
+    SsrCcd,
+    /// SSR acting on the smallest embedding distance (Eq. 9).
+    SsrL2cd,
+    /// seespot's extension, not the paper's: SSR CCD that does not repeat an
+    /// action which left the scene unchanged ([`seespot_ssr::policy::LOOP_BREAK_RADIUS`]).
+    SsrCcdLoopBreak,
+    /// The test task's own SPOT-Q policy, greedy: the ceiling row.
+    SpotQ,
+    /// The scripted oracle.
+    Oracle,
+    /// Uniform random actions under the common-sense masks.
+    Random,
+    /// The paper's few-shot baseline: a TransporterNet trained by imitation on
+    /// the test task's two demonstrations (`models/transporter/<task>`); with
+    /// finetuning steps, another task's TransporterNet finetuned on them.
+    Transporter,
+}
+
+impl EvalMethod {
+    pub const ALL: [EvalMethod; 7] = [
+        Self::SsrCcd,
+        Self::SsrL2cd,
+        Self::SsrCcdLoopBreak,
+        Self::SpotQ,
+        Self::Oracle,
+        Self::Random,
+        Self::Transporter,
+    ];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::SsrCcd => "ssr-ccd",
+            Self::SsrL2cd => "ssr-l2cd",
+            Self::SsrCcdLoopBreak => "ssr-ccd-loopbreak",
+            Self::SpotQ => "spot-q",
+            Self::Oracle => "oracle",
+            Self::Random => "random",
+            Self::Transporter => "transporter",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.as_str() == s)
+    }
+
+    /// Whether the method is See-SPOT-Run (faithful or extended).
+    pub fn is_ssr(self) -> bool {
+        matches!(self, Self::SsrCcd | Self::SsrL2cd | Self::SsrCcdLoopBreak)
+    }
+}
+
+impl std::str::FromStr for EvalMethod {
+    type Err = String;
+
+    /// A method's id, or an error listing every method's.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Self::parse(s).ok_or_else(|| {
+            format!(
+                "unknown method '{s}' (expected {})",
+                Self::ALL.map(|m| m.as_str()).join(", ")
+            )
+        })
+    }
+}
 
 /// How SSR's correspondence departs from the reference code's Correspond, as
 /// far as it makes a run different (settings that do not, such as the plain
@@ -189,18 +257,25 @@ impl RunSpec {
         }
     }
 
-    /// The spec of an evaluation configuration.
-    pub fn of(config: &EvalConfig) -> Self {
+    /// The spec of a run of `method` with these settings (what
+    /// [`crate::runner::EvalConfig::spec`] gives): the correspondence counts
+    /// for SSR alone, and finetuning for the methods that have a policy.
+    pub fn of_parts(
+        method: EvalMethod,
+        correspond: &CorrespondOptions,
+        finetune_steps: usize,
+        noisy: bool,
+    ) -> Self {
         Self {
-            method: config.method,
-            correspond: if config.method.is_ssr() {
-                CorrespondName::of(&config.correspond)
+            method,
+            correspond: if method.is_ssr() {
+                CorrespondName::of(correspond)
             } else {
                 CorrespondName::REFERENCE
             },
-            finetuned: config.finetune_steps > 0
-                && !matches!(config.method, EvalMethod::Oracle | EvalMethod::Random),
-            noisy: !config.world.noise.is_none(),
+            finetuned: finetune_steps > 0
+                && !matches!(method, EvalMethod::Oracle | EvalMethod::Random),
+            noisy,
         }
     }
 
