@@ -5,8 +5,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use seespot_eval::EvalMethod;
 use seespot_eval::Summary;
-use seespot_eval::report::{self, write_report};
-use seespot_eval::runner::{EvalConfig, run_task, world_config};
+use seespot_eval::runner::{EvalConfig, Evaluation, Finished, world_config};
 use seespot_sim::{Seeds, TaskId};
 use seespot_ssr::correspond::Correspondence;
 use seespot_ssr::{CorrespondOptions, Layout};
@@ -107,35 +106,6 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
     } else {
         vec![args.task.parse::<TaskId>().map_err(anyhow::Error::msg)?]
     };
-    let custom = tasks.iter().any(|t| !t.is_builtin());
-    if custom {
-        // A task defined by its demonstrations has no policy, oracle or
-        // TransporterNet of its own: SSR reasons with all four policies.
-        if !matches!(
-            args.method,
-            EvalMethod::SsrCcd
-                | EvalMethod::SsrL2cd
-                | EvalMethod::SsrCcdLoopBreak
-                | EvalMethod::Random
-        ) || args.finetune_steps > 0
-        {
-            anyhow::bail!(
-                "--method {}{}: a custom task ({}) has no policy, oracle or TransporterNet of its \
-                 own; evaluate it with ssr-ccd, ssr-l2cd, ssr-ccd-loopbreak or random",
-                args.method.as_str(),
-                if args.finetune_steps > 0 {
-                    " --finetune-steps"
-                } else {
-                    ""
-                },
-                args.task
-            );
-        }
-        let layout = Layout::new(&args.models, &args.demos);
-        for t in &tasks {
-            layout.load_task(*t)?;
-        }
-    }
     let seeds = Seeds::new(args.seed, args.trials)?;
     if seeds.split() == seespot_sim::Split::Train && !args.training_seeds {
         anyhow::bail!(
@@ -144,39 +114,9 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
             args.seed
         );
     }
-    if args.finetune_steps > 0 && matches!(args.method, EvalMethod::Oracle | EvalMethod::Random) {
-        anyhow::bail!(
-            "--finetune-steps {}: method {} has no policy to finetune",
-            args.finetune_steps,
-            args.method.as_str()
-        );
-    }
     let mut world = world_config(args.resolution);
     if let Some(path) = &args.noise {
-        let scene = seespot_sim::Scene::load(path)?;
-        if scene.resolution != args.resolution {
-            anyhow::bail!(
-                "{}: field `resolution` is {} but --resolution is {}",
-                path.display(),
-                scene.resolution,
-                args.resolution
-            );
-        }
-        if scene.blocks.is_some() {
-            anyhow::bail!(
-                "{}: field `blocks`: --noise takes only the scene's noise, and an evaluation \
-                 starts every trial from its seed; use `seespot sim run --scene` or `seespot \
-                 view --scene` for an explicit start",
-                path.display()
-            );
-        }
-        if scene.noise.is_none() {
-            anyhow::bail!(
-                "{}: field `noise`: the scene has no sensor noise",
-                path.display()
-            );
-        }
-        world.noise = scene.noise;
+        world.noise = noise_of(path, args.resolution)?;
     }
     let config = EvalConfig {
         method: args.method,
@@ -187,74 +127,104 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         correspond: correspond_options(&args)?,
         finetune_steps: args.finetune_steps,
     };
-    // One run per output folder: held until the report is written.
-    let _lock = seespot_eval::lock::OutputLock::acquire(&args.out)?;
     let name = config.spec().to_string();
-    let bar = crate::progress_bar(tasks.len() as u64 * args.trials, false);
-    for task in &tasks {
+    // Holds the output folder's lock until the report is written.
+    let evaluation = Evaluation::start(config, tasks)?;
+    let bar = crate::progress_bar(evaluation.tasks().len() as u64 * args.trials, false);
+    for &task in evaluation.tasks() {
         let (mut ok, mut n) = (0, 0);
-        let records = run_task(&config, *task, &mut |r| {
-            n += 1;
-            ok += r.success as usize;
-            bar.set_message(format!("{name} {task}: success {ok}/{n}"));
-            bar.inc(1);
-        })
-        .with_context(|| format!("evaluating {name} on {task}"))?;
+        let records = evaluation
+            .run_task(task, &mut |r| {
+                n += 1;
+                ok += r.success as usize;
+                bar.set_message(format!("{name} {task}: success {ok}/{n}"));
+                bar.inc(1);
+            })
+            .with_context(|| format!("evaluating {name} on {task}"))?;
         if args.record.is_some() {
-            record_failed(&config, &name, &records, &bar)?;
+            record_failed(evaluation.config(), &name, &records, &bar)?;
         }
     }
     bar.finish_and_clear();
-    if custom {
-        let path = args.out.join("custom.md");
-        let text = seespot_eval::report::custom_markdown(&args.out)?;
-        std::fs::write(&path, &text).with_context(|| format!("writing {}", path.display()))?;
-        if args.json {
-            return crate::print_json(&serde_json::json!({
-                "method": name,
-                "out": args.out,
-                "seeds": seeds,
-                "report": path,
-            }));
+    let mut doc = serde_json::json!({"method": name, "out": args.out, "seeds": seeds});
+    match evaluation.finish(args.finetune_steps.max(333))? {
+        Finished::Custom { path, text } => {
+            if args.json {
+                doc["report"] = serde_json::json!(path);
+                return crate::print_json(&doc);
+            }
+            outln!("{text}")?;
+            outln!("report: {}", path.display())?;
         }
-        outln!("{text}")?;
-        outln!("report: {}", path.display())?;
-        return Ok(());
+        Finished::Table(summary) => {
+            let ours: Vec<&Summary> = summary
+                .summaries
+                .iter()
+                .filter(|s| s.method == name)
+                .collect();
+            if args.json {
+                for (k, v) in [
+                    ("summaries", serde_json::json!(ours)),
+                    ("ccd_vs_l2cd", serde_json::json!(summary.ccd_vs_l2cd)),
+                    ("comparisons", serde_json::json!(summary.comparisons)),
+                    (
+                        "ccd_l2cd_disagreements",
+                        serde_json::json!(summary.disagreements),
+                    ),
+                    ("c_histograms", serde_json::json!(summary.c_histograms)),
+                ] {
+                    doc[k] = v;
+                }
+                return crate::print_json(&doc);
+            }
+            for s in ours {
+                outln!(
+                    "{name} {}: success {}/{} ({:.0}%), progress {:.0}% ± {:.0}%, action efficiency {}",
+                    s.task.map(|t| t.as_str()).unwrap_or("mean"),
+                    s.successes,
+                    s.trials,
+                    100.0 * s.success_rate,
+                    100.0 * s.progress,
+                    100.0 * s.progress_se,
+                    s.action_efficiency
+                        .map_or("-".into(), |e| format!("{:.0}%", 100.0 * e)),
+                )?;
+            }
+            outln!("report: {}", args.out.join("summary.md").display())?;
+        }
     }
-    let summary = write_report(&args.out, &config.layout, args.finetune_steps.max(333))?;
-    let ours: Vec<&Summary> = summary
-        .summaries
-        .iter()
-        .filter(|s| s.method == name)
-        .collect();
-    if args.json {
-        return crate::print_json(&serde_json::json!({
-            "method": name,
-            "out": args.out,
-            "seeds": seeds,
-            "summaries": ours,
-            "ccd_vs_l2cd": summary.ccd_vs_l2cd,
-            "comparisons": summary.comparisons,
-            "ccd_l2cd_disagreements": summary.disagreements,
-            "c_histogram_buckets": report::C_BUCKETS,
-            "c_histograms": summary.c_histograms,
-        }));
-    }
-    for s in ours {
-        outln!(
-            "{name} {}: success {}/{} ({:.0}%), progress {:.0}% ± {:.0}%, action efficiency {}",
-            s.task.map(|t| t.as_str()).unwrap_or("mean"),
-            s.successes,
-            s.trials,
-            100.0 * s.success_rate,
-            100.0 * s.progress,
-            100.0 * s.progress_se,
-            s.action_efficiency
-                .map_or("-".into(), |e| format!("{:.0}%", 100.0 * e)),
-        )?;
-    }
-    outln!("report: {}", args.out.join("summary.md").display())?;
     Ok(())
+}
+
+/// The sensor noise of the scene file `--noise` names, checked against the
+/// evaluation: the same resolution, no explicit blocks, a `[noise]` table.
+fn noise_of(path: &std::path::Path, resolution: usize) -> anyhow::Result<seespot_sim::SensorNoise> {
+    let scene = seespot_sim::Scene::load(path)?;
+    let refuse = |field: &str, why: String| {
+        Err(anyhow::anyhow!(
+            "{}: field `{field}`: {why}",
+            path.display()
+        ))
+    };
+    if scene.resolution != resolution {
+        return refuse(
+            "resolution",
+            format!("{} is not --resolution {resolution}", scene.resolution),
+        );
+    }
+    if scene.blocks.is_some() {
+        return refuse(
+            "blocks",
+            "--noise takes only the scene's noise, and an evaluation starts every trial from \
+             its seed; use `seespot sim run --scene` or `seespot view --scene` for an explicit \
+             start"
+                .into(),
+        );
+    }
+    if scene.noise.is_none() {
+        return refuse("noise", "the scene has no sensor noise".into());
+    }
+    Ok(scene.noise)
 }
 
 /// `eval --record failed`: a rerun recording of each failed trial in

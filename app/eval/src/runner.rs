@@ -21,7 +21,9 @@ use seespot_ssr::explain::Method;
 use seespot_ssr::layout::{Layout, records_path};
 use seespot_ssr::policy::{SsrConfig, SsrError, SsrPolicy};
 
+use crate::lock::{LockError, OutputLock};
 use crate::records::{RecordError, append_record, read_records};
+use crate::report::{Report, ReportError, custom_markdown, write_report};
 use crate::run::{EvalMethod, RunSpec};
 
 /// What to evaluate.
@@ -83,6 +85,9 @@ pub enum EvalError {
     Demo(#[from] seespot_sim::DemoError),
     #[error("{0}")]
     Invalid(String),
+    #[error(transparent)]
+    Lock(#[from] LockError),
+
     #[error("{0}")]
     Actor(seespot_sim::ActorError),
 }
@@ -350,6 +355,106 @@ pub fn replay_config(record: &TrialRecord, layout: &Layout) -> Result<EvalConfig
     Ok(config)
 }
 
+/// An evaluation as a front end starts it: the configuration and its tasks,
+/// checked, with the output folder's lock held until it is
+/// [finished](Evaluation::finish) or dropped, so that two runs can never
+/// write the same records.
+#[derive(Debug)]
+pub struct Evaluation {
+    config: EvalConfig,
+    tasks: Vec<TaskId>,
+    _lock: OutputLock,
+}
+
+/// What a finished [`Evaluation`] wrote.
+#[derive(Debug)]
+pub enum Finished {
+    /// The four folds' report (`summary.md`, `summary.csv`, `figure4.png`).
+    Table(Report),
+    /// The custom tasks' report (`custom.md`) and its text.
+    Custom { path: PathBuf, text: String },
+}
+
+impl Evaluation {
+    /// Checks `config` against `tasks` and takes the lock on its output
+    /// folder. A custom task has no policy, oracle or TransporterNet of its
+    /// own: it takes SSR and random actions only, unfinetuned, and its
+    /// demonstrations must define it.
+    pub fn start(config: EvalConfig, tasks: Vec<TaskId>) -> Result<Self, EvalError> {
+        if config.finetune_steps > 0
+            && matches!(config.method, EvalMethod::Oracle | EvalMethod::Random)
+        {
+            return Err(EvalError::Invalid(format!(
+                "--finetune-steps {}: method {} has no policy to finetune",
+                config.finetune_steps,
+                config.method.as_str()
+            )));
+        }
+        if let Some(custom) = tasks.iter().find(|t| !t.is_builtin()) {
+            if !(config.method.is_ssr() || config.method == EvalMethod::Random)
+                || config.finetune_steps > 0
+            {
+                return Err(EvalError::Invalid(format!(
+                    "--method {}{}: a custom task ({custom}) has no policy, oracle or \
+                     TransporterNet of its own; evaluate it with ssr-ccd, ssr-l2cd, \
+                     ssr-ccd-loopbreak or random",
+                    config.method.as_str(),
+                    if config.finetune_steps > 0 {
+                        " --finetune-steps"
+                    } else {
+                        ""
+                    },
+                )));
+            }
+            for t in tasks.iter().filter(|t| !t.is_builtin()) {
+                config.layout.load_task(*t)?;
+            }
+        }
+        let lock = OutputLock::acquire(&config.out_dir)?;
+        Ok(Self {
+            config,
+            tasks,
+            _lock: lock,
+        })
+    }
+
+    pub fn config(&self) -> &EvalConfig {
+        &self.config
+    }
+
+    pub fn tasks(&self) -> &[TaskId] {
+        &self.tasks
+    }
+
+    /// Runs (or resumes) one task: [`run_task`].
+    pub fn run_task(
+        &self,
+        task: TaskId,
+        on_trial: &mut dyn FnMut(&TrialRecord),
+    ) -> Result<Vec<TrialRecord>, EvalError> {
+        run_task(&self.config, task, on_trial)
+    }
+
+    /// Writes the report over every record of the output folder (the custom
+    /// tasks' own report when the evaluation held one) and lets the lock go.
+    /// `finetune_steps`: what a finetuned row's records that do not state
+    /// their steps were finetuned with ([`write_report`]).
+    pub fn finish(self, finetune_steps: usize) -> Result<Finished, EvalError> {
+        let out = &self.config.out_dir;
+        let report = |e: ReportError| EvalError::Invalid(e.to_string());
+        if self.tasks.iter().any(|t| !t.is_builtin()) {
+            let path = out.join("custom.md");
+            let text = custom_markdown(out).map_err(report)?;
+            std::fs::write(&path, &text)
+                .map_err(|e| EvalError::Invalid(format!("{}: {e}", path.display())))?;
+            return Ok(Finished::Custom { path, text });
+        }
+        Ok(Finished::Table(
+            write_report(out, &self.config.layout, finetune_steps).map_err(report)?,
+        ))
+    }
+}
+
 /// Runs (or resumes) the evaluation of one task; `on_trial` sees every trial
 /// record as it is written (also the ones already on disk, first). A record on
 /// disk counts for the seed it names; records of seeds outside `config.seeds`
@@ -431,7 +536,14 @@ pub fn run_task(
     Ok(records)
 }
 
-fn make_actor(config: &EvalConfig, task: TaskId) -> Result<Box<dyn Actor>, EvalError> {
+/// The actor of `config`'s method on `task`, as the evaluation runs it: SSR
+/// over the other tasks' policies (finetuned first with finetune steps), the
+/// task's own SPOT-Q policy or TransporterNet (or another task's, finetuned
+/// on the demonstrations), the oracle or random actions.
+pub fn make_actor(
+    config: &EvalConfig,
+    task: TaskId,
+) -> Result<Box<dyn Actor + Send + Sync>, EvalError> {
     Ok(match config.method {
         EvalMethod::SsrCcd | EvalMethod::SsrL2cd | EvalMethod::SsrCcdLoopBreak => {
             let mut ssr = SsrPolicy::load(task, &config.layout, config.ssr_config())?;

@@ -7,9 +7,7 @@ use std::path::PathBuf;
 use pyo3::prelude::*;
 use seespot_eval::EvalMethod;
 use seespot_eval::runner::EvalConfig;
-use seespot_policy::{PolicyNet, RandomActor};
-use seespot_sim::{Actor, Oracle, Provenance, Seeds, TaskId, Trial};
-use seespot_ssr::SsrPolicy;
+use seespot_sim::{Actor, Provenance, Seeds, TaskId, Trial};
 
 use crate::arrays::{self, bad};
 use crate::trial::non_negative;
@@ -45,46 +43,23 @@ impl Evaluator {
         let task = arrays::task(task, &demos_dir)?;
         let resolution = non_negative(resolution, "resolution")?;
         let resolution = arrays::resolution(resolution as usize, "resolution")?;
-        let ssr = crate::ssr::ssr_config(
-            match eval_method {
-                EvalMethod::SsrL2cd => "ssr-l2cd",
-                EvalMethod::SsrCcdLoopBreak => "ssr-ccd-loopbreak",
-                _ => "ssr-ccd",
-            },
-            correspond,
-        )?;
+        let mode: seespot_ssr::correspond::Correspondence =
+            correspond.parse().map_err(|e| bad("correspond", e))?;
         let config = EvalConfig {
             method: eval_method,
             seeds: Seeds::new(1, 1).map_err(|e| bad("seeds", e))?,
             out_dir: PathBuf::new(),
             layout: seespot_ssr::Layout::new(models_dir, demos_dir),
             world: seespot_eval::runner::world_config(resolution),
-            correspond: ssr.correspond,
+            correspond: seespot_ssr::CorrespondOptions::of_mode(mode),
             finetune_steps: 0,
         };
         let name = config.spec().to_string();
         let (actor, provenance) = py
             .detach(|| {
-                let provenance =
-                    seespot_eval::runner::provenance(&config, task).map_err(|e| e.to_string())?;
-                let actor: Box<dyn Actor + Send + Sync> = match eval_method {
-                    EvalMethod::SsrCcd | EvalMethod::SsrL2cd | EvalMethod::SsrCcdLoopBreak => {
-                        Box::new(
-                            SsrPolicy::load(task, &config.layout, ssr)
-                                .map_err(|e| e.to_string())?,
-                        )
-                    }
-                    EvalMethod::SpotQ => Box::new(
-                        PolicyNet::load(&config.layout.model(task)).map_err(|e| e.to_string())?,
-                    ),
-                    EvalMethod::Oracle => Box::new(Oracle::new(task)),
-                    EvalMethod::Random => Box::new(RandomActor::default()),
-                    EvalMethod::Transporter => Box::new(seespot_policy::TransporterActor::new(
-                        seespot_policy::TransporterNet::load(&config.layout.transporter(task))
-                            .map_err(|e| e.to_string())?,
-                    )),
-                };
-                Ok::<_, String>((actor, provenance))
+                let provenance = seespot_eval::runner::provenance(&config, task)?;
+                let actor = seespot_eval::runner::make_actor(&config, task)?;
+                Ok::<_, seespot_eval::EvalError>((actor, provenance))
             })
             .map_err(|e| bad("models_dir/demos_dir", e))?;
         Ok(Self {
