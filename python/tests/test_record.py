@@ -11,13 +11,18 @@ import seespot
 from conftest import without_timing
 
 
-def test_oracle_record_equals_cli(tmp_path: Path, seespot_bin: Path) -> None:
+def cli_eval(seespot_bin: Path, out: Path, method: str, task: str, trials: int) -> None:
+    """`seespot eval` of `trials` test seeds into `out`."""
     subprocess.run(
-        [str(seespot_bin), "eval", "--method", "oracle", "--task", "stack", "--trials", "2",
-         "--seed", "1", "--out", str(tmp_path)],
+        [str(seespot_bin), "eval", "--method", method, "--task", task, "--trials", str(trials),
+         "--seed", "1", "--out", str(out)],
         check=True,
         capture_output=True,
     )
+
+
+def test_oracle_record_equals_cli(tmp_path: Path, seespot_bin: Path) -> None:
+    cli_eval(seespot_bin, tmp_path, "oracle", "stack", 2)
     path = seespot.records_path(tmp_path, "oracle", "stack")
     cli = [json.loads(line) for line in Path(path).read_text().splitlines()]
     assert [r["seed"] for r in cli] == [1, 3]
@@ -28,12 +33,7 @@ def test_oracle_record_equals_cli(tmp_path: Path, seespot_bin: Path) -> None:
 
 def test_transporter_record_equals_cli(tmp_path: Path, seespot_bin: Path) -> None:
     assert "transporter" in seespot.METHODS
-    subprocess.run(
-        [str(seespot_bin), "eval", "--method", "transporter", "--task", "unstack", "--trials", "1",
-         "--seed", "1", "--out", str(tmp_path)],
-        check=True,
-        capture_output=True,
-    )
+    cli_eval(seespot_bin, tmp_path, "transporter", "unstack", 1)
     path = seespot.records_path(tmp_path, "transporter", "unstack")
     (r,) = [json.loads(line) for line in Path(path).read_text().splitlines()]
     assert r["provenance"]["files"]["models/transporter/unstack.safetensors"]

@@ -82,119 +82,51 @@ fn review_lists_the_custom_tasks_trials() {
 fn what_a_custom_task_cannot_do_is_refused_by_name() {
     let out = tempfile::tempdir().expect("tempdir");
     let out_s = out.path().to_str().expect("utf-8");
-    let cases: [(&[&str], &str); 9] = [
+    // `OUT` stands for the temporary folder.
+    let cases = [
         (
-            &[
-                "train",
-                "--task",
-                "custom:l-shape",
-                "--actions",
-                "10",
-                "--out",
-                out_s,
-            ],
+            "train --task custom:l-shape --actions 10 --out OUT",
             "needs no training",
         ),
         (
-            &[
-                "transporter",
-                "train",
-                "--task",
-                "custom:l-shape",
-                "--models",
-                out_s,
-            ],
+            "transporter train --task custom:l-shape --models OUT",
             "built-in tasks",
         ),
         (
-            &[
-                "sim",
-                "run",
-                "--task",
-                "custom:never-shown",
-                "--policy",
-                "random",
-                "--trials",
-                "1",
-            ],
+            "sim run --task custom:never-shown --policy random --trials 1",
             "no demonstrations of custom:never-shown",
         ),
         (
-            &["record", "--task", "custom:never-shown", "--out", out_s],
+            "record --task custom:never-shown --out OUT",
             "no demonstrations of custom:never-shown",
         ),
         (
-            &[
-                "eval",
-                "--method",
-                "spot-q",
-                "--task",
-                "custom:l-shape",
-                "--trials",
-                "1",
-                "--out",
-                out_s,
-            ],
+            "eval --method spot-q --task custom:l-shape --trials 1 --out OUT",
             "has no policy, oracle or TransporterNet of its own",
         ),
         (
-            &[
-                "eval",
-                "--method",
-                "ssr-ccd",
-                "--task",
-                "custom:never-shown",
-                "--trials",
-                "1",
-                "--out",
-                out_s,
-            ],
+            "eval --method ssr-ccd --task custom:never-shown --trials 1 --out OUT",
             "no demonstrations of custom:never-shown",
         ),
         (
-            &[
-                "demo",
-                "record",
-                "--task",
-                "custom:l-shape",
-                "--seed",
-                "0",
-                "--out",
-                out_s,
-            ],
+            "demo record --task custom:l-shape --seed 0 --out OUT",
             "has no scripted oracle: pass --actions",
         ),
         (
-            &[
-                "demo",
-                "record",
-                "--task",
-                "stack",
-                "--seed",
-                "0",
-                "--colours-matter",
-                "--out",
-                out_s,
-            ],
+            "demo record --task stack --seed 0 --colours-matter --out OUT",
             "--colours-matter",
         ),
         (
-            &[
-                "eval",
-                "--method",
-                "ssr-ccd",
-                "--task",
-                "custom:a/b",
-                "--trials",
-                "1",
-                "--out",
-                out_s,
-            ],
+            "eval --method ssr-ccd --task custom:a/b --trials 1 --out OUT",
             "holds no path",
         ),
     ];
-    for (args, want) in cases {
-        let (code, err) = run(args);
+    for (line, want) in cases {
+        let args: Vec<&str> = line
+            .split(' ')
+            .map(|w| if w == "OUT" { out_s } else { w })
+            .collect();
+        let (code, err) = run(&args);
         assert_ne!(code, 0, "{args:?} was accepted");
         assert!(err.contains(want), "{args:?}: {err}");
     }

@@ -32,8 +32,6 @@ fn issue_10_resolution_zero_or_off_grid_is_refused_by_every_command() {
             "record",
             "--task",
             "stack",
-            "--seed",
-            "0",
             "--out",
             "/nonexistent/x",
         ],

@@ -152,17 +152,9 @@ fn re_recording_a_shipped_demo_leaves_it_byte_identical_and_another_needs_overwr
 
     // The README's re-record command, on an unchanged demonstration: the
     // same bytes, so nothing is written and `git status` stays clean.
-    let args = [
-        "demo",
-        "record",
-        "--task",
-        "stack",
-        "--seed",
-        "0",
-        "--out",
-        "demos/stack/0",
-        "--json",
-    ];
+    let args: Vec<&str> = "demo record --task stack --seed 0 --out demos/stack/0 --json"
+        .split(' ')
+        .collect();
     let (code, out, err) = seespot_in(dir.path(), &args);
     assert_eq!(code, 0, "{err}");
     let report: serde_json::Value = serde_json::from_str(&out).expect("one JSON object");
@@ -170,16 +162,9 @@ fn re_recording_a_shipped_demo_leaves_it_byte_identical_and_another_needs_overwr
     assert_eq!(contents(&demo), before);
 
     // Another demonstration (seed 2) is refused there without --overwrite.
-    let other = [
-        "demo",
-        "record",
-        "--task",
-        "stack",
-        "--seed",
-        "2",
-        "--out",
-        "demos/stack/0",
-    ];
+    let other: Vec<&str> = "demo record --task stack --seed 2 --out demos/stack/0"
+        .split(' ')
+        .collect();
     let (code, _, err) = seespot_in(dir.path(), &other);
     assert_ne!(code, 0, "{err}");
     assert!(err.contains("--overwrite"), "{err}");

@@ -358,22 +358,8 @@ pub struct CellAse {
 
 impl CellAse {
     /// From the rotated cell features and their taps; every action allowed
-    /// where `mask` (`H x W`, the same for every rotation) allows it.
-    pub fn new(
-        primitive: Primitive,
-        resolution: usize,
-        cells: usize,
-        dim: usize,
-        features: Vec<f32>,
-        taps: Arc<Taps>,
-        pixel_mask: &[bool],
-    ) -> Self {
-        Self::with_rotations(
-            primitive, resolution, cells, dim, features, taps, pixel_mask, None,
-        )
-    }
-
-    /// [`Self::new`] where only rotation `only` was embedded (when given):
+    /// where `pixel_mask` (`H x W`, the same for every rotation) allows it.
+    /// When rotation `only` is given, only it was embedded:
     /// `features` is then that rotation's plane alone (`cells x cells x D`),
     /// the other rotations' cells read as zeros and all their actions are
     /// masked. One plane and a shared plane of zeros are kept, not 16 (a
@@ -716,7 +702,7 @@ mod tests {
             let queries: Vec<Vec<f32>> = (0..2).map(|k| values(dim, seed * 10 + k)).collect();
             let refs: Vec<&[f32]> = queries.iter().map(Vec::as_slice).collect();
             for mask in [blobs, vec![true; res * res]] {
-                let ase = CellAse::new(
+                let ase = CellAse::with_rotations(
                     seespot_sim::Primitive::Grasp,
                     res,
                     cells,
@@ -724,6 +710,7 @@ mod tests {
                     features.clone(),
                     taps.clone(),
                     &mask,
+                    None,
                 );
                 // A map embedded at one rotation reads as the whole map there.
                 let plane = cells * cells * dim;

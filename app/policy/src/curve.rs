@@ -116,38 +116,48 @@ pub fn plot(stem: &Path, title: &str, rows: &[CurveRow]) -> Result<PathBuf, Poli
             ("loss", RED, series(&|r| r.loss)),
         ]
     };
-    if with_text {
+    let chart = Chart {
+        title,
+        with_text,
+        max_x,
+        max_y,
+    };
+    let drawn = if with_text {
         draw(
             BitMapBackend::new(&path, (900, 540)).into_drawing_area(),
-            title,
-            with_text,
-            max_x,
-            max_y,
+            &chart,
             lines(()),
         )
-        .map_err(err)?;
     } else {
         draw(
             SVGBackend::new(&path, (900, 540)).into_drawing_area(),
-            title,
-            with_text,
-            max_x,
-            max_y,
+            &chart,
             lines(()),
         )
-        .map_err(err)?;
-    }
+    };
+    drawn.map_err(err)?;
     Ok(path)
+}
+
+/// What a curve's chart shows besides its lines.
+struct Chart<'a> {
+    title: &'a str,
+    with_text: bool,
+    max_x: f32,
+    max_y: f32,
 }
 
 fn draw<DB: DrawingBackend>(
     root: DrawingArea<DB, plotters::coord::Shift>,
-    title: &str,
-    with_text: bool,
-    max_x: f32,
-    max_y: f32,
+    chart: &Chart,
     lines: [Line; 3],
 ) -> Result<(), String> {
+    let Chart {
+        title,
+        with_text,
+        max_x,
+        max_y,
+    } = *chart;
     root.fill(&WHITE).map_err(|e| e.to_string())?;
     let mut builder = ChartBuilder::on(&root);
     builder.margin(15);

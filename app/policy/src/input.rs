@@ -73,20 +73,7 @@ impl NetInput {
         let offset;
         if h.is_multiple_of(n) {
             let k = h / n;
-            let inv = 1.0 / (k * k) as f32;
-            for c in 0..INPUT_CHANNELS {
-                for y in 0..n {
-                    for x in 0..n {
-                        let mut s = 0.0;
-                        for dy in 0..k {
-                            for dx in 0..k {
-                                s += src(c, y * k + dy, x * k + dx);
-                            }
-                        }
-                        data[(c * n + y) * n + x] = s * inv;
-                    }
-                }
-            }
+            area_average(INPUT_CHANNELS, n, k, src, &mut data);
             offset = (k as f32 - 1.0) / 2.0 * (WORKSPACE_SIZE / h as f32);
         } else {
             let scale = h as f32 / n as f32;
@@ -112,6 +99,32 @@ impl NetInput {
             n,
             source_resolution: h,
             offset,
+        }
+    }
+}
+
+/// `channels` planes of `k to x k to` values (`src(c, y, x)`) averaged over
+/// `k x k` blocks into `out` (`channels x to x to`), each block summed row by
+/// row.
+pub(crate) fn area_average(
+    channels: usize,
+    to: usize,
+    k: usize,
+    src: impl Fn(usize, usize, usize) -> f32,
+    out: &mut [f32],
+) {
+    let inv = 1.0 / (k * k) as f32;
+    for c in 0..channels {
+        for y in 0..to {
+            for x in 0..to {
+                let mut s = 0.0;
+                for dy in 0..k {
+                    for dx in 0..k {
+                        s += src(c, y * k + dy, x * k + dx);
+                    }
+                }
+                out[(c * to + y) * to + x] = s * inv;
+            }
         }
     }
 }

@@ -309,12 +309,13 @@ impl PolicyNet {
                 tensors.insert(format!("{}.{name}", p.as_str()), F32Tensor { shape, data });
             }
         }
-        let mut meta = BTreeMap::new();
-        meta.insert("format".into(), FORMAT.into());
-        meta.insert("architecture".into(), ARCHITECTURE.into());
-        meta.insert("format_version".into(), FORMAT_VERSION.to_string());
-        meta.insert("seespot_version".into(), self.meta.seespot_version.clone());
-        meta.insert("task".into(), self.meta.task.clone());
+        let mut meta = tensor_file::header(
+            FORMAT,
+            ARCHITECTURE,
+            FORMAT_VERSION,
+            &self.meta.seespot_version,
+            &self.meta.task,
+        );
         meta.insert("resolution".into(), self.meta.resolution.to_string());
         meta.insert("rotations".into(), self.meta.rotations.to_string());
         meta.insert("embedding_dim".into(), self.meta.embedding_dim.to_string());
@@ -333,11 +334,7 @@ impl PolicyNet {
             path: path.to_path_buf(),
             reason,
         };
-        let get = |k: &str| -> Result<&String, PolicyError> {
-            file.metadata
-                .get(k)
-                .ok_or_else(|| format(format!("metadata field `{k}` is missing")))
-        };
+        let get = |k: &str| file.field(path, k);
         let expect = |k: &str, want: &str| -> Result<(), PolicyError> {
             let got = get(k)?;
             if got != want {
@@ -367,18 +364,7 @@ impl PolicyNet {
             let mut ts = Vec::new();
             for (name, shape) in param_shapes() {
                 let full = format!("{}.{name}", p.as_str());
-                let t = file.tensors.get(&full).ok_or_else(|| PolicyError::Tensor {
-                    path: path.to_path_buf(),
-                    tensor: full.clone(),
-                    reason: "missing".into(),
-                })?;
-                if t.shape != shape {
-                    return Err(PolicyError::Tensor {
-                        path: path.to_path_buf(),
-                        tensor: full,
-                        reason: format!("shape {:?}, expected {shape:?}", t.shape),
-                    });
-                }
+                let t = file.tensor(path, &full, &shape)?;
                 ts.push(Tensor::from_vec(t.data.clone(), shape, &Device::Cpu)?);
                 expected.insert(full);
             }

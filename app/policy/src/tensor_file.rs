@@ -132,6 +132,61 @@ pub struct TensorFile {
     pub tensors: BTreeMap<String, F32Tensor>,
 }
 
+impl TensorFile {
+    /// The metadata field `key` of the file read from `path`; an error naming
+    /// both when it is missing.
+    pub fn field(&self, path: &Path, key: &str) -> Result<&String, PolicyError> {
+        self.metadata.get(key).ok_or_else(|| PolicyError::Format {
+            path: path.to_path_buf(),
+            reason: format!("metadata field `{key}` is missing"),
+        })
+    }
+
+    /// The tensor `name` of the file read from `path`, which must have
+    /// `shape`; an error naming the file and the tensor otherwise.
+    pub fn tensor(
+        &self,
+        path: &Path,
+        name: &str,
+        shape: &[usize],
+    ) -> Result<&F32Tensor, PolicyError> {
+        let refuse = |reason: String| PolicyError::Tensor {
+            path: path.to_path_buf(),
+            tensor: name.to_owned(),
+            reason,
+        };
+        let t = self
+            .tensors
+            .get(name)
+            .ok_or_else(|| refuse("missing".into()))?;
+        if t.shape != shape {
+            return Err(refuse(format!("shape {:?}, expected {shape:?}", t.shape)));
+        }
+        Ok(t)
+    }
+}
+
+/// The metadata every weights file starts with: its format, architecture
+/// and format version, the seespot version that wrote it and its task.
+pub fn header(
+    format: &str,
+    architecture: &str,
+    format_version: u32,
+    seespot_version: &str,
+    task: &str,
+) -> BTreeMap<String, String> {
+    [
+        ("format", format.to_owned()),
+        ("architecture", architecture.to_owned()),
+        ("format_version", format_version.to_string()),
+        ("seespot_version", seespot_version.to_owned()),
+        ("task", task.to_owned()),
+    ]
+    .into_iter()
+    .map(|(k, v)| (k.to_owned(), v))
+    .collect()
+}
+
 /// Reads and verifies a file written by [`write()`]: header, dtypes (F32 only),
 /// offsets, checksums and finiteness of every tensor.
 pub fn read(path: &Path) -> Result<TensorFile, PolicyError> {

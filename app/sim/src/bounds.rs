@@ -26,6 +26,11 @@ pub struct Bound {
 }
 
 impl Bound {
+    /// The range `min..=max` of `unit`.
+    pub const fn new(min: u64, max: u64, unit: &'static str) -> Self {
+        Self { min, max, unit }
+    }
+
     /// `value` if it lies in the range, else a message with the range.
     pub fn check(&self, value: u64) -> Result<u64, String> {
         if (self.min..=self.max).contains(&value) {
@@ -57,46 +62,22 @@ impl Bound {
 }
 
 /// Trials of one run (`eval`, `sim run`, `record`; a scene's `seeds.count`).
-pub const TRIALS: Bound = Bound {
-    min: 1,
-    max: 100_000,
-    unit: "trials",
-};
+pub const TRIALS: Bound = Bound::new(1, 100_000, "trials");
 
 /// Own-task evaluation trials after training (0 skips the evaluation).
-pub const EVAL_TRIALS: Bound = Bound {
-    min: 0,
-    max: 100_000,
-    unit: "trials",
-};
+pub const EVAL_TRIALS: Bound = Bound::new(0, 100_000, "trials");
 
 /// Timed actions of `bench sim` and `bench view`.
-pub const BENCH_ACTIONS: Bound = Bound {
-    min: 1,
-    max: 100_000,
-    unit: "actions",
-};
+pub const BENCH_ACTIONS: Bound = Bound::new(1, 100_000, "actions");
 
 /// Timed iterations of `bench policy` and `bench ssr`.
-pub const BENCH_ITERATIONS: Bound = Bound {
-    min: 1,
-    max: 10_000,
-    unit: "iterations",
-};
+pub const BENCH_ITERATIONS: Bound = Bound::new(1, 10_000, "iterations");
 
 /// Actions of one training run (`train --actions`) and its checkpoint interval.
-pub const TRAIN_ACTIONS: Bound = Bound {
-    min: 1,
-    max: 10_000_000,
-    unit: "actions",
-};
+pub const TRAIN_ACTIONS: Bound = Bound::new(1, 10_000_000, "actions");
 
 /// Finetuning steps per policy (`eval --finetune-steps`; 0: no finetuning).
-pub const FINETUNE_STEPS: Bound = Bound {
-    min: 0,
-    max: 1_000_000,
-    unit: "steps",
-};
+pub const FINETUNE_STEPS: Bound = Bound::new(0, 1_000_000, "steps");
 
 /// Largest Gaussian smoothing sigma of the distance maps, pixels.
 pub const MAX_SMOOTH_SIGMA: f32 = 20.0;

@@ -198,36 +198,6 @@ impl TrialRecord {
 mod tests {
     use super::*;
 
-    /// A hand-made record of trial `trial` (seed `2 trial + 1`) of `ssr-ccd` on stack.
-    fn example(
-        trial: usize,
-        success: bool,
-        actions: usize,
-        max_p: u8,
-        reversal: bool,
-    ) -> TrialRecord {
-        TrialRecord {
-            method: "ssr-ccd".into(),
-            task: TaskId::Stack,
-            seed: 2 * trial as u64 + 1,
-            trial,
-            success,
-            actions,
-            max_progress: max_p,
-            start_progress: 1,
-            final_progress: if success { 4 } else { 1 },
-            reversal,
-            start_redraws: 0,
-            end: Some(if success {
-                TrialEnd::Success
-            } else {
-                TrialEnd::ActionLimit
-            }),
-            actions_log: Vec::new(),
-            provenance: None,
-        }
-    }
-
     /// Older records' settings text reads as the object a record written
     /// today holds.
     #[test]
@@ -250,7 +220,8 @@ mod tests {
             serde_json::json!(3.0f32)
         );
         // Read from a record line, either form.
-        let mut r = example(0, true, 6, 4, false);
+        let trial = crate::Trial::new(crate::WorldConfig::default(), TaskId::Stack, 1);
+        let mut r = TrialRecord::new("ssr-ccd", 0, &trial, Vec::new());
         r.provenance = Some(Provenance {
             seespot_version: "0".into(),
             settings: want.clone(),

@@ -371,42 +371,35 @@ pub fn rotated_patches(input: &[f32], n: usize, y: usize, x: usize) -> Vec<f32> 
 
 /// Grid cell of heightmap pixel `p` at resolution `h` (nearest).
 pub fn to_grid(p: usize, h: usize) -> usize {
-    let n = GRID;
-    (((p as f32 + 0.5) * n as f32 / h as f32 - 0.5)
-        .round()
-        .max(0.0) as usize)
-        .min(n - 1)
+    nearest(p, h, GRID)
 }
 
 /// Heightmap pixel (resolution `h`) of grid cell `k` (nearest).
 pub fn from_grid(k: usize, h: usize) -> usize {
-    let n = GRID;
-    (((k as f32 + 0.5) * h as f32 / n as f32 - 0.5)
+    nearest(k, GRID, h)
+}
+
+/// The index at resolution `to` nearest to index `p` at resolution `from`
+/// (pixel centres aligned).
+fn nearest(p: usize, from: usize, to: usize) -> usize {
+    (((p as f32 + 0.5) * to as f32 / from as f32 - 0.5)
         .round()
         .max(0.0) as usize)
-        .min(h - 1)
+        .min(to - 1)
 }
 
 /// The 4 x [`GRID`] x [`GRID`] input of a TransporterNet: the network input
 /// averaged over 2 x 2 pixels.
 pub fn grid_input(input: &NetInput) -> Vec<f32> {
     let (n, g) = (input.n, GRID);
-    let k = n / g;
-    let inv = 1.0 / (k * k) as f32;
     let mut out = vec![0.0f32; INPUT_CHANNELS * g * g];
-    for c in 0..INPUT_CHANNELS {
-        for y in 0..g {
-            for x in 0..g {
-                let mut s = 0.0;
-                for dy in 0..k {
-                    for dx in 0..k {
-                        s += input.data[(c * n + y * k + dy) * n + x * k + dx];
-                    }
-                }
-                out[(c * g + y) * g + x] = s * inv;
-            }
-        }
-    }
+    crate::input::area_average(
+        INPUT_CHANNELS,
+        g,
+        n / g,
+        |c, y, x| input.data[(c * n + y) * n + x],
+        &mut out,
+    );
     out
 }
 
@@ -514,12 +507,13 @@ impl TransporterNet {
 
     /// The file metadata of this net.
     pub fn metadata(&self) -> BTreeMap<String, String> {
-        let mut meta = BTreeMap::new();
-        meta.insert("format".into(), FORMAT.into());
-        meta.insert("architecture".into(), ARCHITECTURE.into());
-        meta.insert("format_version".into(), FORMAT_VERSION.to_string());
-        meta.insert("seespot_version".into(), self.meta.seespot_version.clone());
-        meta.insert("task".into(), self.meta.task.clone());
+        let mut meta = tensor_file::header(
+            FORMAT,
+            ARCHITECTURE,
+            FORMAT_VERSION,
+            &self.meta.seespot_version,
+            &self.meta.task,
+        );
         meta.insert("rotations".into(), NUM_ROTATIONS.to_string());
         for (k, v) in &self.meta.extra {
             meta.insert(format!("extra.{k}"), v.clone());
@@ -544,11 +538,7 @@ impl TransporterNet {
             path: path.to_path_buf(),
             reason,
         };
-        let get = |k: &str| -> Result<&String, PolicyError> {
-            file.metadata
-                .get(k)
-                .ok_or_else(|| format(format!("metadata field `{k}` is missing")))
-        };
+        let get = |k: &str| file.field(path, k);
         for (k, want) in [
             ("format", FORMAT.to_string()),
             ("architecture", ARCHITECTURE.to_string()),
@@ -569,18 +559,7 @@ impl TransporterNet {
         let mut vars = Vec::new();
         let mut expected = std::collections::BTreeSet::new();
         for (name, shape) in param_shapes() {
-            let t = file.tensors.get(&name).ok_or_else(|| PolicyError::Tensor {
-                path: path.to_path_buf(),
-                tensor: name.clone(),
-                reason: "missing".into(),
-            })?;
-            if t.shape != shape {
-                return Err(PolicyError::Tensor {
-                    path: path.to_path_buf(),
-                    tensor: name,
-                    reason: format!("shape {:?}, expected {shape:?}", t.shape),
-                });
-            }
+            let t = file.tensor(path, &name, &shape)?;
             vars.push(Var::from_tensor(&Tensor::from_vec(
                 t.data.clone(),
                 shape,

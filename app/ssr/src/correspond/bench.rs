@@ -55,16 +55,27 @@ pub fn random_ase_map(
     )
 }
 
-/// The input of one Correspond step at benchmark scale: M = 3 live maps, and
-/// N = 2 demo maps and demo actions per policy.
+/// The input of one Correspond step at benchmark scale: M = 3 live
+/// embeddings `E` and, per policy, N = 2 demo embeddings with one demo
+/// action `A` each.
 #[derive(Debug)]
-pub struct CorrespondBenchInput {
-    pub tests: Vec<AseMap>,
+pub struct BenchInput<E, A> {
+    pub tests: Vec<E>,
     /// `demos[m][n]`.
-    pub demos: Vec<Vec<AseMap>>,
-    /// `demo_actions[m][n]`, flat indices.
-    pub demo_actions: Vec<Vec<usize>>,
+    pub demos: Vec<Vec<E>>,
+    /// `demo_actions[m][n]`.
+    pub demo_actions: Vec<Vec<A>>,
 }
+
+impl<E, A> BenchInput<E, A> {
+    /// Per policy: its live embedding, its demos and their demo actions.
+    pub fn per_policy(&self) -> impl Iterator<Item = ((&E, &Vec<E>), &Vec<A>)> {
+        self.tests.iter().zip(&self.demos).zip(&self.demo_actions)
+    }
+}
+
+/// Whole embedding maps, demo actions as flat indices.
+pub type CorrespondBenchInput = BenchInput<AseMap, usize>;
 
 impl CorrespondBenchInput {
     /// Random maps of `16 x resolution x resolution x 64`, seeded.
@@ -126,12 +137,7 @@ pub fn correspond_step(
     options: &CorrespondOptions,
 ) -> Vec<(f32, f32)> {
     let mut out = Vec::new();
-    for ((test, demos), actions) in input
-        .tests
-        .iter()
-        .zip(&input.demos)
-        .zip(&input.demo_actions)
-    {
+    for ((test, demos), actions) in input.per_policy() {
         let res = test.resolution;
         let queries: Vec<&[f32]> = demos
             .iter()
@@ -176,12 +182,7 @@ pub fn correspond_step_naive(input: &CorrespondBenchInput) -> Vec<(f32, f32)> {
         best
     }
     let mut out = Vec::new();
-    for ((test, demos), actions) in input
-        .tests
-        .iter()
-        .zip(&input.demos)
-        .zip(&input.demo_actions)
-    {
+    for ((test, demos), actions) in input.per_policy() {
         let res = test.resolution;
         let plane = res * res;
         for (demo, &a) in demos.iter().zip(actions) {
@@ -239,17 +240,9 @@ fn time_ms(iterations: usize, mut f: impl FnMut()) -> Vec<f64> {
     t
 }
 
-/// The input of one reference Correspond step at cell level: M = 3 live
-/// embeddings and, per policy, N = 2 demo embeddings with one demo action
-/// each; features uniform in `[0, 1)`, every action allowed.
-#[derive(Debug)]
-pub struct CellBenchInput {
-    pub tests: Vec<CellAse>,
-    /// `demos[m][n]`.
-    pub demos: Vec<Vec<CellAse>>,
-    /// `demo_actions[m][n]`.
-    pub demo_actions: Vec<Vec<Action>>,
-}
+/// Cell-level embeddings for the reference Correspond: features uniform in
+/// `[0, 1)`, every action allowed.
+pub type CellBenchInput = BenchInput<CellAse, Action>;
 
 impl CellBenchInput {
     /// Random embeddings at `resolution`, seeded.
@@ -269,7 +262,7 @@ impl CellBenchInput {
             let f = (0..rotations * cells * cells * dim)
                 .map(|_| (splitmix(&mut st) >> 40) as f32 / (1u64 << 24) as f32)
                 .collect();
-            CellAse::new(
+            CellAse::with_rotations(
                 Primitive::Grasp,
                 resolution,
                 cells,
@@ -277,6 +270,7 @@ impl CellBenchInput {
                 f,
                 taps.clone(),
                 &mask,
+                None,
             )
         };
         let mut tests = Vec::new();
@@ -307,15 +301,10 @@ impl CellBenchInput {
 /// 6 mm smoothing for 3 policies x 2 demos, then the 6 windowed rematches and
 /// their C). Returns the 6 (L, C) pairs.
 pub fn correspond_step_cells(input: &CellBenchInput) -> Vec<(f32, f32)> {
-    use super::cells::{match_reference_cells, rematch_reference_cells};
+    use super::cells::{match_reference_cells, rematch_cells_with};
     use super::reference::{ccd_reference, half_window_pixels, sigma_pixels};
     let mut out = Vec::new();
-    for ((test, demos), actions) in input
-        .tests
-        .iter()
-        .zip(&input.demos)
-        .zip(&input.demo_actions)
-    {
+    for ((test, demos), actions) in input.per_policy() {
         let res = test.resolution;
         let pixel = seespot_sim::workspace::WORKSPACE_SIZE / res as f32;
         let (sigma, window) = (sigma_pixels(pixel), half_window_pixels(pixel));
@@ -327,13 +316,14 @@ pub fn correspond_step_cells(input: &CellBenchInput) -> Vec<(f32, f32)> {
         let refs: Vec<&[f32]> = queries.iter().map(Vec::as_slice).collect();
         let matches = match_reference_cells(test, &refs, sigma);
         for ((demo, a), m) in demos.iter().zip(actions).zip(matches) {
-            let re = rematch_reference_cells(
+            let re = rematch_cells_with(
                 demo,
                 &test.feature(m.index),
                 a,
                 window,
                 sigma,
                 seespot_policy::Masked::ZeroFeature,
+                super::Smoothing::Reference,
             );
             let c = ccd_reference(a, &re.action(test.primitive, res), pixel);
             out.push((m.distance, c));

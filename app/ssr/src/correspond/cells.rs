@@ -99,27 +99,7 @@ pub fn match_cells_with(
 /// in the demo at `demo_action`'s rotation, inside the window of +/-
 /// `half_window` pixels, on the window's squared-distance map (the demo's
 /// masked actions as `masked` says: [`Masked::ZeroFeature`] is the
-/// reference's) smoothed with wrap-around edges.
-pub fn rematch_reference_cells(
-    demo: &CellAse,
-    query: &[f32],
-    demo_action: &Action,
-    half_window: usize,
-    sigma_px: f32,
-    masked: Masked,
-) -> Match {
-    rematch_cells_with(
-        demo,
-        query,
-        demo_action,
-        half_window,
-        sigma_px,
-        masked,
-        Smoothing::Reference,
-    )
-}
-
-/// [`rematch_reference_cells`] with the smoothing `smoothing`:
+/// reference's) smoothed with wrap-around edges, with [`Smoothing::Reference`];
 /// [`Smoothing::Normalized`] reads the demo's real embeddings, smooths the
 /// whole plane (normalized convolution) and takes the argmin inside the
 /// window (`masked` is then unused). An empty window gives the demonstrated
@@ -236,13 +216,14 @@ mod tests {
                     assert_eq!(m_full.distance, m_cells.distance);
                     let f = full.feature(m_full.index).to_vec();
                     let r_full = rematch_reference(&demo_full, &f, a, window, sigma);
-                    let r_cells = rematch_reference_cells(
+                    let r_cells = rematch_cells_with(
                         &demo_cells,
                         &f,
                         a,
                         window,
                         sigma,
                         Masked::ZeroFeature,
+                        Smoothing::Reference,
                     );
                     assert_eq!(r_full.index, r_cells.index, "rematch {res} px {a:?}");
                     let tol = 1e-4 * r_full.distance.abs() + 1e-5;
