@@ -134,6 +134,13 @@ function shownPair() {
   return s.chosen ?? 0;
 }
 
+// C with its unit (documents.rs `PairDoc.c_unit`): squared 2 mm pixels with
+// the reference Correspond, heightmap pixels with the plain scan.
+const C_UNITS = { squared_reference_pixels: 'px² (2 mm)', pixels: 'px' };
+function cValue(p) {
+  return p.c == null ? fmt(p.c, 1) : `${fmt(p.c, 1)} ${C_UNITS[p.c_unit] || ''}`.trim();
+}
+
 function renderPairs(s) {
   const body = $('pairs-body');
   body.innerHTML = '';
@@ -144,7 +151,7 @@ function renderPairs(s) {
     if (i === s.chosen) tr.classList.add('chosen');
     if (i === sel) tr.classList.add('selected');
     const picks = [s.ccd_choice === i ? 'CCD' : '', s.l2cd_choice === i ? 'L2CD' : ''].filter(Boolean).join(' ');
-    const cells = [i === s.chosen ? '★' : '', p.policy, `${p.demo}·${p.demo_step}`, fmt(p.l, 3), fmt(p.c, 1), act(p.matched), picks];
+    const cells = [i === s.chosen ? '★' : '', p.policy, `${p.demo}·${p.demo_step}`, fmt(p.l, 3), cValue(p), act(p.matched), picks];
     cells.forEach((c, j) => {
       const td = document.createElement('td');
       td.textContent = c;
@@ -263,7 +270,7 @@ function draw() {
   const dm = [];
   if (p) {
     dm.push({ kind: 'point', at: p.demo_action, color: '#ffffff', label: `demo ${act(p.demo_action)}`, ring: true });
-    if (p.matched && p.rematch) dm.push({ kind: 'arrow', from: p.matched, to: p.rematch, color: '#ffaa00', label: `C = ${fmt(p.c, 1)}` });
+    if (p.matched && p.rematch) dm.push({ kind: 'arrow', from: p.matched, to: p.rematch, color: '#ffaa00', label: `C = ${cValue(p)}` });
     if (p.rematch) dm.push({ kind: 'point', at: p.rematch, color: '#ffaa00' });
   }
   if (app.query) dm.push({ kind: 'point', at: app.query, color: '#ff4fd8', label: 'query', ring: true, below: true });

@@ -238,6 +238,7 @@ fn ties_are_broken_in_the_documented_order() {
         rematch: Action::new(Primitive::Grasp, 0, 0, 0),
         rematch_l: 0.0,
         c,
+        c_unit: seespot_ssr::correspond::CUnit::SquaredReferencePixels,
         match_map: vec![],
         rematch_map: vec![],
     };

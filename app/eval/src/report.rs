@@ -9,6 +9,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use seespot_sim::{TaskId, TrialRecord};
 use seespot_ssr::Layout;
+use seespot_ssr::correspond::CUnit;
 use serde::Serialize;
 
 use crate::run::{RunSpec, TaskTraining};
@@ -444,9 +445,9 @@ pub fn check_provenance(files: &[(PathBuf, Vec<TrialRecord>)]) -> Result<(), Str
     Ok(())
 }
 
-/// The SSR runs among `records` (their record names, in [`RunSpec`]
-/// order): the ones whose C and CCD/L2CD disagreements the report shows.
-pub fn ssr_runs(records: &[TrialRecord]) -> Vec<String> {
+/// The SSR runs among `records`, in [`RunSpec`] order: the ones whose C
+/// and CCD/L2CD disagreements the report shows.
+pub fn ssr_runs(records: &[TrialRecord]) -> Vec<RunSpec> {
     let mut specs: Vec<RunSpec> = records
         .iter()
         .filter_map(|r| r.method.parse::<RunSpec>().ok())
@@ -454,7 +455,7 @@ pub fn ssr_runs(records: &[TrialRecord]) -> Vec<String> {
         .collect();
     specs.sort();
     specs.dedup();
-    specs.iter().map(|s| s.to_string()).collect()
+    specs
 }
 
 /// The pairs of runs the report tests on paired seeds (exact McNemar), with
@@ -532,7 +533,7 @@ pub struct Disagreement {
 /// `other_method_action`; older records without it are left out).
 pub fn disagreements(records: &[TrialRecord]) -> Vec<Disagreement> {
     let mut out = Vec::new();
-    for method in ssr_runs(records) {
+    for method in ssr_runs(records).iter().map(RunSpec::to_string) {
         for task in TaskId::ALL {
             let (mut decisions, mut differ) = (0, 0);
             for r in records
@@ -559,22 +560,28 @@ pub fn disagreements(records: &[TrialRecord]) -> Vec<Disagreement> {
     out
 }
 
-/// Bucket edges of the C histogram (the last bucket is open). C is in squared
-/// 2 mm pixels with the reference correspondence (one 4 mm pixel away = 4), in
-/// pixels with the plain one.
-pub const C_BUCKETS: [f32; 8] = [0.0, 1.0, 2.0, 4.0, 8.0, 16.0, 64.0, 256.0];
+/// The chosen pair's C over a run's decisions, per fold.
+#[derive(Clone, Debug, Serialize)]
+pub struct CHistograms {
+    /// The run's record name.
+    pub method: String,
+    /// The unit of its C ([`RunSpec::c_unit`]).
+    pub unit: CUnit,
+    /// Bucket edges in that unit (the last bucket is open).
+    pub buckets: &'static [f32],
+    /// Per fold: decisions per bucket.
+    pub folds: Vec<(TaskId, Vec<usize>)>,
+}
 
-/// Per fold: decisions per bucket of [`C_BUCKETS`].
-pub type CHistogram = Vec<(TaskId, Vec<usize>)>;
-
-/// Per fold, how often the chosen pair's C fell in each bucket of
-/// [`C_BUCKETS`] (`[0, 1)`, `[1, 2)`, ..., `[16, inf)`) over the decisions of
-/// `method`'s trials.
-pub fn c_histograms(records: &[TrialRecord], method: &str) -> CHistogram {
-    TaskId::ALL
+/// Per fold, how often the chosen pair's C fell in each bucket of its unit's
+/// edges ([`CUnit::buckets`]) over the decisions of `run`'s trials.
+pub fn c_histograms(records: &[TrialRecord], run: &RunSpec) -> CHistograms {
+    let (method, unit) = (run.to_string(), run.c_unit());
+    let buckets = unit.buckets();
+    let folds = TaskId::ALL
         .into_iter()
         .filter_map(|task| {
-            let mut counts = vec![0; C_BUCKETS.len()];
+            let mut counts = vec![0; buckets.len()];
             let mut any = false;
             for r in records
                 .iter()
@@ -582,13 +589,19 @@ pub fn c_histograms(records: &[TrialRecord], method: &str) -> CHistogram {
             {
                 for c in r.actions_log.iter().filter_map(|a| a.c) {
                     any = true;
-                    let k = C_BUCKETS.iter().rposition(|&e| c >= e).unwrap_or(0);
+                    let k = buckets.iter().rposition(|&e| c >= e).unwrap_or(0);
                     counts[k] += 1;
                 }
             }
             any.then_some((task, counts))
         })
-        .collect()
+        .collect();
+    CHistograms {
+        method,
+        unit,
+        buckets,
+        folds,
+    }
 }
 
 /// The statistics section of the report: CCD against L2CD on paired seeds
@@ -638,26 +651,28 @@ pub fn statistics_markdown(records: &[TrialRecord]) -> String {
             ));
         }
     }
-    let buckets: Vec<String> = C_BUCKETS
-        .iter()
-        .enumerate()
-        .map(|(i, lo)| match C_BUCKETS.get(i + 1) {
-            Some(hi) => format!("[{lo}, {hi})"),
-            None => format!(">= {lo}"),
-        })
-        .collect();
-    for method in ssr_runs(records) {
-        let hist = c_histograms(records, &method);
-        if hist.is_empty() {
+    for run in ssr_runs(records) {
+        let hist = c_histograms(records, &run);
+        if hist.folds.is_empty() {
             continue;
         }
+        let edges = hist.buckets;
+        let buckets: Vec<String> = edges
+            .iter()
+            .enumerate()
+            .map(|(i, lo)| match edges.get(i + 1) {
+                Some(hi) => format!("[{lo}, {hi})"),
+                None => format!(">= {lo}"),
+            })
+            .collect();
         md.push_str(&format!(
-            "\n### C of the chosen pair, {} (decisions per bucket)\n\n| fold | {} |\n|---|{}\n",
-            display_method(&method),
+            "\n### C of the chosen pair, {} (in {}; decisions per bucket)\n\n| fold | {} |\n|---|{}\n",
+            run.display_name(),
+            hist.unit.words(),
             buckets.join(" | "),
             "---|".repeat(buckets.len())
         ));
-        for (task, counts) in hist {
+        for (task, counts) in hist.folds {
             let total: usize = counts.iter().sum();
             let cells: Vec<String> = counts
                 .iter()
@@ -1033,16 +1048,15 @@ pub fn write_report(
         comparisons: comparisons(&records),
         disagreements: disagreements(&records),
         c_histograms: ssr_runs(&records)
-            .into_iter()
-            .map(|m| {
-                let h = c_histograms(&records, &m);
-                (m, h)
-            })
+            .iter()
+            .map(|spec| c_histograms(&records, spec))
+            .filter(|h| !h.folds.is_empty())
             .collect(),
     })
 }
 
 /// What [`write_report`] wrote, for `seespot eval --json`.
+#[derive(Debug)]
 pub struct Report {
     pub summaries: Vec<Summary>,
     /// Exact McNemar tests of SSR CCD against SSR L2CD, per fold and pooled.
@@ -1051,8 +1065,8 @@ pub struct Report {
     pub comparisons: Vec<Comparison>,
     /// How often SSR CCD and SSR L2CD differ on the same state.
     pub disagreements: Vec<Disagreement>,
-    /// Per method, per fold: decisions per bucket of [`C_BUCKETS`].
-    pub c_histograms: Vec<(String, CHistogram)>,
+    /// Per SSR run: its C per fold, with its unit and bucket edges.
+    pub c_histograms: Vec<CHistograms>,
 }
 
 fn records_error(e: crate::records::RecordError) -> ReportError {

@@ -18,7 +18,7 @@ use std::fmt;
 use std::str::FromStr;
 use std::sync::OnceLock;
 
-use seespot_ssr::correspond::{CorrespondOptions, DemoFeatures, Rematch, Smoothing};
+use seespot_ssr::correspond::{CUnit, CorrespondOptions, DemoFeatures, Rematch, Smoothing};
 
 /// A method of the evaluation table.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -312,6 +312,14 @@ impl RunSpec {
 
     pub fn correspond(&self) -> CorrespondName {
         self.correspond
+    }
+
+    /// The unit of the C this run's records hold.
+    pub fn c_unit(&self) -> CUnit {
+        match self.correspond {
+            CorrespondName::Plain => CUnit::Pixels,
+            CorrespondName::Reference { .. } => CUnit::SquaredReferencePixels,
+        }
     }
 
     pub fn is_finetuned(&self) -> bool {

@@ -2,6 +2,8 @@
 //! needs to show why the robot chose its action.
 
 use seespot_sim::{Action, Primitive, TaskId};
+
+use crate::correspond::CUnit;
 use serde::{Deserialize, Serialize};
 
 /// How SSR picks among the (policy, demo) pairs.
@@ -37,11 +39,10 @@ pub struct PairExplanation {
     pub rematch: Action,
     /// Embedding distance of the rematch.
     pub rematch_l: f32,
-    /// C_{m,n}: cycle consistency distance (Eq. 7), in squared 2 mm pixels
-    /// with [`crate::correspond::Correspondence::Reference`] (one 4 mm pixel
-    /// away = 4) and in heightmap pixels (rotation steps counted as pixels)
-    /// with [`crate::correspond::Correspondence::Plain`].
+    /// C_{m,n}: cycle consistency distance (Eq. 7), in `c_unit`.
     pub c: f32,
+    /// The unit of `c`, which the correspondence decides.
+    pub c_unit: CUnit,
     /// Match distances over the live scene at the matched rotation, `H x W`
     /// (row-major; `f32::INFINITY` where masked).
     pub match_map: Vec<f32>,

@@ -440,6 +440,7 @@ impl SsrPolicy {
                     rematch,
                     rematch_l: re.distance,
                     c,
+                    c_unit: opts.c_unit(),
                     match_map: Vec::new(),
                     rematch_map: Vec::new(),
                 });

@@ -312,6 +312,7 @@ impl Actor for FeatureDecider {
                     rematch,
                     rematch_l,
                     c,
+                    c_unit: seespot_ssr::correspond::CUnit::Pixels,
                     match_map,
                     rematch_map,
                 });

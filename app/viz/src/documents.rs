@@ -16,6 +16,7 @@
 
 use seespot_sim::{Action, BlockPose, NUM_BLOCKS, Primitive, TaskId, TrialEnd};
 use seespot_ssr::Method;
+use seespot_ssr::correspond::CUnit;
 use serde::Serialize;
 
 use crate::phase::Phase;
@@ -116,10 +117,12 @@ pub struct PairDoc {
     /// L: embedding distance of the best match (Eq. 4).
     pub l: Option<f32>,
     pub matched: Option<Action>,
-    /// C: cycle consistency distance (Eq. 7): squared 2 mm pixels with the
-    /// reference's Correspond (the default), heightmap pixels with the plain
-    /// scan and the feature baseline.
+    /// C: cycle consistency distance (Eq. 7), in `c_unit`.
     pub c: Option<f32>,
+    /// The unit of `c`: `squared_reference_pixels` (squared 2 mm pixels,
+    /// the reference's Correspond, the default) or `pixels` (the plain scan
+    /// and the feature baseline).
+    pub c_unit: CUnit,
     pub rematch: Option<Action>,
 }
 

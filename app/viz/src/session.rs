@@ -701,6 +701,7 @@ impl Session {
                 l: shown(Phase::Match).then_some(p.l),
                 matched: shown(Phase::Match).then_some(p.matched),
                 c: shown(Phase::Verify).then_some(p.c),
+                c_unit: p.c_unit,
                 rematch: shown(Phase::Verify).then_some(p.rematch),
             })
             .collect();

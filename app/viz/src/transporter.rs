@@ -107,6 +107,7 @@ impl TransporterDecider {
                 rematch: action,
                 rematch_l: 0.0,
                 c: 0.0,
+                c_unit: seespot_ssr::correspond::CUnit::Pixels,
                 match_map,
                 rematch_map: Vec::new(),
             }],

@@ -60,6 +60,46 @@ impl Match {
     }
 }
 
+/// The unit of a cycle consistency distance C, which the correspondence
+/// decides: every C is read with the unit of the run that computed it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CUnit {
+    /// [`Correspondence::Reference`]: squared pixels of the reference's 2 mm
+    /// grid, whatever the heightmap's resolution (one 4 mm pixel away = 4).
+    SquaredReferencePixels,
+    /// [`Correspondence::Plain`]: the Euclidean distance of the `(rotation,
+    /// y, x)` indices, heightmap pixels with rotation steps counted as pixels.
+    Pixels,
+}
+
+impl CUnit {
+    /// The unit as the report and the page write it after a value.
+    pub fn symbol(self) -> &'static str {
+        match self {
+            Self::SquaredReferencePixels => "px² (2 mm)",
+            Self::Pixels => "px",
+        }
+    }
+
+    /// The unit in words, for a heading.
+    pub fn words(self) -> &'static str {
+        match self {
+            Self::SquaredReferencePixels => "squared 2 mm pixels",
+            Self::Pixels => "heightmap pixels",
+        }
+    }
+
+    /// Bucket edges for a histogram of C in this unit (the last bucket is
+    /// open): about the same distances on the table in both units.
+    pub fn buckets(self) -> &'static [f32] {
+        match self {
+            Self::SquaredReferencePixels => &[0.0, 1.0, 2.0, 4.0, 8.0, 16.0, 64.0, 256.0],
+            Self::Pixels => &[0.0, 0.5, 0.75, 1.0, 1.5, 2.0, 4.0, 8.0],
+        }
+    }
+}
+
 /// Which formulation of Correspond SSR uses.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Correspondence {
@@ -150,6 +190,14 @@ impl Default for CorrespondOptions {
 }
 
 impl CorrespondOptions {
+    /// The unit of the C these options compute.
+    pub fn c_unit(&self) -> CUnit {
+        match self {
+            Self::Reference { .. } => CUnit::SquaredReferencePixels,
+            Self::Plain { .. } => CUnit::Pixels,
+        }
+    }
+
     /// `mode` with its default options (the reference's choices; no smoothing
     /// for the plain scan).
     pub fn of_mode(mode: Correspondence) -> Self {
