@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use seespot_eval::review::{FailureKind, counts, failures_json, review_dir};
+use seespot_eval::review::{FailureKind, count_rows, counts, review_dir};
 
 #[derive(clap::Args, Debug)]
 pub struct ReviewArgs {
@@ -69,25 +69,7 @@ pub fn run(args: ReviewArgs) -> anyhow::Result<()> {
     let table = counts(&trials);
     let replays = replayable(&trials, &args);
     if args.json {
-        let rows: Vec<_> = table
-            .iter()
-            .map(|(m, t, n, ok, kinds)| {
-                let file = trials
-                    .iter()
-                    .find(|r| &r.method == m && r.task == *t)
-                    .map(|r| &r.file);
-                let replay = match file.and_then(|f| replays.get(f)) {
-                    Some(Ok(())) => serde_json::json!({"ok": true, "reason": null}),
-                    Some(Err(why)) => serde_json::json!({"ok": false, "reason": why}),
-                    None => serde_json::json!({"ok": false, "reason": "no records"}),
-                };
-                serde_json::json!({
-                    "method": m, "task": t, "trials": n, "successes": ok,
-                    "failures": failures_json(kinds),
-                    "replay": replay,
-                })
-            })
-            .collect();
+        let rows = count_rows(&trials, &replays);
         return crate::print_json(&serde_json::json!({"counts": rows, "trials": trials}));
     }
     outln!(

@@ -161,21 +161,63 @@ pub fn counts(trials: &[ReviewedTrial]) -> Vec<(String, TaskId, usize, usize, [u
     out
 }
 
-/// A counts row's failures as `{"<kind>": n, ...}` (kebab-case kinds, in
-/// [`FailureKind::ALL`] order).
-pub fn failures_json(kinds: &[usize; 5]) -> serde_json::Value {
-    FailureKind::ALL
-        .iter()
-        .zip(kinds)
-        .map(|(k, c)| {
-            let key = serde_json::to_value(k)
-                .ok()
-                .and_then(|v| v.as_str().map(str::to_owned))
-                .unwrap_or_else(|| k.as_str().to_owned());
-            (key, serde_json::json!(c))
+/// Whether a row's trials can be replayed, and why not.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Replayable {
+    pub ok: bool,
+    pub reason: Option<String>,
+}
+
+/// One (method, fold) row of a review, as `seespot review --json` and the
+/// review page show it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CountRow {
+    pub method: String,
+    pub task: TaskId,
+    pub trials: usize,
+    pub successes: usize,
+    /// Failed trials per kind.
+    pub failures: std::collections::BTreeMap<FailureKind, usize>,
+    pub replay: Replayable,
+}
+
+/// The rows of [`counts`], each with whether its records file replays
+/// (`replays`: per file, `Err(why)` when it does not).
+pub fn count_rows(
+    trials: &[ReviewedTrial],
+    replays: &std::collections::BTreeMap<PathBuf, Result<(), String>>,
+) -> Vec<CountRow> {
+    counts(trials)
+        .into_iter()
+        .map(|(method, task, n, ok, kinds)| {
+            let file = trials
+                .iter()
+                .find(|t| t.method == method && t.task == task)
+                .map(|t| &t.file);
+            let replay = match file.and_then(|f| replays.get(f)) {
+                Some(Ok(())) => Replayable {
+                    ok: true,
+                    reason: None,
+                },
+                Some(Err(why)) => Replayable {
+                    ok: false,
+                    reason: Some(why.clone()),
+                },
+                None => Replayable {
+                    ok: false,
+                    reason: Some("no records".into()),
+                },
+            };
+            CountRow {
+                method,
+                task,
+                trials: n,
+                successes: ok,
+                failures: FailureKind::ALL.into_iter().zip(kinds).collect(),
+                replay,
+            }
         })
-        .collect::<serde_json::Map<_, _>>()
-        .into()
+        .collect()
 }
 
 #[cfg(test)]

@@ -14,6 +14,7 @@
 //! RGB8 bytes as they are, `f32`s little-endian, row-major `H x W`
 //! (`x 3` for colours), `f32::INFINITY` kept where an action is masked.
 
+use seespot_eval::review::{CountRow, FailureKind, ReviewedTrial};
 use seespot_sim::{Action, BlockPose, NUM_BLOCKS, Primitive, TaskId, TrialEnd};
 use seespot_ssr::Method;
 use seespot_ssr::correspond::CUnit;
@@ -236,6 +237,25 @@ pub struct EmbeddingDoc {
     pub resolution: usize,
     pub live: String,
     pub demo_rgb: String,
+}
+
+/// The review page's document (`/api/review`): the failure kinds, per
+/// (method, fold) the counts and whether its trials replay, and every trial.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct ReviewDoc {
+    /// The reviewed evaluation's output folder.
+    pub dir: String,
+    pub kinds: Vec<KindDoc>,
+    pub counts: Vec<CountRow>,
+    pub trials: Vec<ReviewedTrial>,
+}
+
+/// A failure kind: its key in `counts[].failures` and `trials[].failure`, and
+/// its label.
+#[derive(Clone, Debug, Serialize)]
+pub struct KindDoc {
+    pub key: FailureKind,
+    pub label: &'static str,
 }
 
 /// A document as the JSON text sent over the socket or HTTP.

@@ -13,12 +13,12 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use seespot_eval::records::records_files;
-use seespot_eval::review::{FailureKind, counts, review_dir};
+use seespot_eval::review::{FailureKind, count_rows, review_dir};
 use seespot_eval::runner::replay_config;
 use seespot_sim::TaskId;
 use seespot_ssr::Layout;
-use serde_json::{Value, json};
 
+use crate::documents::{KindDoc, ReviewDoc};
 use crate::recording::Recorder;
 use crate::registry::{DeciderKind, Replay, factory_with, world};
 use crate::session::{Session, SessionConfig};
@@ -120,35 +120,25 @@ impl ReviewSource {
 
     /// The page's document: the failure kinds, per (method, fold) the counts
     /// and whether its trials can be replayed (and why not), and every trial.
-    pub fn document(&self) -> anyhow::Result<Value> {
+    pub fn document(&self) -> anyhow::Result<ReviewDoc> {
         let trials =
             review_dir(&self.dir).with_context(|| format!("reviewing {}", self.dir.display()))?;
-        let status = replay_status(&trials, &self.layout);
-        let rows: Vec<Value> = counts(&trials)
-            .iter()
-            .map(|(method, task, n, ok, kinds)| {
-                let file = trials
-                    .iter()
-                    .find(|t| &t.method == method && t.task == *task)
-                    .map(|t| &t.file);
-                let replay = match file.and_then(|f| status.get(f)) {
-                    Some(Ok(())) => json!({"ok": true, "reason": null}),
-                    Some(Err(e)) => json!({"ok": false, "reason": format!("{e:#}")}),
-                    None => json!({"ok": false, "reason": "no records"}),
-                };
-                json!({
-                    "method": method, "task": task, "trials": n, "successes": ok,
-                    "failures": seespot_eval::review::failures_json(kinds),
-                    "replay": replay,
-                })
-            })
+        let replays = replay_status(&trials, &self.layout)
+            .into_iter()
+            .map(|(file, r)| (file, r.map_err(|e| format!("{e:#}"))))
             .collect();
-        Ok(json!({
-            "dir": self.dir.display().to_string(),
-            "kinds": FailureKind::ALL.iter().map(|k| json!({"key": k, "label": k.as_str()})).collect::<Vec<_>>(),
-            "counts": rows,
-            "trials": trials,
-        }))
+        Ok(ReviewDoc {
+            dir: self.dir.display().to_string(),
+            kinds: FailureKind::ALL
+                .iter()
+                .map(|&key| KindDoc {
+                    key,
+                    label: key.as_str(),
+                })
+                .collect(),
+            counts: count_rows(&trials, &replays),
+            trials,
+        })
     }
 
     /// Runs trial (method, task, seed) again to its end with a recording in
@@ -216,7 +206,7 @@ mod tests {
     #[test]
     fn the_document_counts_every_record_and_says_what_replays() {
         let s = source();
-        let doc = s.document().expect("document");
+        let doc = serde_json::to_value(s.document().expect("document")).expect("json");
         let trials = doc["trials"].as_array().expect("trials");
         let counted: u64 = doc["counts"]
             .as_array()

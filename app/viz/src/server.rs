@@ -90,7 +90,7 @@ pub struct AppState {
     info: Value,
     /// The evaluation `/review` lists, and its document once built.
     review: Option<ReviewSource>,
-    review_doc: Mutex<Option<Value>>,
+    review_doc: Mutex<Option<crate::documents::ReviewDoc>>,
 }
 
 impl std::fmt::Debug for AppState {
