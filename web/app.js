@@ -144,6 +144,8 @@ function cValue(p) {
 function renderPairs(s) {
   const body = $('pairs-body');
   body.innerHTML = '';
+  const cHead = document.getElementById('c-head');
+  if (cHead && s.pairs.length) cHead.textContent = `C (${C_UNITS[s.pairs[0].c_unit] || '?'})`;
   const sel = shownPair();
   s.pairs.forEach((p, i) => {
     const tr = document.createElement('tr');
@@ -151,7 +153,7 @@ function renderPairs(s) {
     if (i === s.chosen) tr.classList.add('chosen');
     if (i === sel) tr.classList.add('selected');
     const picks = [s.ccd_choice === i ? 'CCD' : '', s.l2cd_choice === i ? 'L2CD' : ''].filter(Boolean).join(' ');
-    const cells = [i === s.chosen ? '★' : '', p.policy, `${p.demo}·${p.demo_step}`, fmt(p.l, 3), cValue(p), act(p.matched), picks];
+    const cells = [i === s.chosen ? '★' : '', p.policy, `${p.demo}·${p.demo_step}`, fmt(p.l, 3), fmt(p.c, 1), act(p.matched), picks];
     cells.forEach((c, j) => {
       const td = document.createElement('td');
       td.textContent = c;
