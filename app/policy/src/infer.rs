@@ -52,14 +52,14 @@ macro_rules! block_kernel {
                     dst: &mut [f32],
                 ) {
                     for k in 0..count {
-                        layer.$name::<$ci>(img, n, iys, ox + $p * k, dst);
+                        layer.$name::<$ci, { 3 * $ci }>(img, n, iys, ox + $p * k, dst);
                     }
                 }
             }
         )+
         impl Layer {
             #[inline(always)]
-            fn $name<const CI: usize>(
+            fn $name<const CI: usize, const K3: usize>(
                 &self,
                 img: &[f32],
                 n: usize,
@@ -73,6 +73,25 @@ macro_rules! block_kernel {
                 $($(let mut $a = b[$j];)+)+
                 for (ky, iy) in iys.iter().enumerate() {
                     let Some(iy) = *iy else { continue };
+                    if s.dilation == 1 {
+                        // Undilated, a pixel's three taps along x read
+                        // 3 CI inputs in a row, and their weights lie in a
+                        // row too: one loop over (kx, c), the same order.
+                        let w = &self.weights[ky * KERNEL * CI * $co..][..KERNEL * CI * $co];
+                        let (wc, _) = w.as_chunks::<16>();
+                        let src = |q: usize| -> &[f32; K3] {
+                            let ix = (ox + q) * s.stride - 1;
+                            img[(iy * n + ix) * CI..][..K3]
+                                .try_into()
+                                .expect("3 CI inputs")
+                        };
+                        $(let $s = src($q);)+
+                        for (c, wv) in wc.chunks_exact($v_per).enumerate().take(K3) {
+                            $(let $v = $s[c];)+
+                            $($($a = mul_add($a, $v, &wv[$j]);)+)+
+                        }
+                        continue;
+                    }
                     for kx in 0..KERNEL {
                         let w = &self.weights[(ky * KERNEL + kx) * CI * $co..][..CI * $co];
                         let (wc, _) = w.as_chunks::<16>();
@@ -168,6 +187,38 @@ pub struct InferTrunk {
     layers: Vec<Layer>,
 }
 
+/// Buffers a forward reuses: the channels-last input and the two maps
+/// between layers.
+#[derive(Debug, Default)]
+struct Scratch {
+    input: Vec<f32>,
+    maps: [Vec<f32>; 2],
+}
+
+/// The process's scratch buffers, kept between forwards (whatever trunk
+/// runs them): allocated anew each time, their megabytes of fresh pages
+/// cost the kernel's page faults and zeroing, a third of a forward's time.
+static SCRATCH: std::sync::Mutex<Scratch> = std::sync::Mutex::new(Scratch {
+    input: Vec::new(),
+    maps: [Vec::new(), Vec::new()],
+});
+
+/// The scratch buffers, or fresh ones while another forward holds them.
+fn take_scratch() -> Scratch {
+    std::mem::take(
+        &mut *SCRATCH
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner),
+    )
+}
+
+/// Keeps `scratch` for the next forward.
+fn give_back(scratch: Scratch) {
+    *SCRATCH
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner) = scratch;
+}
+
 impl InferTrunk {
     /// Copies `net`'s trunk weights into inference layout.
     pub fn new(net: &QNet) -> candle_core::Result<Self> {
@@ -222,9 +273,14 @@ impl InferTrunk {
         timed: &mut dyn FnMut(&'static str, f64),
     ) -> Vec<f32> {
         let t = std::time::Instant::now();
-        let h = channels_last(x, batch, n);
+        let mut scratch = take_scratch();
+        channels_last_into(x, batch, n, &mut scratch.input);
         timed("layout", t.elapsed().as_secs_f64() * 1e3);
-        self.forward_layers(&h, batch, n, timed)
+        let input = std::mem::take(&mut scratch.input);
+        let out = self.forward_layers(&input, batch, n, &mut scratch, timed);
+        scratch.input = input;
+        give_back(scratch);
+        out
     }
 
     /// [`Self::forward`] of inputs already laid out channels last (`batch x
@@ -236,26 +292,36 @@ impl InferTrunk {
             batch * INPUT_CHANNELS * n * n,
             "input is not B x n x n x C"
         );
-        self.forward_layers(h, batch, n, &mut |_, _| {})
+        let mut scratch = take_scratch();
+        let out = self.forward_layers(h, batch, n, &mut scratch, &mut |_, _| {});
+        give_back(scratch);
+        out
     }
 
+    /// The layers on `x`, the maps between them in `scratch`; the last
+    /// layer's map is the caller's.
     fn forward_layers(
         &self,
         x: &[f32],
         batch: usize,
         n: usize,
+        scratch: &mut Scratch,
         timed: &mut dyn FnMut(&'static str, f64),
     ) -> Vec<f32> {
-        let mut h = Vec::new();
+        let [mut a, mut b] = std::mem::take(&mut scratch.maps);
+        let mut out = Vec::new();
         let mut side = n;
+        let last = self.layers.len() - 1;
         for (i, layer) in self.layers.iter().enumerate() {
             let t = std::time::Instant::now();
-            let (out, m) = layer.forward(if i == 0 { x } else { &h }, batch, side);
+            let input: &[f32] = if i == 0 { x } else { &a };
+            let dst = if i == last { &mut out } else { &mut b };
+            side = layer.forward_into(input, batch, side, dst);
             timed(layer.spec.name, t.elapsed().as_secs_f64() * 1e3);
-            h = out;
-            side = m;
+            std::mem::swap(&mut a, &mut b);
         }
-        h
+        scratch.maps = [a, b];
+        out
     }
 }
 
@@ -266,11 +332,18 @@ impl InferTrunk {
 /// # Panics
 /// If `x` is not `batch x C x n x n`.
 pub fn channels_last(x: &[f32], batch: usize, n: usize) -> Vec<f32> {
+    let mut h = Vec::new();
+    channels_last_into(x, batch, n, &mut h);
+    h
+}
+
+/// [`channels_last`] into `h`, reusing its memory.
+fn channels_last_into(x: &[f32], batch: usize, n: usize, h: &mut Vec<f32>) {
     let c0 = INPUT_CHANNELS;
     const { assert!(INPUT_CHANNELS == 4) };
     assert_eq!(x.len(), batch * c0 * n * n, "input is not B x C x n x n");
     let plane = n * n;
-    let mut h = vec![0.0f32; x.len()];
+    resize_for_overwrite(h, x.len());
     h.par_chunks_mut(plane * c0)
         .zip(x.par_chunks(plane * c0))
         .for_each(|(dst, src)| {
@@ -285,15 +358,26 @@ pub fn channels_last(x: &[f32], batch: usize, n: usize) -> Vec<f32> {
                 out.copy_from_slice(&[r[p], g[p], b[p], d[p]]);
             }
         });
-    h
+}
+
+/// `v` at length `len`, its old values left where they are: for a buffer
+/// every element of which is written next (zeroing it again would cost a
+/// pass over it).
+fn resize_for_overwrite(v: &mut Vec<f32>, len: usize) {
+    if v.len() != len {
+        v.clear();
+        v.resize(len, 0.0);
+    }
 }
 
 impl Layer {
-    fn forward(&self, x: &[f32], batch: usize, n: usize) -> (Vec<f32>, usize) {
+    /// The layer on `batch` maps of side `n` into `out` (every element
+    /// written); returns the output side.
+    fn forward_into(&self, x: &[f32], batch: usize, n: usize, out: &mut Vec<f32>) -> usize {
         let s = self.spec;
         // Padding = dilation, as QNet::trunk calls conv2d.
         let m = (n + 2 * s.dilation - s.dilation * (KERNEL - 1) - 1) / s.stride + 1;
-        let mut out = vec![0.0f32; batch * m * m * s.out_channels];
+        resize_for_overwrite(out, batch * m * m * s.out_channels);
         out.par_chunks_mut(m * s.out_channels)
             .enumerate()
             .for_each(|(row, dst)| match s.out_channels {
@@ -302,7 +386,7 @@ impl Layer {
                 64 => self.row::<64>(x, n, m, row, dst),
                 _ => self.row_any(x, n, m, row, dst),
             });
-        (out, m)
+        m
     }
 
     /// Output row `row` (batch-major) for `CO` output channels, in the widest
