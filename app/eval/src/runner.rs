@@ -87,7 +87,6 @@ pub enum EvalError {
     Invalid(String),
     #[error(transparent)]
     Lock(#[from] LockError),
-
     #[error("{0}")]
     Actor(seespot_sim::ActorError),
 }
