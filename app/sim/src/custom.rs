@@ -37,7 +37,7 @@ pub enum RecordError {
     #[error("action {action}: the next action must be a {expected} (grasps and places alternate)")]
     WrongPrimitive {
         action: Action,
-        expected: crate::Primitive,
+        expected: crate::action::Primitive,
     },
     #[error("the {task} task is already done; save the demonstration or undo")]
     Done { task: TaskId },
@@ -252,7 +252,7 @@ impl Recorder {
 fn start(task: TaskId, seed: u64, config: WorldConfig) -> World {
     match task {
         TaskId::Custom(_) => World::random(config, seed),
-        t => crate::Trial::new(config, t, seed).into_world(),
+        t => crate::trial::Trial::new(config, t, seed).into_world(),
     }
 }
 

@@ -102,7 +102,7 @@ fn invalid(path: &Path, message: impl Into<String>) -> DemoError {
 }
 
 /// The place mask a recorded demonstration keeps its places inside, where
-/// the oracle can ([`crate::Oracle::act_within`]).
+/// the oracle can ([`crate::oracle::Oracle::act_within`]).
 pub struct PlaceMask<'a> {
     /// The mask (`H x W`) of a scene's heightmaps, as stored.
     pub of: &'a dyn Fn(&Heightmaps) -> Vec<bool>,
@@ -115,20 +115,24 @@ impl Demo {
     /// noise-free heightmaps before each action (depth rounded to the stored
     /// unit), the action, its pose, progress and the block poses. Fails when the
     /// oracle reverses progress or does not finish.
-    pub fn record(task: TaskId, seed: u64, config: crate::WorldConfig) -> Result<Self, DemoError> {
+    pub fn record(
+        task: TaskId,
+        seed: u64,
+        config: crate::world::WorldConfig,
+    ) -> Result<Self, DemoError> {
         Self::record_within(task, seed, config, None)
     }
 
     /// [`Self::record`], the oracle keeping its places inside `mask` where it
-    /// can ([`crate::Oracle::act_within`]).
+    /// can ([`crate::oracle::Oracle::act_within`]).
     pub fn record_within(
         task: TaskId,
         seed: u64,
-        config: crate::WorldConfig,
+        config: crate::world::WorldConfig,
         mask: Option<&PlaceMask<'_>>,
     ) -> Result<Self, DemoError> {
-        let mut trial = crate::Trial::new(config, task, seed);
-        let mut oracle = crate::Oracle::new(task);
+        let mut trial = crate::trial::Trial::new(config, task, seed);
+        let mut oracle = crate::oracle::Oracle::new(task);
         let mut meta = DemoMeta::new(task, seed, config.grid);
         let mut steps = Vec::new();
         let fail = |message: String| DemoError::Oracle {
@@ -308,13 +312,13 @@ impl DemoMeta {
                     ),
                 ));
             }
-            (Some(_), Some(goal)) if goal.places.len() != crate::NUM_BLOCKS => {
+            (Some(_), Some(goal)) if goal.places.len() != crate::blocks::NUM_BLOCKS => {
                 return Err(invalid(
                     path,
                     format!(
                         "field `goal.places`: {} places, expected all {} blocks",
                         goal.places.len(),
-                        crate::NUM_BLOCKS
+                        crate::blocks::NUM_BLOCKS
                     ),
                 ));
             }
@@ -377,14 +381,17 @@ impl DemoMeta {
                     ));
                 }
             }
-            let mut seen = [false; crate::NUM_BLOCKS];
+            let mut seen = [false; crate::blocks::NUM_BLOCKS];
             for (k, (id, pose)) in s.blocks_before.iter().enumerate() {
                 let field = format!("field `steps[{i}].blocks_before[{k}]`");
                 match seen.get_mut(*id) {
                     None => {
                         return Err(invalid(
                             path,
-                            format!("{field}: block id {id} is not below {}", crate::NUM_BLOCKS),
+                            format!(
+                                "{field}: block id {id} is not below {}",
+                                crate::blocks::NUM_BLOCKS
+                            ),
                         ));
                     }
                     Some(true) => {

@@ -3,9 +3,9 @@
 
 use rapier3d::prelude::Vector;
 
+use crate::blocks::{BLOCK_COLORS, BLOCK_SIZE};
 use crate::pose::BlockPose;
 use crate::workspace::Grid;
-use crate::{BLOCK_COLORS, BLOCK_SIZE};
 
 /// A pair of top-down heightmaps over the workspace.
 ///

@@ -28,6 +28,7 @@
 
 pub mod action;
 pub mod actor;
+pub mod blocks;
 pub mod bounds;
 pub mod custom;
 pub mod demo;
@@ -47,6 +48,7 @@ pub mod world;
 
 pub use action::{Action, NUM_ROTATIONS, Primitive};
 pub use actor::{Actor, ActorError, Choice, ChosenPair, run_trial, run_trials, run_trials_from};
+pub use blocks::{BLOCK_COLORS, BLOCK_SIZE, NUM_BLOCKS};
 pub use demo::{Demo, DemoError, DemoMeta, DemoStep, PlaceMask};
 pub use goal::Goal;
 pub use heightmap::Heightmaps;
@@ -59,16 +61,6 @@ pub use task::{CustomTask, TaskId};
 pub use trial::{StepRecord, Trial, TrialEnd};
 pub use workspace::Grid;
 pub use world::{ActionOutcome, BlockPose, World, WorldConfig};
-
-/// Edge length of every block, metres.
-pub const BLOCK_SIZE: f32 = 0.05;
-
-/// Number of blocks in every scene.
-pub const NUM_BLOCKS: usize = 4;
-
-/// Block colours, RGB: red, blue, green, yellow.
-pub const BLOCK_COLORS: [[u8; 3]; NUM_BLOCKS] =
-    [[255, 87, 89], [78, 121, 167], [89, 161, 79], [237, 201, 72]];
 
 /// The version of seespot that wrote a file (demos, models, results).
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");

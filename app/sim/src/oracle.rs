@@ -4,11 +4,11 @@
 //! the ideal length when the start allows.
 
 use crate::action::{Action, Primitive, nearest_rotation};
+use crate::blocks::{BLOCK_SIZE, NUM_BLOCKS};
 use crate::progress::{self, is_on};
 use crate::task::TaskId;
 use crate::workspace::{Grid, WORKSPACE_SIZE};
 use crate::world::{BlockPose, World};
-use crate::{BLOCK_SIZE, NUM_BLOCKS};
 
 /// Centre-to-centre spacing the oracle uses for rows, metres (inside 5-10 cm).
 pub const ROW_SPACING: f32 = 0.075;

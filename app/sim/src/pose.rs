@@ -4,7 +4,7 @@
 use rapier3d::math::{Rotation, Vector};
 use serde::{Deserialize, Serialize};
 
-use crate::BLOCK_SIZE;
+use crate::blocks::BLOCK_SIZE;
 
 /// Pose of one block: centre position (metres, world frame) and orientation as a
 /// unit quaternion `[x, y, z, w]`.

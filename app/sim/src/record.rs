@@ -220,7 +220,8 @@ mod tests {
             serde_json::json!(3.0f32)
         );
         // Read from a record line, either form.
-        let trial = crate::Trial::new(crate::WorldConfig::default(), TaskId::Stack, 1);
+        let trial =
+            crate::trial::Trial::new(crate::world::WorldConfig::default(), TaskId::Stack, 1);
         let mut r = TrialRecord::new("ssr-ccd", 0, &trial, Vec::new());
         r.provenance = Some(Provenance {
             seespot_version: "0".into(),

@@ -25,13 +25,13 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use crate::blocks::{BLOCK_SIZE, NUM_BLOCKS};
 use crate::noise::SensorNoise;
 use crate::pose::BlockPose;
 use crate::seeds::Seeds;
 use crate::task::TaskId;
 use crate::workspace::{Grid, WORKSPACE_SIZE};
 use crate::world::WorldConfig;
-use crate::{BLOCK_SIZE, NUM_BLOCKS};
 
 pub use crate::bounds::{RESOLUTION_RANGE, check_resolution, parse_resolution};
 
@@ -217,22 +217,27 @@ impl Scene {
 
     /// The trial of `seed` in this scene: from the explicit block poses when
     /// the file gives them, else the start drawn from the seed.
-    pub fn trial(&self, seed: u64) -> crate::Trial {
+    pub fn trial(&self, seed: u64) -> crate::trial::Trial {
         self.trial_as(self.world_config(), self.task, seed)
     }
 
     /// [`Scene::trial`] with the world settings and task given instead of the
     /// file's (the command line's flags override a scene's); the explicit
     /// block poses, when the file gives them, still make the start.
-    pub fn trial_as(&self, config: WorldConfig, task: crate::TaskId, seed: u64) -> crate::Trial {
+    pub fn trial_as(
+        &self,
+        config: WorldConfig,
+        task: crate::task::TaskId,
+        seed: u64,
+    ) -> crate::trial::Trial {
         match &self.blocks {
-            Some(poses) => crate::Trial::from_world(
-                crate::World::from_poses(config, poses, seed),
+            Some(poses) => crate::trial::Trial::from_world(
+                crate::world::World::from_poses(config, poses, seed),
                 task,
                 seed,
                 crate::task::MAX_TRIAL_ACTIONS,
             ),
-            None => crate::Trial::new(config, task, seed),
+            None => crate::trial::Trial::new(config, task, seed),
         }
     }
 

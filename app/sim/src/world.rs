@@ -33,11 +33,11 @@ use rapier3d::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::action::{Action, Primitive};
+use crate::blocks::{BLOCK_SIZE, NUM_BLOCKS};
 use crate::heightmap::{Heightmaps, render};
 use crate::noise::SensorNoise;
 pub use crate::pose::BlockPose;
 use crate::workspace::{Grid, WORKSPACE_SIZE};
-use crate::{BLOCK_SIZE, NUM_BLOCKS};
 
 /// Physics rate, Hz.
 pub const PHYSICS_HZ: f32 = 240.0;
