@@ -68,7 +68,7 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
         BenchCommand::Policy { iterations, json } => {
             let report = seespot_policy::bench::bench(&[224, 112], iterations)?;
             if json {
-                return crate::print_json(&report);
+                return crate::io::print_json(&report);
             }
             outln!("{}", serde_json::to_string_pretty(&report)?)?;
             Ok(())
@@ -86,7 +86,7 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
         } => {
             let r = seespot_policy::bench::bench_train(task, resolution, actions)?;
             if json {
-                return crate::print_json(&r);
+                return crate::io::print_json(&r);
             }
             let part = |k: &str| r["ms_per_action"][k].as_f64().unwrap_or(f64::NAN);
             outln!(
@@ -140,7 +140,7 @@ fn bench_sim(actions: usize, resolution: usize, json: bool) -> anyhow::Result<()
         "checksum": checksum,
     });
     if json {
-        return crate::print_json(&report);
+        return crate::io::print_json(&report);
     }
     outln!(
         "sim at {resolution} px: {:.0} drop+settle+render actions/s ({per_action_ms:.2} ms, {:.0} physics steps each), render alone {:.3} ms",
@@ -206,7 +206,7 @@ fn bench_ssr(resolution: usize, iterations: usize, json: bool) -> anyhow::Result
         },
     });
     if json {
-        return crate::print_json(&report);
+        return crate::io::print_json(&report);
     }
     outln!("{}", serde_json::to_string_pretty(&report)?)?;
     Ok(())

@@ -143,7 +143,7 @@ pub fn run(cmd: DemoCommand) -> anyhow::Result<()> {
                 demo.steps.len(),
             );
             if json {
-                return crate::print_json(&serde_json::json!({
+                return crate::io::print_json(&serde_json::json!({
                     "out": out.display().to_string(),
                     "task": task.as_str(),
                     "seed": seed,
@@ -160,7 +160,7 @@ pub fn run(cmd: DemoCommand) -> anyhow::Result<()> {
         DemoCommand::Show { dir, json } => {
             let demo = Demo::read(&dir)?;
             if json {
-                return crate::print_json(&serde_json::to_value(&demo.meta)?);
+                return crate::io::print_json(&serde_json::to_value(&demo.meta)?);
             }
             let m = &demo.meta;
             outln!(

@@ -130,7 +130,7 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
     let name = config.spec().to_string();
     // Holds the output folder's lock until the report is written.
     let evaluation = Evaluation::start(config, tasks)?;
-    let bar = crate::progress_bar(evaluation.tasks().len() as u64 * args.trials, false);
+    let bar = crate::io::progress_bar(evaluation.tasks().len() as u64 * args.trials, false);
     for &task in evaluation.tasks() {
         let (mut ok, mut n) = (0, 0);
         let records = evaluation
@@ -151,7 +151,7 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         Finished::Custom { path, text } => {
             if args.json {
                 doc["report"] = serde_json::json!(path);
-                return crate::print_json(&doc);
+                return crate::io::print_json(&doc);
             }
             outln!("{text}")?;
             outln!("report: {}", path.display())?;
@@ -175,7 +175,7 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
                 ] {
                     doc[k] = v;
                 }
-                return crate::print_json(&doc);
+                return crate::io::print_json(&doc);
             }
             for s in ours {
                 outln!(

@@ -70,7 +70,7 @@ pub fn run(args: ReviewArgs) -> anyhow::Result<()> {
     let replays = replayable(&trials, &args);
     if args.json {
         let rows = count_rows(&trials, &replays);
-        return crate::print_json(&serde_json::json!({"counts": rows, "trials": trials}));
+        return crate::io::print_json(&serde_json::json!({"counts": rows, "trials": trials}));
     }
     outln!(
         "{} trials in {}\n\n| method | fold | trials | success | {} |\n|---|---|---|---|{}",

@@ -76,7 +76,7 @@ fn run_trials(args: RunArgs) -> anyhow::Result<()> {
             PolicyNet::load(Path::new(path)).with_context(|| format!("loading policy {path}"))?,
         ),
     };
-    let bar = crate::progress_bar(seeds.count(), false);
+    let bar = crate::io::progress_bar(seeds.count(), false);
     let mut ok = 0;
     let start = |seed| match &scene {
         Some(scene) => scene.trial_as(config, task, seed),
@@ -92,7 +92,7 @@ fn run_trials(args: RunArgs) -> anyhow::Result<()> {
     bar.finish_and_clear();
     let summary = summarize(&records, task.ideal_actions(), 0, 0);
     if args.json {
-        return crate::print_json(&serde_json::json!({
+        return crate::io::print_json(&serde_json::json!({
             "task": task,
             "policy": args.policy,
             "seeds": seeds,

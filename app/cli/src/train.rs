@@ -94,8 +94,8 @@ pub fn run(args: TrainArgs) -> anyhow::Result<()> {
         .clone()
         .unwrap_or_else(|| Layout::new(models, "").model(task));
     // Refused before any training, so no time is lost.
-    crate::refuse_to_replace(&out, args.overwrite, "--out")?;
-    crate::refuse_to_replace(&out.with_extension("md"), args.overwrite, "--out")?;
+    crate::io::refuse_to_replace(&out, args.overwrite, "--out")?;
+    crate::io::refuse_to_replace(&out.with_extension("md"), args.overwrite, "--out")?;
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
@@ -180,7 +180,7 @@ pub fn run(args: TrainArgs) -> anyhow::Result<()> {
     .with_context(|| format!("writing {}", card.display()))?;
     eprintln!("wrote {}", card.display());
     if args.json {
-        return crate::print_json(&serde_json::json!({
+        return crate::io::print_json(&serde_json::json!({
             "task": task,
             "weights": out,
             "model_card": card,

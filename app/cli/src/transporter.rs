@@ -81,8 +81,8 @@ fn train(args: TrainArgs) -> anyhow::Result<()> {
     let layout = seespot_ssr::Layout::new(&args.models, &args.demos);
     let out = layout.transporter(task);
     // Refused before any training, so no time is lost.
-    crate::refuse_to_replace(&out, args.overwrite, "--models")?;
-    crate::refuse_to_replace(&out.with_extension("md"), args.overwrite, "--models")?;
+    crate::io::refuse_to_replace(&out, args.overwrite, "--models")?;
+    crate::io::refuse_to_replace(&out.with_extension("md"), args.overwrite, "--models")?;
     let dirs = layout.demo_dirs(task);
     let demos = dirs
         .iter()
@@ -91,7 +91,7 @@ fn train(args: TrainArgs) -> anyhow::Result<()> {
     let mut config = TransporterTrainConfig::new(task, args.iterations, args.seed);
     config.curve_every = args.curve_every;
     config.curve_trials = args.curve_trials as u64;
-    let pb = crate::progress_bar(args.iterations as u64, args.quiet);
+    let pb = crate::io::progress_bar(args.iterations as u64, args.quiet);
     let mut announced = false;
     let outcome =
         seespot_policy::transporter::train_transporter(&config, &demos, &run_dir, &mut |p| {
@@ -157,7 +157,7 @@ fn train(args: TrainArgs) -> anyhow::Result<()> {
     );
     if args.json {
         let last = outcome.state.curve.last();
-        return crate::print_json(&serde_json::json!({
+        return crate::io::print_json(&serde_json::json!({
             "task": task.as_str(),
             "weights": out.display().to_string(),
             "model_card": card.display().to_string(),

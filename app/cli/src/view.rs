@@ -240,7 +240,7 @@ pub fn run_record(args: RecordArgs) -> anyhow::Result<()> {
     let factory = args.decider.factory()?;
     let stop = live::ctrl_c_flag();
     let seeds = seespot_sim::Seeds::new(args.seed, args.trials)?;
-    let bar = crate::progress_bar(args.trials, false);
+    let bar = crate::io::progress_bar(args.trials, false);
     let opts = live::RecordOptions {
         task: args.task,
         seeds,
@@ -262,7 +262,7 @@ pub fn run_record(args: RecordArgs) -> anyhow::Result<()> {
     let total: u64 = done.iter().map(|r| r.bytes).sum();
     let interrupted = stop.load(std::sync::atomic::Ordering::SeqCst);
     if args.json {
-        crate::print_json(&serde_json::json!({
+        crate::io::print_json(&serde_json::json!({
             "task": args.task.as_str(),
             "out": args.out.display().to_string(),
             "interrupted": interrupted,
