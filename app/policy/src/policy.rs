@@ -315,13 +315,11 @@ impl PolicyNet {
             FORMAT_VERSION,
             &self.meta.seespot_version,
             &self.meta.task,
+            &self.meta.extra,
         );
         meta.insert("resolution".into(), self.meta.resolution.to_string());
         meta.insert("rotations".into(), self.meta.rotations.to_string());
         meta.insert("embedding_dim".into(), self.meta.embedding_dim.to_string());
-        for (k, v) in &self.meta.extra {
-            meta.insert(format!("extra.{k}"), v.clone());
-        }
         tensor_file::write(path, &tensors, &meta)
     }
 
@@ -379,11 +377,7 @@ impl PolicyNet {
         }
         let place = nets.pop().expect("two nets");
         let grasp = nets.pop().expect("two nets");
-        let extra = file
-            .metadata
-            .iter()
-            .filter_map(|(k, v)| k.strip_prefix("extra.").map(|k| (k.to_string(), v.clone())))
-            .collect();
+        let extra = file.extra();
         Ok(Self {
             meta: PolicyMeta {
                 task,

@@ -133,6 +133,14 @@ pub struct TensorFile {
 }
 
 impl TensorFile {
+    /// The free-form training facts [`header`] wrote (`extra.<key>`), by key.
+    pub fn extra(&self) -> BTreeMap<String, String> {
+        self.metadata
+            .iter()
+            .filter_map(|(k, v)| k.strip_prefix("extra.").map(|k| (k.to_owned(), v.clone())))
+            .collect()
+    }
+
     /// The metadata field `key` of the file read from `path`; an error naming
     /// both when it is missing.
     pub fn field(&self, path: &Path, key: &str) -> Result<&String, PolicyError> {
@@ -166,14 +174,17 @@ impl TensorFile {
     }
 }
 
-/// The metadata every weights file starts with: its format, architecture
-/// and format version, the seespot version that wrote it and its task.
+/// The metadata every weights file holds: its format, architecture and
+/// format version, the seespot version that wrote it, its task, and its
+/// free-form training facts `extra` (as `extra.<key>`; read back by
+/// [`TensorFile::extra`]).
 pub fn header(
     format: &str,
     architecture: &str,
     format_version: u32,
     seespot_version: &str,
     task: &str,
+    extra: &BTreeMap<String, String>,
 ) -> BTreeMap<String, String> {
     [
         ("format", format.to_owned()),
@@ -184,6 +195,7 @@ pub fn header(
     ]
     .into_iter()
     .map(|(k, v)| (k.to_owned(), v))
+    .chain(extra.iter().map(|(k, v)| (format!("extra.{k}"), v.clone())))
     .collect()
 }
 

@@ -513,11 +513,9 @@ impl TransporterNet {
             FORMAT_VERSION,
             &self.meta.seespot_version,
             &self.meta.task,
+            &self.meta.extra,
         );
         meta.insert("rotations".into(), NUM_ROTATIONS.to_string());
-        for (k, v) in &self.meta.extra {
-            meta.insert(format!("extra.{k}"), v.clone());
-        }
         meta
     }
 
@@ -586,11 +584,7 @@ impl TransporterNet {
         let attention = take(NUM_ROTATIONS);
         let key = take(TRANSPORT_DIM);
         let query = take(TRANSPORT_DIM);
-        let extra = file
-            .metadata
-            .iter()
-            .filter_map(|(k, v)| k.strip_prefix("extra.").map(|k| (k.to_string(), v.clone())))
-            .collect();
+        let extra = file.extra();
         Ok(Self {
             meta: TransporterMeta {
                 task,
