@@ -52,14 +52,14 @@ macro_rules! block_kernel {
                     dst: &mut [f32],
                 ) {
                     for k in 0..count {
-                        layer.$name::<$ci, { 3 * $ci }>(img, n, iys, ox + $p * k, dst);
+                        layer.$name::<$ci>(img, n, iys, ox + $p * k, dst);
                     }
                 }
             }
         )+
         impl Layer {
             #[inline(always)]
-            fn $name<const CI: usize, const K3: usize>(
+            fn $name<const CI: usize>(
                 &self,
                 img: &[f32],
                 n: usize,
@@ -73,25 +73,6 @@ macro_rules! block_kernel {
                 $($(let mut $a = b[$j];)+)+
                 for (ky, iy) in iys.iter().enumerate() {
                     let Some(iy) = *iy else { continue };
-                    if s.dilation == 1 {
-                        // Undilated, a pixel's three taps along x read
-                        // 3 CI inputs in a row, and their weights lie in a
-                        // row too: one loop over (kx, c), the same order.
-                        let w = &self.weights[ky * KERNEL * CI * $co..][..KERNEL * CI * $co];
-                        let (wc, _) = w.as_chunks::<16>();
-                        let src = |q: usize| -> &[f32; K3] {
-                            let ix = (ox + q) * s.stride - 1;
-                            img[(iy * n + ix) * CI..][..K3]
-                                .try_into()
-                                .expect("3 CI inputs")
-                        };
-                        $(let $s = src($q);)+
-                        for (c, wv) in wc.chunks_exact($v_per).enumerate().take(K3) {
-                            $(let $v = $s[c];)+
-                            $($($a = mul_add($a, $v, &wv[$j]);)+)+
-                        }
-                        continue;
-                    }
                     for kx in 0..KERNEL {
                         let w = &self.weights[(ky * KERNEL + kx) * CI * $co..][..CI * $co];
                         let (wc, _) = w.as_chunks::<16>();
