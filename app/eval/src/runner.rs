@@ -87,6 +87,8 @@ pub enum EvalError {
     Invalid(String),
     #[error(transparent)]
     Lock(#[from] LockError),
+    #[error(transparent)]
+    Report(#[from] ReportError),
     #[error("{0}")]
     Actor(seespot_sim::ActorError),
 }
@@ -440,17 +442,18 @@ impl Evaluation {
     /// their steps were finetuned with ([`write_report`]).
     pub fn finish(self, finetune_steps: usize) -> Result<Finished, EvalError> {
         let out = &self.config.out_dir;
-        let report = |e: ReportError| EvalError::Invalid(e.to_string());
         if self.tasks.iter().any(|t| !t.is_builtin()) {
             let path = out.join("custom.md");
-            let text = custom_markdown(out).map_err(report)?;
+            let text = custom_markdown(out)?;
             std::fs::write(&path, &text)
                 .map_err(|e| EvalError::Invalid(format!("{}: {e}", path.display())))?;
             return Ok(Finished::Custom { path, text });
         }
-        Ok(Finished::Table(
-            write_report(out, &self.config.layout, finetune_steps).map_err(report)?,
-        ))
+        Ok(Finished::Table(write_report(
+            out,
+            &self.config.layout,
+            finetune_steps,
+        )?))
     }
 }
 
