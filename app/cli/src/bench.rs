@@ -182,7 +182,7 @@ fn bench_ssr(resolution: usize, iterations: usize, json: bool) -> anyhow::Result
     let mut total = Vec::new();
     let mut embed = Vec::new();
     let mut corr = Vec::new();
-    for _ in 0..iterations.clamp(1, 5) {
+    for _ in 0..iterations.max(1) {
         ssr.forget_last_decision();
         let t = Instant::now();
         let d = ssr.decide(&hm, trial.progress(), Primitive::Grasp)?;
@@ -194,11 +194,14 @@ fn bench_ssr(resolution: usize, iterations: usize, json: bool) -> anyhow::Result
         v.sort_by(f64::total_cmp);
         v[v.len() / 2]
     };
+    let (decision_ms, decisions) = (median(&mut total), total.len());
     let report = serde_json::json!({
         "resolution": resolution,
         "correspond": correspond,
         "decision": {
-            "decision_ms": median(&mut total),
+            "decision_ms": decision_ms,
+            "decision_ms_min": total[0],
+            "decisions": decisions,
             "embed_live_ms": median(&mut embed),
             "correspond_ms": median(&mut corr),
             "first_decision_ms_with_demo_embedding": first_ms,

@@ -36,6 +36,7 @@ pub mod simd;
 pub mod tensor_file;
 pub mod trainer;
 pub mod transporter;
+pub(crate) mod winograd;
 
 pub use actors::{RandomActor, own_task_eval};
 pub use cells::{CellAse, Masked};
