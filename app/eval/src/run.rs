@@ -73,6 +73,12 @@ impl EvalMethod {
     pub fn is_ssr(self) -> bool {
         matches!(self, Self::SsrCcd | Self::SsrL2cd | Self::SsrCcdLoopBreak)
     }
+
+    /// Whether the method runs SPOT-Q policies' networks (SSR embeds with
+    /// them; SPOT-Q acts on its own task's Q maps).
+    pub fn runs_spot_q_nets(self) -> bool {
+        self.is_ssr() || self == Self::SpotQ
+    }
 }
 
 impl std::str::FromStr for EvalMethod {

@@ -126,6 +126,15 @@ pub struct RunSettings {
     pub demo_features: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rematch: Option<String>,
+    /// How the SPOT-Q networks' trunk computed
+    /// ([`seespot_policy::infer::TRUNK_KERNELS`]), for the methods that run
+    /// them. Absent in the records of the other methods, and in those made
+    /// before the trunk ran in Winograd form: their trunk summed the same
+    /// convolutions directly, rounding differently, so where the decision
+    /// hangs on a near-tie the two can act differently; the two are never
+    /// appended to one file or replayed as each other.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trunk: Option<String>,
 }
 
 impl RunSettings {
@@ -154,6 +163,10 @@ impl RunSettings {
             rematch: reference
                 .filter(|(_, _, r)| *r != Rematch::Window)
                 .map(|(_, _, r)| r.as_str().to_owned()),
+            trunk: config
+                .method
+                .runs_spot_q_nets()
+                .then(|| seespot_policy::infer::TRUNK_KERNELS.to_owned()),
         }
     }
 

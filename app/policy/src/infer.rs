@@ -14,6 +14,11 @@
 
 use rayon::prelude::*;
 
+/// How this trunk computes, as evaluation records name it (their settings'
+/// `trunk`): the stride-1 layers by Winograd F(4x4, 3x3). Records made
+/// before it (without the setting) come from direct convolutions.
+pub const TRUNK_KERNELS: &str = "winograd-f4";
+
 use crate::input::INPUT_CHANNELS;
 use crate::net::{ConvSpec, KERNEL, QNet, TRUNK};
 use crate::winograd::Winograd;
