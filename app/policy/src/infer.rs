@@ -25,7 +25,7 @@ use crate::winograd::Winograd;
 
 /// `acc + v * w`, lane by lane, by value (a multiply and an add, never fused).
 #[inline(always)]
-fn mul_add(mut acc: [f32; 16], v: f32, w: &[f32; 16]) -> [f32; 16] {
+pub(crate) fn mul_add(mut acc: [f32; 16], v: f32, w: &[f32; 16]) -> [f32; 16] {
     for l in 0..16 {
         acc[l] += v * w[l];
     }

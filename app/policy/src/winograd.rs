@@ -23,6 +23,7 @@ use std::cell::RefCell;
 
 use rayon::prelude::*;
 
+use crate::infer::mul_add;
 use crate::net::{ConvSpec, KERNEL};
 
 /// Input channels of the layers this covers.
@@ -290,15 +291,6 @@ fn products<const CO: usize, const WIDE: bool>(u: &[f32], v: &[f32], m: &mut [f3
         _ => run!(run32x4 / run32x4_lanes: v4, m4, fours; run32x2 / run32x2_lanes: v2, m2, twos;
                   run32x1 / run32x1_lanes: v1, m1, ones),
     }
-}
-
-/// `acc + v * w`, lane by lane, by value (a multiply and an add, never fused).
-#[inline(always)]
-fn mul_add(mut acc: [f32; 16], v: f32, w: &[f32; 16]) -> [f32; 16] {
-    for l in 0..16 {
-        acc[l] += v * w[l];
-    }
-    acc
 }
 
 /// Defines `$run`: `count` blocks of `$p` tiles of the product for `$co`
