@@ -21,16 +21,8 @@ pub const TRUNK_KERNELS: &str = "winograd-f4";
 
 use crate::input::INPUT_CHANNELS;
 use crate::net::{ConvSpec, KERNEL, QNet, TRUNK};
+use crate::simd::mul_add;
 use crate::winograd::Winograd;
-
-/// `acc + v * w`, lane by lane, by value (a multiply and an add, never fused).
-#[inline(always)]
-pub(crate) fn mul_add(mut acc: [f32; 16], v: f32, w: &[f32; 16]) -> [f32; 16] {
-    for l in 0..16 {
-        acc[l] += v * w[l];
-    }
-    acc
-}
 
 /// Defines a block kernel and the functions `$run` that run it along a row
 /// for `$ci` input channels, each compiled on its own for the CPU's widest
@@ -333,7 +325,7 @@ fn channels_last_into(x: &[f32], batch: usize, n: usize, h: &mut Vec<f32>) {
 /// `v` at length `len`, its old values left where they are: for a buffer
 /// every element of which is written next (zeroing it again would cost a
 /// pass over it).
-pub(crate) fn resize_for_overwrite(v: &mut Vec<f32>, len: usize) {
+fn resize_for_overwrite(v: &mut Vec<f32>, len: usize) {
     if v.len() != len {
         v.clear();
         v.resize(len, 0.0);
@@ -345,6 +337,7 @@ impl Layer {
     /// written); returns the output side.
     fn forward_into(&self, x: &[f32], batch: usize, n: usize, out: &mut Vec<f32>) -> usize {
         if let Some(w) = &self.winograd {
+            resize_for_overwrite(out, batch * n * n * self.spec.out_channels);
             w.forward_into(x, batch, n, out);
             return n;
         }

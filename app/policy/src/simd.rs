@@ -16,6 +16,16 @@
 //! a user's results do not depend on their CPU; the cap is for checking
 //! exactly that, and for measuring what the wide paths buy.
 
+/// `acc + v * w`, lane by lane, by value: a multiply and an add, never fused,
+/// so every instruction set rounds it alike.
+#[inline(always)]
+pub(crate) fn mul_add(mut acc: [f32; 16], v: f32, w: &[f32; 16]) -> [f32; 16] {
+    for l in 0..16 {
+        acc[l] += v * w[l];
+    }
+    acc
+}
+
 /// The instruction sets the hot loops may use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Level {

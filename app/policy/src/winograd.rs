@@ -23,8 +23,8 @@ use std::cell::RefCell;
 
 use rayon::prelude::*;
 
-use crate::infer::mul_add;
 use crate::net::{ConvSpec, KERNEL};
+use crate::simd::mul_add;
 
 /// Input channels of the layers this covers.
 const CI: usize = 32;
@@ -96,7 +96,7 @@ impl Winograd {
 
     /// The layer on `batch` maps of `n x n x 32` (channels last) into `out`,
     /// `batch x n x n x out_channels` (every element written).
-    pub(crate) fn forward_into(&self, x: &[f32], batch: usize, n: usize, out: &mut Vec<f32>) {
+    pub(crate) fn forward_into(&self, x: &[f32], batch: usize, n: usize, out: &mut [f32]) {
         self.forward_into_with::<true>(x, batch, n, out);
     }
 
@@ -108,11 +108,15 @@ impl Winograd {
         x: &[f32],
         batch: usize,
         n: usize,
-        out: &mut Vec<f32>,
+        out: &mut [f32],
     ) {
         let (co, d) = (self.out_channels, self.dilation);
         assert_eq!(x.len(), batch * n * n * CI, "input is not B x n x n x 32");
-        crate::infer::resize_for_overwrite(out, batch * n * n * co);
+        assert_eq!(
+            out.len(),
+            batch * n * n * co,
+            "output is not B x n x n x {co}"
+        );
         let xs = tile_origins(n, d);
         // A band of M d rows is written by the d tile rows that start in it;
         // a task takes enough bands for a few blocks of the product kernels.
@@ -525,7 +529,7 @@ mod tests {
             let (w, b, wino) = layer(spec, 3);
             for n in [28, 23, 30, 7] {
                 let x = input(2, n);
-                let mut fast = Vec::new();
+                let mut fast = vec![0.0; 2 * n * n * spec.out_channels];
                 wino.forward_into(&x, 2, n, &mut fast);
                 let slow = direct(spec, &w, &b, &x, 2, n);
                 let scale = slow.iter().fold(0.0f32, |a, v| a.max(v.abs()));
@@ -551,7 +555,8 @@ mod tests {
             let (_, _, wino) = layer(spec, 5);
             for n in [28, 23] {
                 let x = input(2, n);
-                let (mut wide, mut base) = (Vec::new(), Vec::new());
+                let len = 2 * n * n * spec.out_channels;
+                let (mut wide, mut base) = (vec![0.0; len], vec![0.0; len]);
                 wino.forward_into_with::<true>(&x, 2, n, &mut wide);
                 wino.forward_into_with::<false>(&x, 2, n, &mut base);
                 assert_eq!(
