@@ -2,7 +2,7 @@
 //! gradients) on channels-last maps, the bias and the ReLU fused: the
 //! strided layers (conv1, conv2) as direct 3x3 convolutions, parallel over
 //! output rows, each output pixel's channels accumulated in registers; the
-//! stride-1 layers (conv3 to conv5) in Winograd form ([`crate::winograd`]),
+//! stride-1 layers (conv3 to conv5) in Winograd form (`winograd.rs`),
 //! 4x fewer multiplies.
 //!
 //! Same maths as [`QNet::trunk`] (candle's `conv2d`, which training keeps for
