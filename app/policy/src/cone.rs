@@ -384,11 +384,7 @@ mod tests {
                     .get(var.as_tensor())
                     .map(|g| g.flatten_all().and_then(|g| g.to_vec1::<f32>()).expect("g"))
                     .unwrap_or_else(|| vec![0.0; fast.grads[i].len()]);
-                let scale = reference.iter().fold(0.0f32, |a, v| a.max(v.abs()));
-                let worst = fast.grads[i]
-                    .iter()
-                    .zip(&reference)
-                    .fold(0.0f32, |a, (p, q)| a.max((p - q).abs()));
+                let (worst, scale) = crate::testing::worst_and_scale(&fast.grads[i], &reference);
                 assert!(
                     worst <= 1e-4 * scale.max(1e-6),
                     "{cells:?}, parameter {i}: worst {worst}, scale {scale}"

@@ -593,12 +593,8 @@ mod tests {
         let m = FEATURE_RESOLUTION;
         assert_eq!(fast.len(), b * m * m * 64);
         assert_eq!(fast.len(), slow.len());
-        let scale = slow.iter().fold(0.0f32, |a, v| a.max(v.abs()));
+        let (worst, scale) = crate::testing::worst_and_scale(&fast, &slow);
         assert!(scale > 0.0);
-        let worst = fast
-            .iter()
-            .zip(&slow)
-            .fold(0.0f32, |a, (p, q)| a.max((p - q).abs()));
         assert!(
             worst <= 1e-5 * scale.max(1.0),
             "worst {worst}, scale {scale}"
@@ -626,12 +622,8 @@ mod tests {
             for p in Primitive::ALL {
                 let fast = policy.embed(&hm, p).expect("embed");
                 let slow = policy.embed_candle(&hm, p).expect("embed candle");
-                let scale = slow.features.iter().fold(0.0f32, |a, v| a.max(v.abs()));
-                let worst = fast
-                    .features
-                    .iter()
-                    .zip(&slow.features)
-                    .fold(0.0f32, |a, (x, y)| a.max((x - y).abs()));
+                let (worst, scale) =
+                    crate::testing::worst_and_scale(&fast.features, &slow.features);
                 assert!(
                     worst <= 1e-5 * scale,
                     "{task} {p:?} {res} px: {worst} of {scale}"

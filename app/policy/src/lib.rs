@@ -34,6 +34,8 @@ pub mod reward;
 pub mod rotation;
 pub mod simd;
 pub mod tensor_file;
+#[cfg(test)]
+mod testing;
 pub mod trainer;
 pub mod transporter;
 pub(crate) mod winograd;

@@ -532,12 +532,8 @@ mod tests {
                 let mut fast = vec![0.0; 2 * n * n * spec.out_channels];
                 wino.forward_into(&x, 2, n, &mut fast);
                 let slow = direct(spec, &w, &b, &x, 2, n);
-                let scale = slow.iter().fold(0.0f32, |a, v| a.max(v.abs()));
+                let (worst, scale) = crate::testing::worst_and_scale(&fast, &slow);
                 assert!(scale > 0.0);
-                let worst = fast
-                    .iter()
-                    .zip(&slow)
-                    .fold(0.0f32, |a, (p, q)| a.max((p - q).abs()));
                 assert!(
                     worst <= 1e-5 * scale,
                     "{} n {n}: {worst} of {scale}",
