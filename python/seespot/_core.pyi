@@ -86,6 +86,7 @@ class VectorTrials:
     def step(
         self, actions: npt.NDArray[np.int64], reset_seeds: npt.NDArray[np.int64]
     ) -> dict[str, npt.NDArray[Any]]: ...
+    def prefetch(self, seeds: npt.NDArray[np.int64]) -> None: ...
 
 @final
 class Policy:

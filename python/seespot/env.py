@@ -141,8 +141,11 @@ class SeespotVectorEnv(VectorEnv[Obs, np.ndarray, np.ndarray]):
     ends as ``num_envs`` copies of :class:`SeespotEnv`, batched. Seeds:
     ``reset(seed=s)`` starts trial i from ``s + i`` (a list gives each its
     own); without one, and at every autoreset, seeds are drawn from
-    ``np_random``. ``info`` holds ``progress``, ``seed``, ``actions`` and
-    ``primitive_success`` arrays, each with its ``_name`` mask."""
+    ``np_random``. Each trial's next seed is drawn when its episode starts, so
+    that its next start is built in the background meanwhile (a start costs as
+    much as about a hundred steps). ``info`` holds ``progress``, ``seed``,
+    ``actions`` and ``primitive_success`` arrays, each with its ``_name``
+    mask."""
 
     metadata: dict[str, Any] = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
 
@@ -161,9 +164,11 @@ class SeespotVectorEnv(VectorEnv[Obs, np.ndarray, np.ndarray]):
         self.action_space = batch_space(self.single_action_space, num_envs)
         self._trials: VectorTrials | None = None
         self._ended = np.zeros(num_envs, dtype=bool)
+        # Per trial, the seed of its next start (being built in the background).
+        self._next: np.ndarray | None = None
 
-    def _seeds(self) -> list[int]:
-        return [int(s) for s in self.np_random.integers(0, 2**31, self.num_envs)]
+    def _draw(self, count: int) -> np.ndarray:
+        return self.np_random.integers(0, 2**31, count, dtype=np.int64)
 
     def _obs_info(self, batch: dict[str, Any]) -> tuple[Obs, dict[str, Any]]:
         depth = batch["depth"]
@@ -184,13 +189,19 @@ class SeespotVectorEnv(VectorEnv[Obs, np.ndarray, np.ndarray]):
                 raise ValueError(f"seed: {len(seed)} seeds for {self.num_envs} environments")
             super().reset(seed=seed[0])
             seeds = [int(s) for s in seed]
-        else:
+        elif seed is not None:
             super().reset(seed=seed)
-            seeds = [seed + i for i in range(self.num_envs)] if seed is not None else self._seeds()
+            seeds = [seed + i for i in range(self.num_envs)]
+        else:
+            super().reset()
+            drawn = self._next if self._next is not None else self._draw(self.num_envs)
+            seeds = [int(s) for s in drawn]
         if self._trials is None:
             self._trials = VectorTrials(self.task, seeds, self.resolution)
         batch = self._trials.reset(seeds)
         self._ended[:] = False
+        self._next = self._draw(self.num_envs)
+        self._trials.prefetch(self._next)
         return self._obs_info(batch)
 
     def step(self, actions: Any) -> tuple[Obs, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
@@ -199,8 +210,13 @@ class SeespotVectorEnv(VectorEnv[Obs, np.ndarray, np.ndarray]):
         a = np.asarray(actions, dtype=np.int64)
         if a.shape != (self.num_envs, 3):
             raise ValueError(f"actions: expected shape ({self.num_envs}, 3), got {a.shape}")
-        resets = np.where(self._ended, np.asarray(self._seeds(), dtype=np.int64), -1)
+        assert self._next is not None
+        started = self._ended
+        resets = np.where(started, self._next, -1)
         batch = self._trials.step(a, resets)
+        if started.any():
+            self._next[started] = self._draw(int(started.sum()))
+            self._trials.prefetch(np.where(started, self._next, -1))
         end = batch["end"]
         stepped = ~self._ended
         reward = np.where(stepped, batch["progress"] - batch["progress_before"], 0).astype(np.float64)

@@ -117,3 +117,36 @@ def test_native_vector_env_matches_the_single_environments() -> None:
     with pytest.raises(ValueError, match=r"actions\[0\]"):
         venv.step(np.full((n, 3), RES, dtype=np.int64))
     venv.close()
+
+
+def test_native_vector_env_prefetched_starts() -> None:
+    """Each slot's next start is built in the background from a seed drawn
+    when its episode starts: the same seed gives the same autoreset seeds,
+    `reset()` without a seed takes the prefetched starts, and a prefetch for
+    another seed than the one asked for is not used."""
+    from seespot._core import Trial, VectorTrials
+
+    def seeds_seen(reset_seed: int) -> list[list[int]]:
+        venv = gym.make_vec("seespot/Stack-v0", num_envs=2, resolution=RES)
+        _, info = venv.reset(seed=reset_seed)
+        seen = [list(info["seed"])]
+        actions = np.zeros((2, 3), dtype=np.int64)
+        for _ in range(31):  # every slot reaches the 30-action limit once
+            _, _, _, _, info = venv.step(actions)
+            seen.append(list(info["seed"]))
+        _, info = venv.reset()
+        seen.append(list(info["seed"]))
+        venv.close()
+        return seen
+
+    first = seeds_seen(11)
+    assert first == seeds_seen(11)
+    assert first[0] == [11, 12] and first[-2] != first[0], "no autoreset happened"
+
+    trials = VectorTrials("stack", [1, 2], RES)
+    trials.prefetch(np.array([7, -1], dtype=np.int64))
+    batch = trials.reset([8, 9])
+    color, _ = Trial("stack", 8, RES).observe()
+    np.testing.assert_array_equal(batch["color"][0], color)
+    with pytest.raises(ValueError, match="seeds"):
+        trials.prefetch(np.array([1], dtype=np.int64))

@@ -2,8 +2,16 @@
 //! (rayon) with the GIL released, their observations written straight into
 //! batched arrays: the core of the native gymnasium vector environment
 //! (`seespot.env.SeespotVectorEnv`).
+//!
+//! A random start costs as much as about a hundred steps (its physics settles
+//! each of the four drops), so the environment builds each trial's *next* start in the
+//! background while the current one runs ([`VectorTrials::prefetch`]): the
+//! same start as building it when it is needed (a start is a function of its
+//! seed), but off the step's critical path, where one start would otherwise
+//! hold one core while the other waits.
 
 use std::path::PathBuf;
+use std::sync::{Mutex, mpsc};
 
 use numpy::ndarray::{Array1, Array3, Array4};
 use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
@@ -50,9 +58,64 @@ pub struct VectorTrials {
     task: TaskId,
     config: WorldConfig,
     trials: Vec<SimTrial>,
+    /// Per trial, the start being built in the background for its next seed.
+    pending: Vec<Option<Prefetch>>,
+}
+
+/// A start being built on the thread pool for `seed`.
+struct Prefetch {
+    seed: u64,
+    /// In a mutex only so that the Python class is `Sync`.
+    done: Mutex<mpsc::Receiver<SimTrial>>,
+}
+
+impl Prefetch {
+    fn spawn(config: WorldConfig, task: TaskId, seed: u64) -> Self {
+        let (tx, done) = mpsc::channel();
+        rayon::spawn(move || {
+            // The receiver is gone when the environment was dropped or its
+            // trial given another seed: the start is then not needed.
+            let _ = tx.send(SimTrial::new(config, task, seed));
+        });
+        Self {
+            seed,
+            done: Mutex::new(done),
+        }
+    }
 }
 
 impl VectorTrials {
+    /// The start of trial `i` from `seed`, taken from its prefetch when that
+    /// was for the same seed (waiting for it if need be). Called outside the
+    /// thread pool, so waiting cannot hold a worker that the build needs.
+    fn take_prefetched(&mut self, i: usize, seed: u64) -> Option<SimTrial> {
+        let p = self.pending[i].take()?;
+        if p.seed != seed {
+            return None;
+        }
+        p.done.into_inner().ok()?.recv().ok()
+    }
+
+    /// Puts every prefetched start among `plan` in place (the GIL released);
+    /// returns, per trial, whether it still has to be built.
+    fn start_prefetched(&mut self, py: Python<'_>, plan: &[Option<u64>]) -> Vec<bool> {
+        py.detach(|| {
+            plan.iter()
+                .enumerate()
+                .map(|(i, seed)| match seed {
+                    Some(seed) => match self.take_prefetched(i, *seed) {
+                        Some(trial) => {
+                            self.trials[i] = trial;
+                            false
+                        }
+                        None => true,
+                    },
+                    None => false,
+                })
+                .collect()
+        })
+    }
+
     /// Runs `work` on every trial in parallel and gathers the batch.
     fn batch<'py>(
         &mut self,
@@ -158,10 +221,12 @@ impl VectorTrials {
                 .map(|&s| SimTrial::new(config, task, s))
                 .collect()
         });
+        let pending = seeds.iter().map(|_| None).collect();
         Ok(Self {
             task,
             config,
             trials,
+            pending,
         })
     }
 
@@ -180,11 +245,43 @@ impl VectorTrials {
             ));
         }
         let seeds = self::seeds(&seeds, "seeds")?;
+        let plan: Vec<Option<u64>> = seeds.iter().map(|&s| Some(s)).collect();
+        let build = self.start_prefetched(py, &plan);
         let (config, task) = (self.config, self.task);
         self.batch(py, |i, trial| {
-            *trial = SimTrial::new(config, task, seeds[i]);
+            if build[i] {
+                *trial = SimTrial::new(config, task, seeds[i]);
+            }
             (trial.progress(), false)
         })
+    }
+
+    /// Starts building, in the background, the start of trial i from
+    /// `seeds[i]` where that is >= 0: the seed its next `reset` or
+    /// `reset_seeds` entry will give. A later start from another seed builds
+    /// its own and the prefetch is dropped.
+    fn prefetch(&mut self, seeds: PyReadonlyArray1<'_, i64>) -> PyResult<()> {
+        let seeds = seeds.as_array();
+        if seeds.len() != self.trials.len() {
+            return Err(bad(
+                "seeds",
+                format!(
+                    "has {} entries for {} trials",
+                    seeds.len(),
+                    self.trials.len()
+                ),
+            ));
+        }
+        for (i, &s) in seeds.iter().enumerate() {
+            if s < 0 {
+                continue;
+            }
+            let seed = s as u64;
+            if self.pending[i].as_ref().is_none_or(|p| p.seed != seed) {
+                self.pending[i] = Some(Prefetch::spawn(self.config, self.task, seed));
+            }
+        }
+        Ok(())
     }
 
     /// Steps trial i with `actions[i]` = (rotation, y, x), or starts it again
@@ -237,10 +334,13 @@ impl VectorTrials {
             plan.push(None);
             moves.push(a);
         }
+        let build = self.start_prefetched(py, &plan);
         let (config, task) = (self.config, self.task);
         self.batch(py, |i, trial| match plan[i] {
             Some(seed) => {
-                *trial = SimTrial::new(config, task, seed);
+                if build[i] {
+                    *trial = SimTrial::new(config, task, seed);
+                }
                 (trial.progress(), false)
             }
             None => {
