@@ -180,19 +180,69 @@ fn give_back(scratch: Scratch) {
         .unwrap_or_else(std::sync::PoisonError::into_inner) = scratch;
 }
 
+/// `net`'s trunk weights and biases, copied out of candle.
+fn raw_layers(net: &QNet) -> candle_core::Result<RawLayers> {
+    (0..TRUNK.len())
+        .map(|i| {
+            let flat = |t: &candle_core::Var| t.as_tensor().flatten_all()?.to_vec1::<f32>();
+            Ok((flat(&net.params[2 * i])?, flat(&net.params[2 * i + 1])?))
+        })
+        .collect()
+}
+
+/// Each layer's weights and bias as the network holds them (`[out][in][ky][kx]`).
+type RawLayers = Vec<(Vec<f32>, Vec<f32>)>;
+
+/// How many built trunks [`InferTrunk::shared`] keeps: the grasp and place
+/// trunks of SSR's three policies, and two to spare.
+const BUILT_TRUNKS: usize = 8;
+
+/// Trunks built lately, with the weights they were built from, newest first.
+static BUILT: std::sync::Mutex<Vec<(RawLayers, std::sync::Arc<InferTrunk>)>> =
+    std::sync::Mutex::new(Vec::new());
+
+/// Whether two sets of weights are the same bit for bit.
+fn same_bits(a: &RawLayers, b: &RawLayers) -> bool {
+    let same = |x: &[f32], y: &[f32]| {
+        x.len() == y.len() && x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits())
+    };
+    a.len() == b.len()
+        && a.iter()
+            .zip(b)
+            .all(|((wa, ba), (wb, bb))| same(wa, wb) && same(ba, bb))
+}
+
 impl InferTrunk {
     /// Copies `net`'s trunk weights into inference layout.
     pub fn new(net: &QNet) -> candle_core::Result<Self> {
+        Ok(Self::from_raw(&raw_layers(net)?))
+    }
+
+    /// [`Self::new`], reusing the trunk built last from the same weights
+    /// (bit for bit) where there is one: building one costs about a
+    /// millisecond (the Winograd filter transform), and a decision asks for
+    /// six. Weights that change, as in training, are compared and built
+    /// anew, so the trunk is always that of the weights `net` holds now.
+    pub fn shared(net: &QNet) -> candle_core::Result<std::sync::Arc<Self>> {
+        let raw = raw_layers(net)?;
+        let lock = || {
+            BUILT
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner)
+        };
+        if let Some((_, trunk)) = lock().iter().find(|(r, _)| same_bits(r, &raw)) {
+            return Ok(trunk.clone());
+        }
+        let trunk = std::sync::Arc::new(Self::from_raw(&raw));
+        let mut built = lock();
+        built.insert(0, (raw, trunk.clone()));
+        built.truncate(BUILT_TRUNKS);
+        Ok(trunk)
+    }
+
+    fn from_raw(raw: &RawLayers) -> Self {
         let mut layers = Vec::with_capacity(TRUNK.len());
-        for (i, spec) in TRUNK.iter().enumerate() {
-            let w = net.params[2 * i]
-                .as_tensor()
-                .flatten_all()?
-                .to_vec1::<f32>()?;
-            let bias = net.params[2 * i + 1]
-                .as_tensor()
-                .flatten_all()?
-                .to_vec1::<f32>()?;
+        for (spec, (w, bias)) in TRUNK.iter().zip(raw) {
             let (ci, co, k) = (spec.in_channels, spec.out_channels, KERNEL);
             let mut weights = vec![0.0f32; k * k * ci * co];
             for o in 0..co {
@@ -207,12 +257,12 @@ impl InferTrunk {
             }
             layers.push(Layer {
                 spec: *spec,
-                winograd: Winograd::new(spec, &weights, &bias),
+                winograd: Winograd::new(spec, &weights, bias),
                 weights,
-                bias,
+                bias: bias.clone(),
             });
         }
-        Ok(Self { layers })
+        Self { layers }
     }
 
     /// The trunk on `batch` inputs of `C x n x n` (channels first, as
@@ -599,6 +649,33 @@ mod tests {
             worst <= 1e-5 * scale.max(1.0),
             "worst {worst}, scale {scale}"
         );
+    }
+
+    /// `shared` gives back the trunk it built for the same weights, and
+    /// builds anew (the same trunk as `new`) once they change in place, as
+    /// a training step changes them.
+    #[test]
+    fn shared_trunks_follow_the_weights() {
+        let net = QNet::new(11).expect("net");
+        let n = 24;
+        let x: Vec<f32> = (0..INPUT_CHANNELS * n * n)
+            .map(|i| ((i * 7919) % 1000) as f32 / 1000.0)
+            .collect();
+        // Other tests build trunks meanwhile and may evict this one between
+        // two calls; three tries make that vanishingly unlikely.
+        let reused = (0..3).any(|_| {
+            let a = InferTrunk::shared(&net).expect("shared");
+            std::sync::Arc::ptr_eq(&a, &InferTrunk::shared(&net).expect("shared"))
+        });
+        assert!(reused, "the same weights built their trunk again");
+        let before = InferTrunk::shared(&net).expect("shared").forward(&x, 1, n);
+        let w = net.params[4].as_tensor().affine(1.5, 0.01).expect("scaled");
+        net.params[4].set(&w).expect("set");
+        let after = InferTrunk::shared(&net).expect("shared").forward(&x, 1, n);
+        let fresh = InferTrunk::new(&net).expect("new").forward(&x, 1, n);
+        let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&after), bits(&fresh));
+        assert_ne!(bits(&after), bits(&before));
     }
 
     /// On real scenes with the shipped policies, at 112 and 224 px: the

@@ -135,7 +135,7 @@ impl PolicyNet {
         scene: &SceneInput,
         primitive: Primitive,
     ) -> Result<RotatedFeatures, PolicyError> {
-        let trunk = crate::infer::InferTrunk::new(self.net(primitive))?;
+        let trunk = crate::infer::InferTrunk::shared(self.net(primitive))?;
         let features = trunk.forward_channels_last(&scene.rotated, NUM_ROTATIONS, NET_RESOLUTION);
         Ok(RotatedFeatures {
             features,
@@ -211,7 +211,7 @@ impl PolicyNet {
     ) -> Result<CellAse, PolicyError> {
         let input = NetInput::from_heightmaps(hm);
         let x = rotate_input_batch(&input, &[rotation]);
-        let trunk = crate::infer::InferTrunk::new(self.net(primitive))?;
+        let trunk = crate::infer::InferTrunk::shared(self.net(primitive))?;
         let features = trunk.forward(&x, 1, NET_RESOLUTION);
         let rf = RotatedFeatures { features, input };
         Ok(cell_ase(hm, primitive, rf, Some(rotation)))
