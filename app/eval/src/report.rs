@@ -462,7 +462,7 @@ pub fn ssr_runs(records: &[TrialRecord]) -> Vec<RunSpec> {
 /// what each comparison asks; pairs without shared seeds are skipped. Runs
 /// are [`RunSpec`] values, so a comparison cannot name a run that
 /// does not exist.
-pub fn planned_comparisons() -> [(RunSpec, RunSpec, &'static str); 8] {
+pub fn planned_comparisons() -> [(RunSpec, RunSpec, &'static str); 9] {
     use crate::run::EvalMethod::{Random, SpotQ, SsrCcd, SsrCcdLoopBreak, SsrL2cd, Transporter};
     use RunSpec;
     let run = RunSpec::new;
@@ -483,6 +483,11 @@ pub fn planned_comparisons() -> [(RunSpec, RunSpec, &'static str); 8] {
             run(SsrCcd).noisy(),
             run(SsrCcd),
             "sensor noise against none",
+        ),
+        (
+            run(SpotQ).noisy(),
+            run(SpotQ),
+            "sensor noise against none, for the task's own policy",
         ),
         (
             finetuned(run(SsrCcd)),
