@@ -1264,6 +1264,7 @@ mod tests {
             ("ssr-ccd", "ssr-l2cd"),
             ("ssr-ccd-loopbreak", "ssr-ccd"),
             ("ssr-ccd-noisy", "ssr-ccd"),
+            ("spot-q-noisy", "spot-q"),
             ("ssr-ccd-finetuned", "ssr-ccd"),
             ("spot-q", "ssr-ccd"),
             ("ssr-ccd", "random"),

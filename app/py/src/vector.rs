@@ -11,7 +11,8 @@
 //! hold one core while the other waits.
 
 use std::path::PathBuf;
-use std::sync::{Mutex, mpsc};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, mpsc};
 
 use numpy::ndarray::{Array1, Array3, Array4};
 use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
@@ -67,20 +68,39 @@ struct Prefetch {
     seed: u64,
     /// In a mutex only so that the Python class is `Sync`.
     done: Mutex<mpsc::Receiver<SimTrial>>,
+    /// Cleared when the start is no longer wanted (the prefetch dropped: its
+    /// environment gone, or its trial started from another seed), so that a
+    /// build still waiting in the pool's queue is skipped.
+    wanted: Arc<AtomicBool>,
 }
 
 impl Prefetch {
     fn spawn(config: WorldConfig, task: TaskId, seed: u64) -> Self {
         let (tx, done) = mpsc::channel();
+        let wanted = Arc::new(AtomicBool::new(true));
+        let still = Arc::clone(&wanted);
         rayon::spawn(move || {
-            // The receiver is gone when the environment was dropped or its
-            // trial given another seed: the start is then not needed.
-            let _ = tx.send(SimTrial::new(config, task, seed));
+            if still.load(Ordering::Relaxed) {
+                // The receiver may be gone meanwhile: the start is then not needed.
+                let _ = tx.send(SimTrial::new(config, task, seed));
+            }
         });
         Self {
             seed,
             done: Mutex::new(done),
+            wanted,
         }
+    }
+
+    /// The start, once built.
+    fn wait(&self) -> Option<SimTrial> {
+        self.done.lock().ok()?.recv().ok()
+    }
+}
+
+impl Drop for Prefetch {
+    fn drop(&mut self) {
+        self.wanted.store(false, Ordering::Relaxed);
     }
 }
 
@@ -93,7 +113,7 @@ impl VectorTrials {
         if p.seed != seed {
             return None;
         }
-        p.done.into_inner().ok()?.recv().ok()
+        p.wait()
     }
 
     /// Puts every prefetched start among `plan` in place (the GIL released);
