@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use seespot_eval::{Summary, summarize};
 use seespot_policy::PolicyNet;
-use seespot_policy::trainer::{TrainConfig, TrainOutcome};
+use seespot_policy::trainer::{EpsilonDecay, TrainConfig, TrainOutcome};
 use seespot_sim::{Seeds, Split, TaskId};
 use seespot_ssr::Layout;
 use seespot_ssr::layout::new_layout;
@@ -51,6 +51,11 @@ pub struct TrainArgs {
     /// `runs/models/pure-rl/<task>.safetensors`.
     #[arg(long)]
     pub pure_rl: bool,
+    /// How exploration's epsilon decays: `linear` (seespot's: 0.5 to 0.1 over
+    /// the first three quarters of the run) or `reference` (the reference
+    /// trainer's for long runs: 0.5 x 0.9999^actions, floor 0.01).
+    #[arg(long, value_enum, default_value_t = EpsilonDecayArg::Linear)]
+    pub epsilon_decay: EpsilonDecayArg,
     /// Hide the progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -58,6 +63,13 @@ pub struct TrainArgs {
     /// model card, the run's counters and the own-task metrics).
     #[arg(long)]
     pub json: bool,
+}
+
+/// `--epsilon-decay`: [`EpsilonDecay`] on the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum EpsilonDecayArg {
+    Linear,
+    Reference,
 }
 
 fn bar(len: u64, quiet: bool, template: &str) -> indicatif::ProgressBar {
@@ -106,6 +118,10 @@ pub fn run(args: TrainArgs) -> anyhow::Result<()> {
     }
     config.resolution = args.resolution;
     config.checkpoint_every = args.checkpoint_every;
+    config.epsilon_decay = match args.epsilon_decay {
+        EpsilonDecayArg::Linear => EpsilonDecay::Linear,
+        EpsilonDecayArg::Reference => EpsilonDecay::Reference,
+    };
 
     let pb = bar(
         args.actions as u64,
@@ -310,6 +326,9 @@ fn model_card(
     if c.resolution != 112 {
         retrain.push_str(&format!(" --resolution {}", c.resolution));
     }
+    if c.epsilon_decay == EpsilonDecay::Reference {
+        retrain.push_str(" --epsilon-decay reference");
+    }
     if let Some(dir) = &args.run_dir {
         retrain.push_str(&format!(" --run-dir {}", dir.display()));
     }
@@ -360,15 +379,14 @@ fn model_card(
         md.push_str(&format!(
             "## Pretraining by reinforcement learning alone\n\n\
              **No oracle actions** (`--pure-rl`), as the paper's SPOT-Q: each action is, with \
-             probability epsilon decaying from {e0} to {e1}, a random action under the common-sense \
+             probability epsilon {decay}, a random action under the common-sense \
              mask, otherwise the greedy argmax of Q; SPOT-Q off-policy learning from the \
              progress-scaled rewards and SPOT trial rewards (discount 0.65), Huber loss at the \
              executed action, surprise-prioritised replay. {differences}\n\n\
              ## Retrain\n\n\
              ```\n{retrain}\n```\n\n\
              It resumes from `{run}` if a checkpoint is there.\n",
-            e0 = c.epsilon_start,
-            e1 = c.epsilon_end,
+            decay = epsilon_words(c),
             run = run_dir.display(),
         ));
         return md;
@@ -378,7 +396,7 @@ fn model_card(
          **Exploration actions partly come from the task's scripted oracle.** The reference trained \
          40k actions per task on a GPU with epsilon-greedy exploration; here a task gets minutes of a \
          shared 2-core CPU. So each action is, with probability decaying from {o0} to {o1}, the \
-         scripted oracle's action; otherwise, with probability epsilon decaying from {e0} to {e1}, a \
+         scripted oracle's action; otherwise, with probability epsilon {decay}, a \
          random action under the common-sense mask; otherwise the greedy argmax of Q. The oracle only \
          decides which actions are tried: the learning is still SPOT-Q off-policy learning from the \
          progress-scaled rewards and SPOT trial rewards (discount 0.65) those actions earned, with a \
@@ -388,9 +406,22 @@ fn model_card(
          It resumes from `{run}` if a checkpoint is there.\n",
         o0 = c.oracle_start,
         o1 = c.oracle_end,
-        e0 = c.epsilon_start,
-        e1 = c.epsilon_end,
+        decay = epsilon_words(c),
         run = run_dir.display(),
     ));
     md
+}
+
+/// How the card says epsilon decays.
+fn epsilon_words(c: &TrainConfig) -> String {
+    match c.epsilon_decay {
+        EpsilonDecay::Linear => format!("decaying from {} to {}", c.epsilon_start, c.epsilon_end),
+        EpsilonDecay::Reference => format!(
+            "decaying as the reference trainer's long runs did (`--epsilon-decay reference`: \
+             {} x {}^actions, never below {})",
+            c.epsilon_start,
+            seespot_policy::trainer::REFERENCE_EPSILON_RATE,
+            seespot_policy::trainer::REFERENCE_EPSILON_FLOOR
+        ),
+    }
 }

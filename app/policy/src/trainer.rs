@@ -56,9 +56,13 @@ pub struct TrainConfig {
     pub max_trial_actions: usize,
     pub batch: usize,
     /// Epsilon (random masked action among the non-oracle actions) decays
-    /// linearly from `epsilon_start` to `epsilon_end` over `decay_actions`.
+    /// linearly from `epsilon_start` to `epsilon_end` over `decay_actions`,
+    /// or as the reference trainer's did ([`EpsilonDecay::Reference`]).
     pub epsilon_start: f32,
     pub epsilon_end: f32,
+    /// How epsilon decays (runs made before this setting decay linearly).
+    #[serde(default)]
+    pub epsilon_decay: EpsilonDecay,
     /// Oracle-guided exploration probability, decaying the same way.
     pub oracle_start: f32,
     pub oracle_end: f32,
@@ -69,6 +73,25 @@ pub struct TrainConfig {
     pub window: usize,
     pub adam: LearnerConfig,
 }
+
+/// How a run's exploration epsilon decays with its actions.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum EpsilonDecay {
+    /// Linearly from `epsilon_start` to `epsilon_end` over `decay_actions`,
+    /// then `epsilon_end`: seespot's own schedule.
+    #[default]
+    Linear,
+    /// As the reference trainer's runs of over 20 000 actions (`main.py`):
+    /// `epsilon_start x 0.9999^actions`, never below 0.01 (about 0.009 at
+    /// 40 000 actions, so the floor holds from about 39 000 on).
+    Reference,
+}
+
+/// The reference trainer's per-action epsilon decay for long runs.
+pub const REFERENCE_EPSILON_RATE: f64 = 0.9999;
+/// The reference trainer's floor on epsilon.
+pub const REFERENCE_EPSILON_FLOOR: f32 = 0.01;
 
 impl TrainConfig {
     pub fn new(task: TaskId, actions: usize, seed: u64) -> Self {
@@ -81,6 +104,7 @@ impl TrainConfig {
             batch: DEFAULT_BATCH,
             epsilon_start: 0.5,
             epsilon_end: 0.1,
+            epsilon_decay: EpsilonDecay::Linear,
             oracle_start: 0.5,
             oracle_end: 0.2,
             decay_actions: actions * 3 / 4,
@@ -97,7 +121,13 @@ impl TrainConfig {
     }
 
     pub fn epsilon(&self, actions: usize) -> f32 {
-        self.decayed(self.epsilon_start, self.epsilon_end, actions)
+        match self.epsilon_decay {
+            EpsilonDecay::Linear => self.decayed(self.epsilon_start, self.epsilon_end, actions),
+            EpsilonDecay::Reference => {
+                let e = f64::from(self.epsilon_start) * REFERENCE_EPSILON_RATE.powf(actions as f64);
+                (e as f32).max(REFERENCE_EPSILON_FLOOR)
+            }
+        }
     }
 
     pub fn oracle_probability(&self, actions: usize) -> f32 {

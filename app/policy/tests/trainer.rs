@@ -92,3 +92,31 @@ fn a_resumed_run_gives_the_weights_of_an_unbroken_one() {
         assert_eq!(bits(a), bits(b));
     }
 }
+
+/// Epsilon under both schedules: seespot's linear one, and the reference
+/// trainer's (0.5 x 0.9999^actions, floor 0.01); a run's state written
+/// before the setting existed reads as linear.
+#[test]
+fn epsilon_schedules() {
+    use seespot_policy::EpsilonDecay;
+    let mut c = TrainConfig::new(TaskId::Row, 40_000, 0);
+    assert_eq!(c.epsilon_decay, EpsilonDecay::Linear);
+    assert_eq!(c.epsilon(0), 0.5);
+    assert!((c.epsilon(15_000) - 0.3).abs() < 1e-6);
+    assert!((c.epsilon(39_999) - 0.1).abs() < 1e-6);
+    c.epsilon_decay = EpsilonDecay::Reference;
+    assert_eq!(c.epsilon(0), 0.5);
+    let at_10k = 0.5 * 0.9999f64.powi(10_000);
+    assert!(
+        (f64::from(c.epsilon(10_000)) - at_10k).abs() < 1e-6,
+        "{}",
+        c.epsilon(10_000)
+    );
+    assert_eq!(c.epsilon(40_000), 0.01);
+    let mut json = serde_json::to_value(TrainConfig::new(TaskId::Row, 400, 0)).expect("json");
+    json.as_object_mut()
+        .expect("object")
+        .remove("epsilon_decay");
+    let old: TrainConfig = serde_json::from_value(json).expect("an old run's config");
+    assert_eq!(old.epsilon_decay, EpsilonDecay::Linear);
+}
