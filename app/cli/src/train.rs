@@ -56,6 +56,10 @@ pub struct TrainArgs {
     /// trainer's for long runs: 0.5 x 0.9999^actions, floor 0.01).
     #[arg(long, value_enum, default_value_t = EpsilonDecayArg::Linear)]
     pub epsilon_decay: EpsilonDecayArg,
+    /// Experiences per primitive the replay keeps, oldest dropped first (the
+    /// reference trainer drew from its whole history).
+    #[arg(long, default_value_t = 4000, value_parser = seespot_sim::bounds::parse_replay_capacity)]
+    pub replay_capacity: usize,
     /// Hide the progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -118,6 +122,7 @@ pub fn run(args: TrainArgs) -> anyhow::Result<()> {
     }
     config.resolution = args.resolution;
     config.checkpoint_every = args.checkpoint_every;
+    config.replay_capacity = args.replay_capacity;
     config.epsilon_decay = match args.epsilon_decay {
         EpsilonDecayArg::Linear => EpsilonDecay::Linear,
         EpsilonDecayArg::Reference => EpsilonDecay::Reference,
@@ -328,6 +333,9 @@ fn model_card(
     }
     if c.epsilon_decay == EpsilonDecay::Reference {
         retrain.push_str(" --epsilon-decay reference");
+    }
+    if c.replay_capacity != TrainConfig::new(task, 1, 0).replay_capacity {
+        retrain.push_str(&format!(" --replay-capacity {}", c.replay_capacity));
     }
     if let Some(dir) = &args.run_dir {
         retrain.push_str(&format!(" --run-dir {}", dir.display()));

@@ -76,6 +76,10 @@ pub const BENCH_ITERATIONS: Bound = Bound::new(1, 10_000, "iterations");
 /// Actions of one training run (`train --actions`) and its checkpoint interval.
 pub const TRAIN_ACTIONS: Bound = Bound::new(1, 10_000_000, "actions");
 
+/// Experiences per primitive a training run's replay keeps (`train
+/// --replay-capacity`).
+pub const REPLAY_CAPACITY: Bound = Bound::new(1, 1_000_000, "experiences");
+
 /// Finetuning steps per policy (`eval --finetune-steps`; 0: no finetuning).
 pub const FINETUNE_STEPS: Bound = Bound::new(0, 1_000_000, "steps");
 
@@ -105,6 +109,11 @@ pub fn parse_bench_iterations(text: &str) -> Result<usize, String> {
 /// [`TRAIN_ACTIONS`] of a command-line value.
 pub fn parse_train_actions(text: &str) -> Result<usize, String> {
     TRAIN_ACTIONS.parse_usize(text)
+}
+
+/// [`REPLAY_CAPACITY`] of a command-line value.
+pub fn parse_replay_capacity(text: &str) -> Result<usize, String> {
+    REPLAY_CAPACITY.parse_usize(text)
 }
 
 /// [`FINETUNE_STEPS`] of a command-line value.
