@@ -142,6 +142,16 @@ fn issue_10_training_and_finetuning_counts_are_bounded() {
         "0..=100000",
     );
     refused(
+        &["train", "--task", "stack", "--replay-capacity", "0"],
+        "--replay-capacity",
+        "1..=1000000",
+    );
+    refused(
+        &["train", "--task", "stack", "--epsilon-decay", "cosine"],
+        "--epsilon-decay",
+        "linear",
+    );
+    refused(
         &["eval", "--task", "stack", "--finetune-steps", MAX],
         "--finetune-steps",
         "0..=1000000",
