@@ -56,9 +56,13 @@ pub struct TrainArgs {
     /// trainer's for long runs: 0.5 x 0.9999^actions, floor 0.01).
     #[arg(long, value_enum, default_value_t = EpsilonDecayArg::Linear)]
     pub epsilon_decay: EpsilonDecayArg,
+    /// A training trial ends after this many actions (the reference trainer's
+    /// default was 100; test trials end after 30 whatever this is).
+    #[arg(long, default_value_t = seespot_policy::trainer::DEFAULT_MAX_TRIAL_ACTIONS, value_parser = seespot_sim::bounds::parse_train_trial_actions)]
+    pub max_trial_actions: usize,
     /// Experiences per primitive the replay keeps, oldest dropped first (the
     /// reference trainer drew from its whole history).
-    #[arg(long, default_value_t = 4000, value_parser = seespot_sim::bounds::parse_replay_capacity)]
+    #[arg(long, default_value_t = seespot_policy::trainer::DEFAULT_REPLAY_CAPACITY, value_parser = seespot_sim::bounds::parse_replay_capacity)]
     pub replay_capacity: usize,
     /// Hide the progress bar.
     #[arg(long)]
@@ -123,6 +127,7 @@ pub fn run(args: TrainArgs) -> anyhow::Result<()> {
     config.resolution = args.resolution;
     config.checkpoint_every = args.checkpoint_every;
     config.replay_capacity = args.replay_capacity;
+    config.max_trial_actions = args.max_trial_actions;
     config.epsilon_decay = match args.epsilon_decay {
         EpsilonDecayArg::Linear => EpsilonDecay::Linear,
         EpsilonDecayArg::Reference => EpsilonDecay::Reference,
@@ -334,8 +339,12 @@ fn model_card(
     if c.epsilon_decay == EpsilonDecay::Reference {
         retrain.push_str(" --epsilon-decay reference");
     }
-    if c.replay_capacity != TrainConfig::new(task, 1, 0).replay_capacity {
+    use seespot_policy::trainer::{DEFAULT_MAX_TRIAL_ACTIONS, DEFAULT_REPLAY_CAPACITY};
+    if c.replay_capacity != DEFAULT_REPLAY_CAPACITY {
         retrain.push_str(&format!(" --replay-capacity {}", c.replay_capacity));
+    }
+    if c.max_trial_actions != DEFAULT_MAX_TRIAL_ACTIONS {
+        retrain.push_str(&format!(" --max-trial-actions {}", c.max_trial_actions));
     }
     if let Some(dir) = &args.run_dir {
         retrain.push_str(&format!(" --run-dir {}", dir.display()));

@@ -147,6 +147,11 @@ fn issue_10_training_and_finetuning_counts_are_bounded() {
         "1..=1000000",
     );
     refused(
+        &["train", "--task", "stack", "--max-trial-actions", "0"],
+        "--max-trial-actions",
+        "1..=1000",
+    );
+    refused(
         &["train", "--task", "stack", "--epsilon-decay", "cosine"],
         "--epsilon-decay",
         "linear",

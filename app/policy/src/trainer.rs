@@ -42,6 +42,10 @@ use crate::reward::{step_reward, trial_rewards};
 
 /// Experiences per training step (half grasp, half place when both exist).
 pub const DEFAULT_BATCH: usize = 4;
+/// Actions after which a training trial ends, unless a run says otherwise.
+pub const DEFAULT_MAX_TRIAL_ACTIONS: usize = 20;
+/// Experiences per primitive the replay keeps, unless a run says otherwise.
+pub const DEFAULT_REPLAY_CAPACITY: usize = 4000;
 
 /// Everything that defines a training run.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -100,7 +104,7 @@ impl TrainConfig {
             resolution: 112,
             actions,
             seed,
-            max_trial_actions: 20,
+            max_trial_actions: DEFAULT_MAX_TRIAL_ACTIONS,
             batch: DEFAULT_BATCH,
             epsilon_start: 0.5,
             epsilon_end: 0.1,
@@ -109,7 +113,7 @@ impl TrainConfig {
             oracle_end: 0.2,
             decay_actions: actions * 3 / 4,
             checkpoint_every: 200,
-            replay_capacity: 4000,
+            replay_capacity: DEFAULT_REPLAY_CAPACITY,
             window: 20,
             adam: LearnerConfig::default(),
         }

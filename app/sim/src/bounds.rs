@@ -76,6 +76,9 @@ pub const BENCH_ITERATIONS: Bound = Bound::new(1, 10_000, "iterations");
 /// Actions of one training run (`train --actions`) and its checkpoint interval.
 pub const TRAIN_ACTIONS: Bound = Bound::new(1, 10_000_000, "actions");
 
+/// Actions after which a training trial ends (`train --max-trial-actions`).
+pub const TRAIN_TRIAL_ACTIONS: Bound = Bound::new(1, 1000, "actions");
+
 /// Experiences per primitive a training run's replay keeps (`train
 /// --replay-capacity`).
 pub const REPLAY_CAPACITY: Bound = Bound::new(1, 1_000_000, "experiences");
@@ -109,6 +112,11 @@ pub fn parse_bench_iterations(text: &str) -> Result<usize, String> {
 /// [`TRAIN_ACTIONS`] of a command-line value.
 pub fn parse_train_actions(text: &str) -> Result<usize, String> {
     TRAIN_ACTIONS.parse_usize(text)
+}
+
+/// [`TRAIN_TRIAL_ACTIONS`] of a command-line value.
+pub fn parse_train_trial_actions(text: &str) -> Result<usize, String> {
+    TRAIN_TRIAL_ACTIONS.parse_usize(text)
 }
 
 /// [`REPLAY_CAPACITY`] of a command-line value.
