@@ -6,7 +6,9 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use seespot_eval::{Summary, summarize};
 use seespot_policy::PolicyNet;
-use seespot_policy::trainer::{EpsilonDecay, TrainConfig, TrainOutcome};
+use seespot_policy::trainer::{
+    DEFAULT_MAX_TRIAL_ACTIONS, DEFAULT_REPLAY_CAPACITY, EpsilonDecay, TrainConfig, TrainOutcome,
+};
 use seespot_sim::{Seeds, Split, TaskId};
 use seespot_ssr::Layout;
 use seespot_ssr::layout::new_layout;
@@ -58,11 +60,11 @@ pub struct TrainArgs {
     pub epsilon_decay: EpsilonDecayArg,
     /// A training trial ends after this many actions (the reference trainer's
     /// default was 100; test trials end after 30 whatever this is).
-    #[arg(long, default_value_t = seespot_policy::trainer::DEFAULT_MAX_TRIAL_ACTIONS, value_parser = seespot_sim::bounds::parse_train_trial_actions)]
+    #[arg(long, default_value_t = DEFAULT_MAX_TRIAL_ACTIONS, value_parser = seespot_sim::bounds::parse_train_trial_actions)]
     pub max_trial_actions: usize,
     /// Experiences per primitive the replay keeps, oldest dropped first (the
     /// reference trainer drew from its whole history).
-    #[arg(long, default_value_t = seespot_policy::trainer::DEFAULT_REPLAY_CAPACITY, value_parser = seespot_sim::bounds::parse_replay_capacity)]
+    #[arg(long, default_value_t = DEFAULT_REPLAY_CAPACITY, value_parser = seespot_sim::bounds::parse_replay_capacity)]
     pub replay_capacity: usize,
     /// Hide the progress bar.
     #[arg(long)]
@@ -339,7 +341,6 @@ fn model_card(
     if c.epsilon_decay == EpsilonDecay::Reference {
         retrain.push_str(" --epsilon-decay reference");
     }
-    use seespot_policy::trainer::{DEFAULT_MAX_TRIAL_ACTIONS, DEFAULT_REPLAY_CAPACITY};
     if c.replay_capacity != DEFAULT_REPLAY_CAPACITY {
         retrain.push_str(&format!(" --replay-capacity {}", c.replay_capacity));
     }
