@@ -200,7 +200,7 @@ fn bench_ssr(resolution: usize, iterations: usize, json: bool) -> anyhow::Result
         "correspond": correspond,
         "decision": {
             "decision_ms": decision_ms,
-            "decision_ms_min": total[0],
+            "decision_ms_min": total.iter().copied().fold(f64::INFINITY, f64::min),
             "decisions": decisions,
             "embed_live_ms": median(&mut embed),
             "correspond_ms": median(&mut corr),

@@ -56,8 +56,8 @@ pub struct TrainArgs {
     /// How exploration's epsilon decays: `linear` (seespot's: 0.5 to 0.1 over
     /// the first three quarters of the run) or `reference` (the reference
     /// trainer's for long runs: 0.5 x 0.9999^actions, floor 0.01).
-    #[arg(long, value_enum, default_value_t = EpsilonDecayArg::Linear)]
-    pub epsilon_decay: EpsilonDecayArg,
+    #[arg(long, default_value = "linear")]
+    pub epsilon_decay: EpsilonDecay,
     /// A training trial ends after this many actions (the reference trainer's
     /// default was 100; test trials end after 30 whatever this is).
     #[arg(long, default_value_t = DEFAULT_MAX_TRIAL_ACTIONS, value_parser = seespot_sim::bounds::parse_train_trial_actions)]
@@ -73,13 +73,6 @@ pub struct TrainArgs {
     /// model card, the run's counters and the own-task metrics).
     #[arg(long)]
     pub json: bool,
-}
-
-/// `--epsilon-decay`: [`EpsilonDecay`] on the command line.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum EpsilonDecayArg {
-    Linear,
-    Reference,
 }
 
 fn bar(len: u64, quiet: bool, template: &str) -> indicatif::ProgressBar {
@@ -130,10 +123,7 @@ pub fn run(args: TrainArgs) -> anyhow::Result<()> {
     config.checkpoint_every = args.checkpoint_every;
     config.replay_capacity = args.replay_capacity;
     config.max_trial_actions = args.max_trial_actions;
-    config.epsilon_decay = match args.epsilon_decay {
-        EpsilonDecayArg::Linear => EpsilonDecay::Linear,
-        EpsilonDecayArg::Reference => EpsilonDecay::Reference,
-    };
+    config.epsilon_decay = args.epsilon_decay;
 
     let pb = bar(
         args.actions as u64,
@@ -338,8 +328,8 @@ fn model_card(
     if c.resolution != 112 {
         retrain.push_str(&format!(" --resolution {}", c.resolution));
     }
-    if c.epsilon_decay == EpsilonDecay::Reference {
-        retrain.push_str(" --epsilon-decay reference");
+    if c.epsilon_decay != EpsilonDecay::default() {
+        retrain.push_str(&format!(" --epsilon-decay {}", c.epsilon_decay.as_str()));
     }
     if c.replay_capacity != DEFAULT_REPLAY_CAPACITY {
         retrain.push_str(&format!(" --replay-capacity {}", c.replay_capacity));

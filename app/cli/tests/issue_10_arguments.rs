@@ -126,39 +126,22 @@ fn issue_10_bench_actions_and_iterations_are_bounded() {
 
 #[test]
 fn issue_10_training_and_finetuning_counts_are_bounded() {
-    refused(
-        &["train", "--task", "stack", "--actions", "0"],
-        "--actions",
-        "1..=10000000",
-    );
-    refused(
-        &["train", "--task", "stack", "--checkpoint-every", "0"],
-        "--checkpoint-every",
-        "1..=10000000",
-    );
-    refused(
-        &["train", "--task", "stack", "--eval-trials", MAX],
-        "--eval-trials",
-        "0..=100000",
-    );
-    refused(
-        &["train", "--task", "stack", "--replay-capacity", "0"],
-        "--replay-capacity",
-        "1..=1000000",
-    );
-    refused(
-        &["train", "--task", "stack", "--max-trial-actions", "0"],
-        "--max-trial-actions",
-        "1..=1000",
-    );
-    refused(
-        &["train", "--task", "stack", "--epsilon-decay", "cosine"],
-        "--epsilon-decay",
-        "linear",
-    );
-    refused(
-        &["eval", "--task", "stack", "--finetune-steps", MAX],
-        "--finetune-steps",
-        "0..=1000000",
-    );
+    // (command, flag, value, what the refusal names)
+    let cases = [
+        ("train", "--actions", "0", "1..=10000000"),
+        ("train", "--checkpoint-every", "0", "1..=10000000"),
+        ("train", "--eval-trials", MAX, "0..=100000"),
+        ("train", "--replay-capacity", "0", "1..=1000000"),
+        ("train", "--max-trial-actions", "0", "1..=1000"),
+        (
+            "train",
+            "--epsilon-decay",
+            "cosine",
+            "expected linear, reference",
+        ),
+        ("eval", "--finetune-steps", MAX, "0..=1000000"),
+    ];
+    for (command, flag, value, range) in cases {
+        refused(&[command, "--task", "stack", flag, value], flag, range);
+    }
 }

@@ -92,6 +92,35 @@ pub enum EpsilonDecay {
     Reference,
 }
 
+impl EpsilonDecay {
+    pub const ALL: [Self; 2] = [Self::Linear, Self::Reference];
+
+    /// Its name on the command line and in a run's state.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Linear => "linear",
+            Self::Reference => "reference",
+        }
+    }
+}
+
+impl std::str::FromStr for EpsilonDecay {
+    type Err = String;
+
+    /// A schedule's name, or an error listing every schedule's.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Self::ALL
+            .into_iter()
+            .find(|d| d.as_str() == s)
+            .ok_or_else(|| {
+                format!(
+                    "unknown epsilon decay '{s}' (expected {})",
+                    Self::ALL.map(Self::as_str).join(", ")
+                )
+            })
+    }
+}
+
 /// The reference trainer's per-action epsilon decay for long runs.
 pub const REFERENCE_EPSILON_RATE: f64 = 0.9999;
 /// The reference trainer's floor on epsilon.
