@@ -8,6 +8,7 @@ use seespot_eval::{Summary, summarize};
 use seespot_policy::PolicyNet;
 use seespot_policy::trainer::{
     DEFAULT_MAX_TRIAL_ACTIONS, DEFAULT_REPLAY_CAPACITY, EpsilonDecay, TrainConfig, TrainOutcome,
+    TrialRewardEnd,
 };
 use seespot_sim::{Seeds, Split, TaskId};
 use seespot_ssr::Layout;
@@ -58,6 +59,11 @@ pub struct TrainArgs {
     /// trainer's for long runs: 0.5 x 0.9999^actions, floor 0.01).
     #[arg(long, default_value = "linear")]
     pub epsilon_decay: EpsilonDecay,
+    /// What a training trial's last action is worth in the SPOT trial reward:
+    /// `once` (seespot's: its step reward) or `reference` (twice its step
+    /// reward, as the reference trainer gives it).
+    #[arg(long, default_value = "once")]
+    pub trial_reward_end: TrialRewardEnd,
     /// A training trial ends after this many actions (the reference trainer's
     /// default was 100; test trials end after 30 whatever this is).
     #[arg(long, default_value_t = DEFAULT_MAX_TRIAL_ACTIONS, value_parser = seespot_sim::bounds::parse_train_trial_actions)]
@@ -66,6 +72,16 @@ pub struct TrainArgs {
     /// reference trainer drew from its whole history).
     #[arg(long, default_value_t = DEFAULT_REPLAY_CAPACITY, value_parser = seespot_sim::bounds::parse_replay_capacity)]
     pub replay_capacity: usize,
+    /// Write the run's best snapshot to `--out` instead of its last weights:
+    /// the weights with the best training success rate over the trials that
+    /// ended in a 500-action window, which the reference trainer tested.
+    #[arg(long)]
+    pub keep_best: bool,
+    /// Go back to the best snapshot whenever the training success rate falls
+    /// below (best - 0.1) x 0.9, as the reference trainer did (from 1000
+    /// actions on, at most once every 60 actions).
+    #[arg(long)]
+    pub reload_on_decline: bool,
     /// Hide the progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -124,6 +140,8 @@ pub fn run(args: TrainArgs) -> anyhow::Result<()> {
     config.replay_capacity = args.replay_capacity;
     config.max_trial_actions = args.max_trial_actions;
     config.epsilon_decay = args.epsilon_decay;
+    config.trial_reward_end = args.trial_reward_end;
+    config.reload_on_decline = args.reload_on_decline;
 
     let pb = bar(
         args.actions as u64,
@@ -169,9 +187,8 @@ pub fn run(args: TrainArgs) -> anyhow::Result<()> {
     if let Some(dir) = out.parent() {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
-    outcome
-        .policy
-        .save(&out)
+    let kept = kept_weights(&outcome, &run_dir, args.keep_best)?;
+    kept.save(&out)
         .with_context(|| format!("writing {}", out.display()))?;
     eprintln!("wrote {}", out.display());
     if let Ok(plot) = &outcome.curve_plot {
@@ -182,7 +199,7 @@ pub fn run(args: TrainArgs) -> anyhow::Result<()> {
 
     let report = if args.eval_trials > 0 {
         Some(own_task_eval(
-            &outcome.policy,
+            &kept,
             task,
             Seeds::new(Split::Test.first(), args.eval_trials as u64)?,
             args.quiet,
@@ -224,6 +241,28 @@ pub fn run(args: TrainArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// The weights `train` writes: the run's last, or with `keep_best` its best
+/// snapshot.
+fn kept_weights(
+    outcome: &TrainOutcome,
+    run_dir: &Path,
+    keep_best: bool,
+) -> anyhow::Result<PolicyNet> {
+    if !keep_best {
+        return Ok(outcome.policy.clone());
+    }
+    let Some(best) = outcome.state.best else {
+        anyhow::bail!(
+            "--keep-best: the run in {} has no best snapshot (it was made before seespot kept \
+             one, or is shorter than {} actions); train it anew into another run directory",
+            run_dir.display(),
+            outcome.state.config.best_window
+        );
+    };
+    let path = run_dir.join(best.file());
+    PolicyNet::load(&path).with_context(|| format!("--keep-best: reading {}", path.display()))
 }
 
 /// The own-task measurement of a model card.
@@ -293,6 +332,8 @@ fn model_card(
          | seed | {seed} |\n\
          | training wall time | {wall:.0} s ({wallm:.1} min) on a shared 2-core CPU |\n\
          | exploration | oracle {o_n} / random {r_n} / greedy {g_n} actions |\n\
+         | trial reward | SPOT, discount {disc}; a trial's last action worth its step reward {end} |\n\
+         | weights | {kept} |\n\
          | time per action | choose {ch:.1} ms, simulate {si:.1} ms, learn {le:.1} ms (measured since the run began, or since a resume by a build that measures it) |\n\
          | network input | the {res} px heightmaps area-averaged (or resampled) to a 112 px, 4 mm grid before the trunk |\n\
          | seespot version | {ver} |\n\n",
@@ -311,6 +352,13 @@ fn model_card(
         wallm = s.wall_seconds / 60.0,
         o_n = s.mode_counts[0],
         r_n = s.mode_counts[1],
+        disc = seespot_policy::reward::DISCOUNT,
+        kept = kept_words(s, args.keep_best),
+        end = match c.trial_reward_end {
+            TrialRewardEnd::Once => "once",
+            TrialRewardEnd::Reference =>
+                "twice (`--trial-reward-end reference`, as the reference trainer)",
+        },
         g_n = s.mode_counts[2],
         ch = 1e3 * s.phase_seconds.choose / s.actions.max(1) as f64,
         si = 1e3 * s.phase_seconds.simulate / s.actions.max(1) as f64,
@@ -330,6 +378,18 @@ fn model_card(
     }
     if c.epsilon_decay != EpsilonDecay::default() {
         retrain.push_str(&format!(" --epsilon-decay {}", c.epsilon_decay.as_str()));
+    }
+    if c.trial_reward_end != TrialRewardEnd::default() {
+        retrain.push_str(&format!(
+            " --trial-reward-end {}",
+            c.trial_reward_end.as_str()
+        ));
+    }
+    if args.keep_best {
+        retrain.push_str(" --keep-best");
+    }
+    if c.reload_on_decline {
+        retrain.push_str(" --reload-on-decline");
     }
     if c.replay_capacity != DEFAULT_REPLAY_CAPACITY {
         retrain.push_str(&format!(" --replay-capacity {}", c.replay_capacity));
@@ -418,6 +478,32 @@ fn model_card(
         run = run_dir.display(),
     ));
     md
+}
+
+/// How the card says which weights it describes.
+fn kept_words(s: &seespot_policy::trainer::TrainState, keep_best: bool) -> String {
+    let reloads = if s.config.reload_on_decline {
+        format!(
+            "; the run went back to its best snapshot {} times when its success fell \
+             (`--reload-on-decline`, as the reference trainer)",
+            s.reloads.len()
+        )
+    } else {
+        String::new()
+    };
+    let kept = match (&s.best, keep_best) {
+        (Some(b), true) => format!(
+            "the best snapshot (`--keep-best`, as the reference trainer tested): {}",
+            seespot_policy::trainer::best_words(b, s.config.best_window)
+        ),
+        (Some(b), false) => format!(
+            "the last, after {} actions (the run's best snapshot, at {} actions, is in the run \
+             directory; `--keep-best` writes it)",
+            s.actions, b.actions
+        ),
+        (None, _) => format!("the last, after {} actions", s.actions),
+    };
+    kept + &reloads
 }
 
 /// How the card says epsilon decays.

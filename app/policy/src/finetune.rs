@@ -39,7 +39,7 @@ pub fn demo_experiences(demos: &[Demo]) -> Result<Vec<Experience>, PolicyError> 
                 pair_start,
             ));
         }
-        let targets = trial_rewards(&rewards);
+        let targets = trial_rewards(&rewards, 1.0);
         for (s, target) in demo.steps.iter().zip(targets) {
             if s.meta.blocks_before.is_empty() {
                 return Err(PolicyError::Demo(format!(

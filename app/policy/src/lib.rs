@@ -47,5 +47,5 @@ pub use error::PolicyError;
 pub use finetune::finetune;
 pub use mask::{common_sense_mask, random_action};
 pub use policy::{PolicyMeta, PolicyNet, SceneInput, greedy_action, masked_argmax};
-pub use trainer::{EpsilonDecay, TrainConfig, TrainOutcome, TrainProgress, train};
+pub use trainer::{EpsilonDecay, TrainConfig, TrainOutcome, TrainProgress, TrialRewardEnd, train};
 pub use transporter::{TransporterActor, TransporterNet};

@@ -33,10 +33,14 @@ pub fn step_reward(
 
 /// The SPOT trial reward: `R_i = r_i + DISCOUNT * R_{i+1}`, with `R_i = 0` where
 /// `r_i = 0` (an action that did not help gets no credit for what followed), and
-/// `R_{n} = 0` past the last action.
-pub fn trial_rewards(rewards: &[f32]) -> Vec<f32> {
+/// the last action's `R = last_weight * r` (seespot counts it once; the
+/// reference trainer twice).
+pub fn trial_rewards(rewards: &[f32], last_weight: f32) -> Vec<f32> {
     let mut out = vec![0.0; rewards.len()];
-    let mut next = 0.0;
+    // Seeds the propagation so that the last action's R is `last_weight * r`.
+    let mut next = rewards
+        .last()
+        .map_or(0.0, |r| (last_weight - 1.0) * r / DISCOUNT);
     for i in (0..rewards.len()).rev() {
         out[i] = if rewards[i] == 0.0 {
             0.0
@@ -54,11 +58,23 @@ mod tests {
 
     #[test]
     fn trial_reward_propagates_and_zeroes() {
-        let r = trial_rewards(&[0.25, 0.0, 0.5, 1.0]);
+        let r = trial_rewards(&[0.25, 0.0, 0.5, 1.0], 1.0);
         assert_eq!(r[3], 1.0);
         assert!((r[2] - (0.5 + 0.65)).abs() < 1e-6);
         assert_eq!(r[1], 0.0);
         assert_eq!(r[0], 0.25);
+    }
+
+    #[test]
+    fn reference_trial_reward_counts_the_last_action_twice() {
+        let r = trial_rewards(&[0.25, 0.0, 0.5, 1.0], 2.0);
+        assert!((r[3] - 2.0).abs() < 1e-6);
+        assert!((r[2] - (0.5 + 0.65 * 2.0)).abs() < 1e-6);
+        assert_eq!(r[1], 0.0);
+        assert_eq!(r[0], 0.25);
+        // An unrewarded last action stays at zero either way.
+        assert_eq!(trial_rewards(&[0.5, 0.0], 2.0), vec![0.5, 0.0]);
+        assert!(trial_rewards(&[], 2.0).is_empty());
     }
 
     #[test]

@@ -46,6 +46,23 @@ pub const DEFAULT_BATCH: usize = 4;
 pub const DEFAULT_MAX_TRIAL_ACTIONS: usize = 20;
 /// Experiences per primitive the replay keeps, unless a run says otherwise.
 pub const DEFAULT_REPLAY_CAPACITY: usize = 4000;
+/// The best snapshot's window: the training success rate of the trials that
+/// ended in the last this many actions (the reference trainer's plot window).
+pub const BEST_SNAPSHOT_WINDOW: usize = 500;
+fn best_snapshot_window() -> usize {
+    BEST_SNAPSHOT_WINDOW
+}
+/// Actions between two reloads on decline, at least (the reference trainer's).
+pub const RELOAD_SPACING: usize = 60;
+
+/// The reference trainer's reload rule ([`TrainConfig::reload_on_decline`]):
+/// go back to the best snapshot when the window's success `rate` has fallen
+/// below `(best - 0.1) x 0.9`, from twice the window's actions on (the
+/// reference: 1000 actions, twice its 500) and at most once every
+/// [`RELOAD_SPACING`] actions (`last_reload`: the last one's actions, 0 if none).
+pub fn declined(window: usize, actions: usize, last_reload: usize, best: f32, rate: f32) -> bool {
+    actions >= 2 * window && actions > last_reload + RELOAD_SPACING && (best - 0.1) * 0.9 > rate
+}
 
 /// Everything that defines a training run.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -67,6 +84,10 @@ pub struct TrainConfig {
     /// How epsilon decays (runs made before this setting decay linearly).
     #[serde(default)]
     pub epsilon_decay: EpsilonDecay,
+    /// What a trial's last action is worth in the SPOT trial reward (runs
+    /// made before this setting count it once).
+    #[serde(default)]
+    pub trial_reward_end: TrialRewardEnd,
     /// Oracle-guided exploration probability, decaying the same way.
     pub oracle_start: f32,
     pub oracle_end: f32,
@@ -75,6 +96,15 @@ pub struct TrainConfig {
     pub replay_capacity: usize,
     /// Trials in the learning curve's moving window.
     pub window: usize,
+    /// Actions in the best snapshot's window ([`BEST_SNAPSHOT_WINDOW`] unless
+    /// a test shortens it).
+    #[serde(default = "best_snapshot_window")]
+    pub best_window: usize,
+    /// Go back to the best snapshot when training success falls well below
+    /// it, as the reference trainer did ([`declined`]); off in runs made
+    /// before this setting.
+    #[serde(default)]
+    pub reload_on_decline: bool,
     pub adam: LearnerConfig,
 }
 
@@ -109,16 +139,65 @@ impl std::str::FromStr for EpsilonDecay {
 
     /// A schedule's name, or an error listing every schedule's.
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Self::ALL
-            .into_iter()
-            .find(|d| d.as_str() == s)
-            .ok_or_else(|| {
-                format!(
-                    "unknown epsilon decay '{s}' (expected {})",
-                    Self::ALL.map(Self::as_str).join(", ")
-                )
-            })
+        parse_named(&Self::ALL, Self::as_str, s, "epsilon decay")
     }
+}
+
+/// What the last action of a training trial is worth in its SPOT trial
+/// reward ([`crate::reward::trial_rewards`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum TrialRewardEnd {
+    /// Its own step reward: seespot's.
+    #[default]
+    Once,
+    /// Its step reward twice, as the reference trainer's
+    /// `trial_reward_value_log_update` gives it (it seeds the propagation with
+    /// `r / discount`).
+    Reference,
+}
+
+impl TrialRewardEnd {
+    pub const ALL: [Self; 2] = [Self::Once, Self::Reference];
+
+    /// Its name on the command line and in a run's state.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Once => "once",
+            Self::Reference => "reference",
+        }
+    }
+
+    /// How many times the last action's step reward counts.
+    pub fn last_weight(self) -> f32 {
+        match self {
+            Self::Once => 1.0,
+            Self::Reference => 2.0,
+        }
+    }
+}
+
+impl std::str::FromStr for TrialRewardEnd {
+    type Err = String;
+
+    /// A setting's name, or an error listing every setting's.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        parse_named(&Self::ALL, Self::as_str, s, "trial reward end")
+    }
+}
+
+/// The one of `all` whose name is `s`, or an error naming `what` and listing
+/// every name.
+fn parse_named<T: Copy>(
+    all: &[T],
+    name: fn(T) -> &'static str,
+    s: &str,
+    what: &str,
+) -> Result<T, String> {
+    all.iter().copied().find(|v| name(*v) == s).ok_or_else(|| {
+        let names: Vec<&str> = all.iter().map(|v| name(*v)).collect();
+        format!("unknown {what} '{s}' (expected {})", names.join(", "))
+    })
 }
 
 /// The reference trainer's per-action epsilon decay for long runs.
@@ -138,12 +217,15 @@ impl TrainConfig {
             epsilon_start: 0.5,
             epsilon_end: 0.1,
             epsilon_decay: EpsilonDecay::Linear,
+            trial_reward_end: TrialRewardEnd::Once,
             oracle_start: 0.5,
             oracle_end: 0.2,
             decay_actions: actions * 3 / 4,
             checkpoint_every: 200,
             replay_capacity: DEFAULT_REPLAY_CAPACITY,
             window: 20,
+            best_window: BEST_SNAPSHOT_WINDOW,
+            reload_on_decline: false,
             adam: LearnerConfig::default(),
         }
     }
@@ -190,8 +272,62 @@ pub struct TrainState {
     pub phase_seconds: PhaseSeconds,
     /// The checkpoint file holding the tensors of this state.
     pub checkpoint: String,
+    /// The weights with the best training success rate so far
+    /// ([`BEST_SNAPSHOT_WINDOW`], [`BestSnapshot::file`]); the reference
+    /// trainer tests these rather than the last. None before the first
+    /// window, and in runs made before seespot kept them.
+    #[serde(default)]
+    pub best: Option<BestSnapshot>,
+    /// Actions at which the run went back to its best snapshot
+    /// ([`TrainConfig::reload_on_decline`]).
+    #[serde(default)]
+    pub reloads: Vec<usize>,
     pub curve: Vec<CurveRow>,
     pub replay: Replay,
+}
+
+/// Where a run's best snapshot was taken.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BestSnapshot {
+    /// Training actions and trials behind the snapshot.
+    pub actions: usize,
+    pub trials: usize,
+    /// Success rate of the training trials (exploration included) that ended
+    /// in the window's actions before it.
+    pub success_rate: f32,
+    /// Those trials.
+    pub window_trials: usize,
+}
+
+impl BestSnapshot {
+    /// Its weights' file in the run directory (named by its actions, so that a
+    /// run resumed from an earlier checkpoint never reads a later snapshot).
+    pub fn file(&self) -> String {
+        format!("best-{:07}.safetensors", self.actions)
+    }
+}
+
+/// The success rate of the trials of `curve` that ended in the last `window`
+/// actions before `actions`, and their number; None until `actions` passes
+/// the window or while fewer than 2 trials ended in it.
+pub fn window_success_rate(
+    curve: &[CurveRow],
+    actions: usize,
+    window: usize,
+) -> Option<(f32, usize)> {
+    if actions <= window {
+        return None;
+    }
+    let recent: Vec<bool> = curve
+        .iter()
+        .rev()
+        .take_while(|c| c.action + window > actions)
+        .map(|c| c.success)
+        .collect();
+    (recent.len() >= 2).then(|| {
+        let ok = recent.iter().filter(|s| **s).count();
+        (ok as f32 / recent.len() as f32, recent.len())
+    })
 }
 
 /// Wall time per part of a training action, seconds (see
@@ -265,7 +401,8 @@ fn write_checkpoint(
     if let Ok(entries) = std::fs::read_dir(run_dir) {
         for e in entries.flatten() {
             let f = e.file_name().to_string_lossy().to_string();
-            if f.starts_with("checkpoint-") && f != name {
+            let stale_best = f.starts_with("best-") && state.best.is_none_or(|b| b.file() != f);
+            if (f.starts_with("checkpoint-") && f != name) || stale_best {
                 let _ = std::fs::remove_file(e.path());
             }
         }
@@ -328,6 +465,8 @@ pub fn open_run(
         mode_counts: [0; 3],
         phase_seconds: PhaseSeconds::default(),
         checkpoint: String::new(),
+        best: None,
+        reloads: Vec::new(),
         curve: Vec::new(),
         replay: Replay::new(config.replay_capacity),
     };
@@ -522,7 +661,10 @@ pub fn train(
         }
         // The SPOT trial reward becomes each action's regression target.
         let rewards: Vec<f32> = pending.iter().map(|(_, r)| *r).collect();
-        for ((mut e, _), target) in pending.into_iter().zip(trial_rewards(&rewards)) {
+        for ((mut e, _), target) in pending
+            .into_iter()
+            .zip(trial_rewards(&rewards, cfg.trial_reward_end.last_weight()))
+        {
             e.target = target;
             e.priority = 1.0 + target;
             state.replay.push(e);
@@ -558,6 +700,36 @@ pub fn train(
             epsilon: cfg.epsilon(state.actions),
             oracle_probability: cfg.oracle_probability(state.actions),
         });
+        if let Some((rate, n)) = window_success_rate(&state.curve, state.actions, cfg.best_window) {
+            match state.best {
+                Some(b) if rate <= b.success_rate => {
+                    let last = state.reloads.last().copied().unwrap_or(0);
+                    if cfg.reload_on_decline
+                        && declined(cfg.best_window, state.actions, last, b.success_rate, rate)
+                    {
+                        let best = PolicyNet::load(&run_dir.join(b.file()))?;
+                        learner.policy.nets = best.nets;
+                        state.reloads.push(state.actions);
+                    }
+                }
+                _ => {
+                    let snapshot = BestSnapshot {
+                        actions: state.actions,
+                        trials: state.trials,
+                        success_rate: rate,
+                        window_trials: n,
+                    };
+                    let mut policy = learner.policy.clone();
+                    policy.meta.extra = run_facts(&state);
+                    policy.meta.extra.insert(
+                        "best_snapshot".into(),
+                        best_words(&snapshot, cfg.best_window),
+                    );
+                    policy.save(&run_dir.join(snapshot.file()))?;
+                    state.best = Some(snapshot);
+                }
+            }
+        }
         let done = state.actions >= cfg.actions;
         if done || state.actions - last_checkpoint >= cfg.checkpoint_every {
             state.wall_seconds += session_start.elapsed().as_secs_f64();
@@ -591,6 +763,17 @@ pub fn train(
         curve_csv,
         curve_plot,
     })
+}
+
+/// How a weights file's metadata describes a best snapshot.
+pub fn best_words(b: &BestSnapshot, window: usize) -> String {
+    format!(
+        "the run's weights at {} actions, where {:.1}% of the {} training trials that ended in the \
+         last {window} actions succeeded, the best rate of the run",
+        b.actions,
+        b.success_rate * 100.0,
+        b.window_trials
+    )
 }
 
 /// Training facts stored in the weights file's metadata.

@@ -69,6 +69,7 @@ fn a_resumed_run_gives_the_weights_of_an_unbroken_one() {
     config.decay_actions = 30;
     config.oracle_start = 0.0;
     config.oracle_end = 0.0;
+    config.best_window = 12;
     let unbroken_dir = tempfile::tempdir().unwrap();
     let unbroken = train(&config, unbroken_dir.path(), &mut |_| {}).unwrap();
 
@@ -91,6 +92,112 @@ fn a_resumed_run_gives_the_weights_of_an_unbroken_one() {
         };
         assert_eq!(bits(a), bits(b));
     }
+    // The best snapshot too: the same point, the same weights.
+    let best = unbroken
+        .state
+        .best
+        .expect("a best snapshot after 40 actions");
+    assert_eq!(resumed.state.best, Some(best));
+    assert!(best.actions > config.best_window && best.window_trials >= 2);
+    let read = |dir: &std::path::Path| {
+        let p = seespot_policy::PolicyNet::load(&dir.join(best.file())).unwrap();
+        let bits: Vec<u32> = p.nets[0]
+            .to_vecs()
+            .unwrap()
+            .into_iter()
+            .flatten()
+            .map(f32::to_bits)
+            .collect();
+        (p.meta.extra.get("train_actions").cloned(), bits)
+    };
+    let (actions, bits) = read(unbroken_dir.path());
+    assert_eq!(actions, Some(best.actions.to_string()));
+    assert_eq!(read(broken_dir.path()), (actions, bits));
+}
+
+/// A run that reloads its best snapshot on decline resumes to the same
+/// weights and the same reloads as an unbroken one; here the oracle's share
+/// of the actions falls from all to none, so training success falls and the
+/// run goes back to its best snapshot.
+#[test]
+fn a_run_reloads_its_best_snapshot_on_decline() {
+    let mut config = TrainConfig::new(TaskId::Stack, 200, 7);
+    config.checkpoint_every = 1;
+    config.max_trial_actions = 8;
+    config.oracle_start = 1.0;
+    config.oracle_end = 0.0;
+    config.decay_actions = 80;
+    config.best_window = 24;
+    config.reload_on_decline = true;
+    let unbroken_dir = tempfile::tempdir().unwrap();
+    let unbroken = train(&config, unbroken_dir.path(), &mut |_| {}).unwrap();
+    let best = unbroken.state.best.expect("a best snapshot");
+    assert!(best.success_rate > 0.5, "{best:?}");
+    assert!(
+        !unbroken.state.reloads.is_empty(),
+        "no reload: {:?}",
+        unbroken.state.curve.last()
+    );
+    for w in unbroken.state.reloads.windows(2) {
+        assert!(w[1] > w[0] + seespot_policy::trainer::RELOAD_SPACING);
+    }
+    let broken_dir = tempfile::tempdir().unwrap();
+    let mut first = config.clone();
+    first.actions = unbroken.state.reloads[0] + 5;
+    train(&first, broken_dir.path(), &mut |_| {}).unwrap();
+    let resumed = train(&config, broken_dir.path(), &mut |_| {}).unwrap();
+    assert_eq!(resumed.state.reloads, unbroken.state.reloads);
+    assert_eq!(resumed.state.best, unbroken.state.best);
+    for (a, b) in resumed.policy.nets.iter().zip(&unbroken.policy.nets) {
+        assert_eq!(a.to_vecs().unwrap(), b.to_vecs().unwrap());
+    }
+}
+
+/// The reload rule: only well below the best, only after twice the window,
+/// and not twice within `RELOAD_SPACING` (60) actions.
+#[test]
+fn reload_rule() {
+    use seespot_policy::trainer::declined;
+    // (0.6 - 0.1) x 0.9 = 0.45.
+    assert!(declined(500, 1000, 0, 0.6, 0.44));
+    assert!(!declined(500, 1000, 0, 0.6, 0.46));
+    assert!(!declined(500, 999, 0, 0.6, 0.0));
+    assert!(!declined(500, 1060, 1000, 0.6, 0.0));
+    assert!(declined(500, 1061, 1000, 0.6, 0.0));
+    // A best of 10% or less never declines.
+    assert!(!declined(500, 5000, 0, 0.1, 0.0));
+}
+
+/// The best snapshot's window counts the trials that ended in the last
+/// `window` actions, and only once the run is past it.
+#[test]
+fn best_snapshot_window_rate() {
+    use seespot_policy::trainer::{CurveRow, window_success_rate};
+    let row = |action: usize, success: bool| CurveRow {
+        action,
+        trial: 0,
+        success,
+        success_rate: 0.0,
+        action_efficiency: 0.0,
+        trial_efficiency: 0.0,
+        loss: 0.0,
+        epsilon: 0.0,
+        oracle_probability: 0.0,
+    };
+    let curve = [
+        row(5, true),
+        row(12, false),
+        row(20, true),
+        row(26, true),
+        row(30, false),
+    ];
+    assert_eq!(window_success_rate(&curve, 30, 30), None);
+    // Trials ending after action 10: 12, 20, 26, 30.
+    assert_eq!(window_success_rate(&curve, 30, 20), Some((0.5, 4)));
+    // After action 25: 26 and 30.
+    assert_eq!(window_success_rate(&curve, 30, 5), Some((0.5, 2)));
+    // One trial is not a rate.
+    assert_eq!(window_success_rate(&curve, 30, 4), None);
 }
 
 /// Epsilon under both schedules: seespot's linear one, and the reference
