@@ -137,7 +137,7 @@ fn issue_10_training_and_finetuning_counts_are_bounded() {
             "train",
             "--epsilon-decay",
             "cosine",
-            "expected linear, reference",
+            "expected linear or reference",
         ),
         ("eval", "--finetune-steps", MAX, "0..=1000000"),
     ];

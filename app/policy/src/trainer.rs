@@ -25,6 +25,7 @@ use std::time::Instant;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use seespot_sim::bounds::parse_named;
 use seespot_sim::{Grid, Oracle, Primitive, Seeds, TaskId, Trial, World, WorldConfig};
 use serde::{Deserialize, Serialize};
 
@@ -139,7 +140,7 @@ impl std::str::FromStr for EpsilonDecay {
 
     /// A schedule's name, or an error listing every schedule's.
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        parse_named(&Self::ALL, Self::as_str, s, "epsilon decay")
+        parse_named(s, &Self::ALL, Self::as_str, "epsilon decay")
     }
 }
 
@@ -182,22 +183,8 @@ impl std::str::FromStr for TrialRewardEnd {
 
     /// A setting's name, or an error listing every setting's.
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        parse_named(&Self::ALL, Self::as_str, s, "trial reward end")
+        parse_named(s, &Self::ALL, Self::as_str, "trial reward end")
     }
-}
-
-/// The one of `all` whose name is `s`, or an error naming `what` and listing
-/// every name.
-fn parse_named<T: Copy>(
-    all: &[T],
-    name: fn(T) -> &'static str,
-    s: &str,
-    what: &str,
-) -> Result<T, String> {
-    all.iter().copied().find(|v| name(*v) == s).ok_or_else(|| {
-        let names: Vec<&str> = all.iter().map(|v| name(*v)).collect();
-        format!("unknown {what} '{s}' (expected {})", names.join(", "))
-    })
 }
 
 /// The reference trainer's per-action epsilon decay for long runs.

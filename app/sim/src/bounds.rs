@@ -268,3 +268,17 @@ fn human_bytes(n: u64) -> String {
         n => format!("{n} bytes"),
     }
 }
+
+/// The one of `all` called `s` by `name`, or an error that names `what` was
+/// looked for and the choices (a named setting's `FromStr`).
+pub fn parse_named<T: Copy>(
+    s: &str,
+    all: &[T],
+    name: fn(T) -> &'static str,
+    what: &str,
+) -> Result<T, String> {
+    all.iter().copied().find(|c| name(*c) == s).ok_or_else(|| {
+        let names: Vec<&str> = all.iter().map(|c| name(*c)).collect();
+        format!("unknown {what} '{s}' (expected {})", names.join(" or "))
+    })
+}

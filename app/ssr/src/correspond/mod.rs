@@ -38,6 +38,7 @@ use std::ops::Range;
 
 use rayon::prelude::*;
 use seespot_policy::AseMap;
+use seespot_sim::bounds::parse_named;
 use seespot_sim::{Action, Primitive};
 
 /// Actions per parallel work item: 4096 rows of 64 f32 = 1 MiB.
@@ -123,20 +124,6 @@ impl Correspondence {
             Self::Plain => "plain",
         }
     }
-}
-
-/// The one of `all` called `s` by `name`, or an error that names `what` was
-/// looked for and the choices.
-fn parse_named<T: Copy>(
-    s: &str,
-    all: &[T],
-    name: fn(T) -> &'static str,
-    what: &str,
-) -> Result<T, String> {
-    all.iter().copied().find(|c| name(*c) == s).ok_or_else(|| {
-        let names: Vec<&str> = all.iter().map(|c| name(*c)).collect();
-        format!("unknown {what} '{s}' (expected {})", names.join(" or "))
-    })
 }
 
 impl std::str::FromStr for Correspondence {
