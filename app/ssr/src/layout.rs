@@ -13,8 +13,10 @@
 //! runs/models/, runs/demos/                what training and recording write by default
 //! ```
 //!
-//! The shipped set is `models/` and `demos/`; the paper-scale set
-//! `models/paper-scale/` and `demos/paper-scale/`.
+//! The shipped set is `models/` and `demos/`; the paper-scale sets are
+//! `models/paper-scale-reload/` (trained with the reference's reloads, its
+//! best snapshots kept), `models/paper-scale/` (the same runs' settings
+//! without them, last weights kept) and `demos/paper-scale/`.
 
 use std::path::{Path, PathBuf};
 
