@@ -582,7 +582,8 @@ fn the_review_of_the_committed_results_counts_every_record() {
     assert!(trials.iter().all(|t| t.success == t.failure.is_none()));
 }
 
-/// Every committed trial record (`results/trials/` and `results/pure-rl/`)
+/// Every committed trial record (`results/trials/`, `results/pure-rl/` and
+/// the two paper-scale sets', test and validation seeds)
 /// names the model and demonstration files it was made with by checksums
 /// that match the shipped files, and records of one file agree on them.
 #[test]
@@ -595,6 +596,9 @@ fn committed_records_carry_the_checksums_of_the_shipped_files() {
         "results/trials",
         "results/pure-rl/trials",
         "results/paper-scale/trials",
+        "results/paper-scale-reload/trials",
+        "results/paper-scale/validation/trials",
+        "results/paper-scale-reload/validation/trials",
     ] {
         for m in std::fs::read_dir(root.join(dir)).expect("trials") {
             for f in std::fs::read_dir(m.expect("method").path()).expect("method dir") {
