@@ -9,12 +9,13 @@
 //! | conv2 | 3x3 | 2 | 1 | 16 -> 32 | 28 x 28 (16 mm) |
 //! | conv3 | 3x3 | 1 | 1 | 32 -> 32 | 28 x 28 |
 //! | conv4 | 3x3 | 1 | 2 | 32 -> 32 | 28 x 28 |
-//! | conv5 | 3x3 | 1 | 1 | 32 -> 64 | 28 x 28 |
+//! | conv5 | 3x3 | 1 | 1 (4 with the `wide-trunk` feature) | 32 -> 64 | 28 x 28 |
 //!
 //! (32 channels in the 28 x 28 layers keep the forward of 2 primitives x 16
 //! rotations near 150 ms on 2 cores; 64 there measured about 2x slower.)
 //! Every conv is followed by a ReLU; there is no normalisation. The receptive
-//! field is 39 network pixels (15.6 cm). With padding `dilation` every output
+//! field is 39 network pixels (15.6 cm); with the `wide-trunk` feature, an
+//! experiment and not the shipped network, 63 (25.2 cm). With padding `dilation` every output
 //! cell `k` is centred on input pixel `4k` ([`TRUNK_STRIDE`]).
 
 use candle_core::{DType, Device, Tensor, Var};
@@ -39,6 +40,13 @@ pub struct ConvSpec {
     pub stride: usize,
     pub dilation: usize,
 }
+
+/// conv5's dilation: 1 in the shipped network, 4 with the `wide-trunk`
+/// experiment.
+#[cfg(not(feature = "wide-trunk"))]
+const CONV5_DILATION: usize = 1;
+#[cfg(feature = "wide-trunk")]
+const CONV5_DILATION: usize = 4;
 
 /// The trunk, in order.
 pub const TRUNK: [ConvSpec; 5] = [
@@ -75,7 +83,7 @@ pub const TRUNK: [ConvSpec; 5] = [
         in_channels: 32,
         out_channels: EMBEDDING_DIM,
         stride: 1,
-        dilation: 1,
+        dilation: CONV5_DILATION,
     },
 ];
 

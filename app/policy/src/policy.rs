@@ -43,7 +43,12 @@ fn cell_ase(
 /// `format` metadata value of a policy file.
 pub const FORMAT: &str = "seespot-policy";
 /// `architecture` metadata value: the network of [`crate::net`].
+#[cfg(not(feature = "wide-trunk"))]
 pub const ARCHITECTURE: &str = "spotq-fcn-s4-c64";
+/// `architecture` metadata value: the network of [`crate::net`], built with
+/// the `wide-trunk` experiment (conv5 dilated 4).
+#[cfg(feature = "wide-trunk")]
+pub const ARCHITECTURE: &str = "spotq-fcn-s4-c64-d4";
 /// Version of the weights file layout; bumped when it changes.
 pub const FORMAT_VERSION: u32 = 1;
 
