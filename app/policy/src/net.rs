@@ -41,12 +41,16 @@ pub struct ConvSpec {
     pub dilation: usize,
 }
 
-/// conv5's dilation: 1 in the shipped network, 4 with the `wide-trunk`
-/// experiment.
+/// conv5's dilation and the name weights files give the network: the
+/// shipped network, or the `wide-trunk` experiment (conv5 dilated 4), whose
+/// files the shipped build refuses and the other way round.
 #[cfg(not(feature = "wide-trunk"))]
-const CONV5_DILATION: usize = 1;
+const VARIANT: (usize, &str) = (1, "spotq-fcn-s4-c64");
 #[cfg(feature = "wide-trunk")]
-const CONV5_DILATION: usize = 4;
+const VARIANT: (usize, &str) = (4, "spotq-fcn-s4-c64-d4");
+const CONV5_DILATION: usize = VARIANT.0;
+/// `architecture` metadata value of a policy file: the network of this module.
+pub const ARCHITECTURE: &str = VARIANT.1;
 
 /// The trunk, in order.
 pub const TRUNK: [ConvSpec; 5] = [

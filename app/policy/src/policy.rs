@@ -42,13 +42,7 @@ fn cell_ase(
 
 /// `format` metadata value of a policy file.
 pub const FORMAT: &str = "seespot-policy";
-/// `architecture` metadata value: the network of [`crate::net`].
-#[cfg(not(feature = "wide-trunk"))]
-pub const ARCHITECTURE: &str = "spotq-fcn-s4-c64";
-/// `architecture` metadata value: the network of [`crate::net`], built with
-/// the `wide-trunk` experiment (conv5 dilated 4).
-#[cfg(feature = "wide-trunk")]
-pub const ARCHITECTURE: &str = "spotq-fcn-s4-c64-d4";
+pub use crate::net::ARCHITECTURE;
 /// Version of the weights file layout; bumped when it changes.
 pub const FORMAT_VERSION: u32 = 1;
 
