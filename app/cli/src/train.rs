@@ -82,6 +82,12 @@ pub struct TrainArgs {
     /// actions on, at most once every 60 actions).
     #[arg(long)]
     pub reload_on_decline: bool,
+    /// Dilate the trunk's last convolution (conv5) by N: 1 is the standard
+    /// trunk (a Q-value sees 15.6 cm of the scene), 8 the wider one of
+    /// `models/paper-scale-d8/` (38 cm). The weights file names it
+    /// (`spotq-fcn-s4-c64-dN`).
+    #[arg(long, default_value_t = 1, value_parser = parse_conv5_dilation)]
+    pub conv5_dilation: usize,
     /// Hide the progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -89,6 +95,13 @@ pub struct TrainArgs {
     /// model card, the run's counters and the own-task metrics).
     #[arg(long)]
     pub json: bool,
+}
+
+fn parse_conv5_dilation(s: &str) -> Result<usize, String> {
+    let d: usize = s
+        .parse()
+        .map_err(|_| format!("`{s}` is not a whole number"))?;
+    seespot_policy::net::Trunk::with_conv5_dilation(d).map(|t| t.conv5_dilation)
 }
 
 fn bar(len: u64, quiet: bool, template: &str) -> indicatif::ProgressBar {
@@ -142,6 +155,8 @@ pub fn run(args: TrainArgs) -> anyhow::Result<()> {
     config.epsilon_decay = args.epsilon_decay;
     config.trial_reward_end = args.trial_reward_end;
     config.reload_on_decline = args.reload_on_decline;
+    config.trunk = seespot_policy::net::Trunk::with_conv5_dilation(args.conv5_dilation)
+        .map_err(anyhow::Error::msg)?;
 
     let pb = bar(
         args.actions as u64,
@@ -322,7 +337,7 @@ fn model_card(
          policies (this one left out) as embedding functions for {task}.\n\n\
          | fact | value |\n|---|---|\n\
          | task | {task} |\n\
-         | architecture | `{arch}` (per primitive: strided FCN trunk to 64 channels at 16 mm cells, 1x1 head; see app/policy/src/net.rs) |\n\
+         | architecture | `{arch}` (per primitive: strided FCN trunk to 64 channels at 16 mm cells, 1x1 head, conv5 dilated {dil}: a Q-value sees {rf_cm:.1} cm; see app/policy/src/net.rs) |\n\
          | resolution | {res} px ({mm:.0} mm/px) |\n\
          | rotations | {rot} |\n\
          | embedding dim | {dim} |\n\
@@ -337,7 +352,9 @@ fn model_card(
          | time per action | choose {ch:.1} ms, simulate {si:.1} ms, learn {le:.1} ms (measured since the run began, or since a resume by a build that measures it) |\n\
          | network input | the {res} px heightmaps area-averaged (or resampled) to a 112 px, 4 mm grid before the trunk |\n\
          | seespot version | {ver} |\n\n",
-        arch = seespot_policy::policy::ARCHITECTURE,
+        arch = c.trunk.architecture(),
+        dil = c.trunk.conv5_dilation,
+        rf_cm = c.trunk.receptive_field() as f32 * 0.4,
         res = c.resolution,
         mm = 448.0 / c.resolution as f32,
         rot = seespot_sim::NUM_ROTATIONS,
@@ -390,6 +407,9 @@ fn model_card(
     }
     if c.reload_on_decline {
         retrain.push_str(" --reload-on-decline");
+    }
+    if c.trunk != seespot_policy::net::Trunk::STANDARD {
+        retrain.push_str(&format!(" --conv5-dilation {}", c.trunk.conv5_dilation));
     }
     if c.replay_capacity != DEFAULT_REPLAY_CAPACITY {
         retrain.push_str(&format!(" --replay-capacity {}", c.replay_capacity));

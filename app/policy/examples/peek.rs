@@ -10,7 +10,8 @@ fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     let state: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("state.json"))?)?;
     let ckpt = state["checkpoint"].as_str().unwrap_or_default();
-    let learner = seespot_policy::trainer::Learner::load_checkpoint(&dir.join(ckpt))?;
+    let learner =
+        seespot_policy::trainer::Learner::load_checkpoint(&dir.join(ckpt), Default::default())?;
     let records = seespot_policy::own_task_eval(
         &learner.policy,
         task,

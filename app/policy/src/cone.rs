@@ -17,7 +17,7 @@
 
 use crate::embedding::EMBEDDING_DIM;
 use crate::input::INPUT_CHANNELS;
-use crate::net::{ConvSpec, KERNEL, TRUNK};
+use crate::net::{ConvSpec, KERNEL, Trunk};
 
 /// Rows and columns `lo..=hi` of one layer's map (full-map coordinates).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -105,12 +105,13 @@ pub struct ConeGrad {
 }
 
 /// Q at the bilinear `taps` (flat cells of the `m x m` feature map, `m = n /
-/// 4`) with `weights`, of the net with `params`, on one rotated input `x`
-/// (`C x n x n`), and `dQ/dparam` ([`ConeGrad`]).
+/// 4`) with `weights`, of the net with `trunk` and `params`, on one rotated
+/// input `x` (`C x n x n`), and `dQ/dparam` ([`ConeGrad`]).
 ///
 /// # Panics
 /// If `x` is not `C x n x n` or `params` do not have the trunk's shapes.
 pub fn q_and_grad(
+    trunk: Trunk,
     params: &[Vec<f32>],
     x: &[f32],
     n: usize,
@@ -118,14 +119,15 @@ pub fn q_and_grad(
     weights: [f32; 4],
 ) -> ConeGrad {
     assert_eq!(x.len(), INPUT_CHANNELS * n * n, "input is not C x n x n");
-    assert_eq!(params.len(), 2 * TRUNK.len() + 2, "not a Q-network");
+    let specs = trunk.specs();
+    assert_eq!(params.len(), 2 * specs.len() + 2, "not a Q-network");
     // Sides of every layer's map, input first.
     let mut sides = vec![n];
-    for s in TRUNK {
+    for s in specs {
         let i = *sides.last().expect("input side");
         sides.push((i + 2 * s.dilation - s.dilation * (KERNEL - 1) - 1) / s.stride + 1);
     }
-    let m = sides[TRUNK.len()];
+    let m = sides[specs.len()];
     let cells: Vec<(usize, usize)> = taps.iter().map(|&t| (t / m, t % m)).collect();
     let (ylo, yhi) = cells
         .iter()
@@ -140,7 +142,7 @@ pub fn q_and_grad(
         h: yhi + 1 - ylo,
         w: xhi + 1 - xlo,
     }];
-    for (l, s) in TRUNK.iter().enumerate().rev() {
+    for (l, s) in specs.iter().enumerate().rev() {
         let below = windows.last().expect("window").input_of(*s, sides[l]);
         windows.push(below);
     }
@@ -148,7 +150,7 @@ pub fn q_and_grad(
 
     // The input window, channels last.
     let w0 = windows[0];
-    let mut acts: Vec<Vec<f32>> = Vec::with_capacity(TRUNK.len() + 1);
+    let mut acts: Vec<Vec<f32>> = Vec::with_capacity(specs.len() + 1);
     let mut input = vec![0.0f32; w0.len() * INPUT_CHANNELS];
     for y in 0..w0.h {
         for xx in 0..w0.w {
@@ -159,12 +161,12 @@ pub fn q_and_grad(
         }
     }
     acts.push(input);
-    let layouts: Vec<Vec<f32>> = TRUNK
+    let layouts: Vec<Vec<f32>> = specs
         .iter()
         .enumerate()
         .map(|(l, s)| taps_layout(&params[2 * l], *s))
         .collect();
-    for (l, s) in TRUNK.iter().enumerate() {
+    for (l, s) in specs.iter().enumerate() {
         let out = conv_forward(
             &acts[l],
             windows[l],
@@ -181,8 +183,8 @@ pub fn q_and_grad(
     let d = EMBEDDING_DIM;
     let np = params.len();
     let (head_w, head_b) = (&params[np - 2], params[np - 1][0]);
-    let top = windows[TRUNK.len()];
-    let feat = &acts[TRUNK.len()];
+    let top = windows[specs.len()];
+    let feat = &acts[specs.len()];
     let mut grads: Vec<Vec<f32>> = params.iter().map(|p| vec![0.0; p.len()]).collect();
     let mut g = vec![0.0f32; top.len() * d];
     let mut q = head_b;
@@ -198,7 +200,7 @@ pub fn q_and_grad(
     }
     grads[np - 1][0] = 1.0;
 
-    for (l, s) in TRUNK.iter().enumerate().rev() {
+    for (l, s) in specs.iter().enumerate().rev() {
         let (gw, rest) = grads[2 * l..].split_at_mut(1);
         let need_input = l > 0;
         g = conv_backward(
@@ -338,8 +340,13 @@ mod tests {
     /// trunk pads) and one with all four taps on one cell.
     #[test]
     fn cone_gradients_equal_candles_full_backward() {
-        let net = QNet::new(5).expect("net");
-        let params = params_of(&net);
+        for trunk in [Trunk::STANDARD, Trunk::with_conv5_dilation(8).expect("d8")] {
+            cone_equals_candle(&QNet::with_trunk(5, trunk).expect("net"));
+        }
+    }
+
+    fn cone_equals_candle(net: &QNet) {
+        let params = params_of(net);
         let n = NET_RESOLUTION;
         let m = FEATURE_RESOLUTION;
         let x: Vec<f32> = (0..INPUT_CHANNELS * n * n)
@@ -366,7 +373,7 @@ mod tests {
         ];
         for (cells, w) in cases {
             let taps = cells.map(|(y, x)| y * m + x);
-            let fast = q_and_grad(&params, &x, n, taps, w);
+            let fast = q_and_grad(net.trunk, &params, &x, n, taps, w);
             let dev = Device::Cpu;
             let xt = Tensor::from_vec(x.clone(), (1, INPUT_CHANNELS, n, n), &dev).expect("x");
             let tt = Tensor::from_vec(taps.map(|t| t as u32).to_vec(), 4, &dev).expect("taps");
@@ -375,7 +382,8 @@ mod tests {
             let q_ref = q.to_vec1::<f32>().expect("q")[0];
             assert!(
                 (fast.q - q_ref).abs() <= 1e-5 * q_ref.abs().max(1.0),
-                "{cells:?}: Q {} vs {q_ref}",
+                "{:?} {cells:?}: Q {} vs {q_ref}",
+                net.trunk,
                 fast.q
             );
             let grads = q.sum_all().and_then(|s| s.backward()).expect("backward");
@@ -387,7 +395,8 @@ mod tests {
                 let (worst, scale) = crate::testing::worst_and_scale(&fast.grads[i], &reference);
                 assert!(
                     worst <= 1e-4 * scale.max(1e-6),
-                    "{cells:?}, parameter {i}: worst {worst}, scale {scale}"
+                    "{:?} {cells:?}, parameter {i}: worst {worst}, scale {scale}",
+                    net.trunk
                 );
             }
         }

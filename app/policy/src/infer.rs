@@ -20,7 +20,7 @@ use rayon::prelude::*;
 pub const TRUNK_KERNELS: &str = "winograd-f4";
 
 use crate::input::INPUT_CHANNELS;
-use crate::net::{ConvSpec, KERNEL, QNet, TRUNK};
+use crate::net::{ConvSpec, KERNEL, QNet, Trunk};
 use crate::simd::mul_add;
 use crate::winograd::Winograd;
 
@@ -180,18 +180,20 @@ fn give_back(scratch: Scratch) {
         .unwrap_or_else(std::sync::PoisonError::into_inner) = scratch;
 }
 
-/// `net`'s trunk weights and biases, copied out of candle.
+/// `net`'s trunk, with its weights and biases copied out of candle.
 fn raw_layers(net: &QNet) -> candle_core::Result<RawLayers> {
-    (0..TRUNK.len())
+    let layers = (0..net.trunk.specs().len())
         .map(|i| {
             let flat = |t: &candle_core::Var| t.as_tensor().flatten_all()?.to_vec1::<f32>();
             Ok((flat(&net.params[2 * i])?, flat(&net.params[2 * i + 1])?))
         })
-        .collect()
+        .collect::<candle_core::Result<_>>()?;
+    Ok((net.trunk, layers))
 }
 
-/// Each layer's weights and bias as the network holds them (`[out][in][ky][kx]`).
-type RawLayers = Vec<(Vec<f32>, Vec<f32>)>;
+/// A trunk and each layer's weights and bias as the network holds them
+/// (`[out][in][ky][kx]`).
+type RawLayers = (Trunk, Vec<(Vec<f32>, Vec<f32>)>);
 
 /// How many built trunks [`InferTrunk::shared`] keeps: the grasp and place
 /// trunks of SSR's three policies, and two to spare.
@@ -206,9 +208,11 @@ fn same_bits(a: &RawLayers, b: &RawLayers) -> bool {
     let same = |x: &[f32], y: &[f32]| {
         x.len() == y.len() && x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits())
     };
-    a.len() == b.len()
-        && a.iter()
-            .zip(b)
+    a.0 == b.0
+        && a.1.len() == b.1.len()
+        && a.1
+            .iter()
+            .zip(&b.1)
             .all(|((wa, ba), (wb, bb))| same(wa, wb) && same(ba, bb))
 }
 
@@ -240,9 +244,10 @@ impl InferTrunk {
         Ok(trunk)
     }
 
-    fn from_raw(raw: &RawLayers) -> Self {
-        let mut layers = Vec::with_capacity(TRUNK.len());
-        for (spec, (w, bias)) in TRUNK.iter().zip(raw) {
+    fn from_raw((trunk, raw): &RawLayers) -> Self {
+        let specs = trunk.specs();
+        let mut layers = Vec::with_capacity(specs.len());
+        for (spec, (w, bias)) in specs.iter().zip(raw) {
             let (ci, co, k) = (spec.in_channels, spec.out_channels, KERNEL);
             let mut weights = vec![0.0f32; k * k * ci * co];
             for o in 0..co {
@@ -626,12 +631,17 @@ mod tests {
     /// random weights and an input with the range of real heightmaps.
     #[test]
     fn matches_candles_trunk() {
-        let net = QNet::new(7).expect("net");
+        for trunk in [Trunk::STANDARD, Trunk::with_conv5_dilation(8).expect("d8")] {
+            matches_candle(&QNet::with_trunk(7, trunk).expect("net"));
+        }
+    }
+
+    fn matches_candle(net: &QNet) {
         let (b, n) = (3, NET_RESOLUTION);
         let x: Vec<f32> = (0..b * INPUT_CHANNELS * n * n)
             .map(|i| ((i * 7919) % 1000) as f32 / 1000.0)
             .collect();
-        let fast = InferTrunk::new(&net).expect("infer").forward(&x, b, n);
+        let fast = InferTrunk::new(net).expect("infer").forward(&x, b, n);
         let t = Tensor::from_vec(x, (b, INPUT_CHANNELS, n, n), &Device::Cpu).expect("tensor");
         let slow = net
             .trunk(&t)
@@ -647,7 +657,8 @@ mod tests {
         assert!(scale > 0.0);
         assert!(
             worst <= 1e-5 * scale.max(1.0),
-            "worst {worst}, scale {scale}"
+            "{:?}: worst {worst}, scale {scale}",
+            net.trunk
         );
     }
 

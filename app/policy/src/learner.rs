@@ -20,7 +20,7 @@ use seespot_sim::action::rotation_angle;
 use crate::cone::{ConeGrad, q_and_grad};
 use crate::error::PolicyError;
 use crate::input::{INPUT_CHANNELS, NET_RESOLUTION, NetInput};
-use crate::net::{FEATURE_RESOLUTION, TRUNK_STRIDE, param_shapes};
+use crate::net::{FEATURE_RESOLUTION, TRUNK_STRIDE, Trunk, param_shapes};
 use crate::optim::{Adam, AdamConfig, FlatAdam};
 use crate::policy::PolicyNet;
 use crate::replay::Experience;
@@ -124,6 +124,7 @@ impl Learner {
             .map(|e| {
                 let p = prepare(e);
                 q_and_grad(
+                    self.policy.net(e.action.primitive).trunk,
                     &params[e.action.primitive.index()],
                     &p.input,
                     NET_RESOLUTION,
@@ -236,6 +237,7 @@ impl Learner {
         let mut meta = BTreeMap::new();
         meta.insert("format".into(), "seespot-checkpoint".into());
         meta.insert("adam_t".into(), self.adam.t.to_string());
+        meta.insert("architecture".into(), self.policy.trunk().architecture());
         meta.insert(
             "adam_config".into(),
             serde_json::to_string(&self.adam.config).unwrap_or_default(),
@@ -247,8 +249,10 @@ impl Learner {
         tensor_file::write(path, &tensors, &meta)
     }
 
-    /// Reads a checkpoint written by [`Learner::save_checkpoint`].
-    pub fn load_checkpoint(path: &Path) -> Result<Self, PolicyError> {
+    /// Reads a checkpoint written by [`Learner::save_checkpoint`]; its trunk
+    /// is the one its `architecture` field names, or `unnamed` in a
+    /// checkpoint without one (written before trunks had names).
+    pub fn load_checkpoint(path: &Path, unnamed: Trunk) -> Result<Self, PolicyError> {
         let file = tensor_file::read(path)?;
         let bad = |reason: String| PolicyError::Checkpoint {
             path: path.to_path_buf(),
@@ -262,6 +266,11 @@ impl Learner {
         let config: AdamConfig =
             serde_json::from_str(file.metadata.get("adam_config").map_or("", |s| s))
                 .map_err(|e| bad(format!("adam_config: {e}")))?;
+        let trunk = match file.metadata.get("architecture") {
+            None => unnamed,
+            Some(a) => Trunk::from_architecture(a)
+                .ok_or_else(|| bad(format!("architecture `{a}` is not a SPOT-Q network")))?,
+        };
         let t: u64 = file
             .metadata
             .get("adam_t")
@@ -303,8 +312,8 @@ impl Learner {
         let policy = PolicyNet {
             meta,
             nets: [
-                crate::net::QNet::from_tensors(params)?,
-                crate::net::QNet::from_tensors(place)?,
+                crate::net::QNet::from_tensors(params, trunk)?,
+                crate::net::QNet::from_tensors(place, trunk)?,
             ],
         };
         Ok(Self {

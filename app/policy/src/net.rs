@@ -9,13 +9,13 @@
 //! | conv2 | 3x3 | 2 | 1 | 16 -> 32 | 28 x 28 (16 mm) |
 //! | conv3 | 3x3 | 1 | 1 | 32 -> 32 | 28 x 28 |
 //! | conv4 | 3x3 | 1 | 2 | 32 -> 32 | 28 x 28 |
-//! | conv5 | 3x3 | 1 | 1 (4 with the `wide-trunk` feature) | 32 -> 64 | 28 x 28 |
+//! | conv5 | 3x3 | 1 | 1, or N in a [`Trunk`] dilated N | 32 -> 64 | 28 x 28 |
 //!
 //! (32 channels in the 28 x 28 layers keep the forward of 2 primitives x 16
 //! rotations near 150 ms on 2 cores; 64 there measured about 2x slower.)
 //! Every conv is followed by a ReLU; there is no normalisation. The receptive
-//! field is 39 network pixels (15.6 cm); with the `wide-trunk` feature, an
-//! experiment and not the shipped network, 63 (25.2 cm). With padding `dilation` every output
+//! field is 39 network pixels (15.6 cm); conv5 dilated 8 (`models/paper-scale-d8/`)
+//! makes it 95 (38 cm, [`Trunk::receptive_field`]). With padding `dilation` every output
 //! cell `k` is centred on input pixel `4k` ([`TRUNK_STRIDE`]).
 
 use candle_core::{DType, Device, Tensor, Var};
@@ -41,18 +41,83 @@ pub struct ConvSpec {
     pub dilation: usize,
 }
 
-/// conv5's dilation and the name weights files give the network: the
-/// shipped network, or the `wide-trunk` experiment (conv5 dilated 4), whose
-/// files the shipped build refuses and the other way round.
-#[cfg(not(feature = "wide-trunk"))]
-const VARIANT: (usize, &str) = (1, "spotq-fcn-s4-c64");
-#[cfg(feature = "wide-trunk")]
-const VARIANT: (usize, &str) = (4, "spotq-fcn-s4-c64-d4");
-const CONV5_DILATION: usize = VARIANT.0;
-/// `architecture` metadata value of a policy file: the network of this module.
-pub const ARCHITECTURE: &str = VARIANT.1;
+/// Which trunk a Q-network has: the five convolutions above, conv5 dilated
+/// by `conv5_dilation` (1 in the shipped oracle-guided policies, 8 in
+/// `models/paper-scale-d8/`). A policy file names it in its `architecture`
+/// field ([`Trunk::architecture`]); the wider the dilation, the more of the
+/// scene one Q-value sees ([`Trunk::receptive_field`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+pub struct Trunk {
+    pub conv5_dilation: usize,
+}
 
-/// The trunk, in order.
+impl Default for Trunk {
+    fn default() -> Self {
+        Self::STANDARD
+    }
+}
+
+/// The `architecture` name of the standard trunk; a dilated one adds `-d<N>`.
+const ARCHITECTURE_BASE: &str = "spotq-fcn-s4-c64";
+
+impl Trunk {
+    /// conv5 undilated: a Q-value sees 39 network pixels (15.6 cm).
+    pub const STANDARD: Self = Self { conv5_dilation: 1 };
+    /// The largest conv5 dilation accepted (its receptive field spans the
+    /// 28-cell feature map's width once).
+    pub const MAX_DILATION: usize = 12;
+
+    /// A trunk with conv5 dilated `d`, or why not.
+    pub fn with_conv5_dilation(d: usize) -> Result<Self, String> {
+        if (1..=Self::MAX_DILATION).contains(&d) {
+            Ok(Self { conv5_dilation: d })
+        } else {
+            Err(format!(
+                "conv5 dilation {d}: expected 1 to {}",
+                Self::MAX_DILATION
+            ))
+        }
+    }
+
+    /// The `architecture` metadata value of a policy file with this trunk:
+    /// `spotq-fcn-s4-c64`, or `spotq-fcn-s4-c64-d<N>` with conv5 dilated N.
+    pub fn architecture(&self) -> String {
+        match self.conv5_dilation {
+            1 => ARCHITECTURE_BASE.to_string(),
+            d => format!("{ARCHITECTURE_BASE}-d{d}"),
+        }
+    }
+
+    /// The trunk an `architecture` value names, if it names one.
+    pub fn from_architecture(name: &str) -> Option<Self> {
+        let rest = name.strip_prefix(ARCHITECTURE_BASE)?;
+        if rest.is_empty() {
+            return Some(Self::STANDARD);
+        }
+        let d: usize = rest.strip_prefix("-d")?.parse().ok()?;
+        (d != 1).then_some(())?;
+        Self::with_conv5_dilation(d).ok()
+    }
+
+    /// The five convolutions, in order.
+    pub const fn specs(&self) -> [ConvSpec; 5] {
+        let mut t = TRUNK;
+        t[4].dilation = self.conv5_dilation;
+        t
+    }
+
+    /// Receptive field of one feature cell, network pixels (4 mm each).
+    pub fn receptive_field(&self) -> usize {
+        let (mut rf, mut jump) = (1, 1);
+        for s in self.specs() {
+            rf += (KERNEL - 1) * s.dilation * jump;
+            jump *= s.stride;
+        }
+        rf
+    }
+}
+
+/// The standard trunk, in order ([`Trunk::specs`] dilates its conv5).
 pub const TRUNK: [ConvSpec; 5] = [
     ConvSpec {
         name: "conv1",
@@ -87,7 +152,7 @@ pub const TRUNK: [ConvSpec; 5] = [
         in_channels: 32,
         out_channels: EMBEDDING_DIM,
         stride: 1,
-        dilation: CONV5_DILATION,
+        dilation: 1,
     },
 ];
 
@@ -128,38 +193,46 @@ pub(crate) fn init_param(
 }
 
 /// One primitive's Q-network. Parameters are candle [`Var`]s, in the order of
-/// [`param_shapes`].
+/// [`param_shapes`] (the same for every [`Trunk`]).
 #[derive(Clone, Debug)]
 pub struct QNet {
     pub params: Vec<Var>,
+    pub trunk: Trunk,
 }
 
 impl QNet {
-    /// A freshly initialised network (Kaiming-uniform weights, zero biases),
-    /// deterministic in `seed`.
+    /// A freshly initialised network with the standard trunk
+    /// (Kaiming-uniform weights, zero biases), deterministic in `seed`.
     pub fn new(seed: u64) -> candle_core::Result<Self> {
+        Self::with_trunk(seed, Trunk::STANDARD)
+    }
+
+    /// [`Self::new`] with `trunk` (the weights drawn do not depend on it).
+    pub fn with_trunk(seed: u64, trunk: Trunk) -> candle_core::Result<Self> {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let mut params = Vec::new();
         for (name, shape) in param_shapes() {
             params.push(init_param(&name, shape, &mut rng)?);
         }
-        Ok(Self { params })
+        Ok(Self { params, trunk })
     }
 
-    /// Builds a net from tensors in [`param_shapes`] order (shapes not checked here).
-    pub fn from_tensors(tensors: Vec<Tensor>) -> candle_core::Result<Self> {
+    /// Builds a net with `trunk` from tensors in [`param_shapes`] order
+    /// (shapes not checked here).
+    pub fn from_tensors(tensors: Vec<Tensor>, trunk: Trunk) -> candle_core::Result<Self> {
         Ok(Self {
             params: tensors
                 .iter()
                 .map(Var::from_tensor)
                 .collect::<Result<_, _>>()?,
+            trunk,
         })
     }
 
     /// The trunk E_m: `(B, 4, 112, 112)` network inputs to `(B, 64, 28, 28)` features.
     pub fn trunk(&self, x: &Tensor) -> candle_core::Result<Tensor> {
         let mut h = x.clone();
-        for (i, c) in TRUNK.iter().enumerate() {
+        for (i, c) in self.trunk.specs().iter().enumerate() {
             let w = self.params[2 * i].as_tensor();
             let b = self.params[2 * i + 1].as_tensor();
             h = h.conv2d(w, c.dilation, c.stride, c.dilation, 1)?;
@@ -212,6 +285,7 @@ impl QNet {
                 .iter()
                 .map(|v| Var::from_tensor(&v.as_tensor().copy()?))
                 .collect::<Result<_, _>>()?,
+            trunk: self.trunk,
         })
     }
 
@@ -226,5 +300,35 @@ impl QNet {
                     .to_vec1::<f32>()
             })
             .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn trunks_name_themselves_and_see_what_their_dilation_says() {
+        assert_eq!(Trunk::STANDARD.architecture(), "spotq-fcn-s4-c64");
+        assert_eq!(Trunk::STANDARD.receptive_field(), 39);
+        let d4 = Trunk::with_conv5_dilation(4).expect("d4");
+        assert_eq!(d4.receptive_field(), 63);
+        let d8 = Trunk::with_conv5_dilation(8).expect("d8");
+        assert_eq!(d8.architecture(), "spotq-fcn-s4-c64-d8");
+        assert_eq!(d8.receptive_field(), 95);
+        assert_eq!(d8.specs()[4].dilation, 8);
+        for t in [Trunk::STANDARD, d4, d8] {
+            assert_eq!(Trunk::from_architecture(&t.architecture()), Some(t));
+        }
+        for bad in [
+            "spotq-fcn-s4-c64-d1",
+            "spotq-fcn-s4-c64-d0",
+            "spotq-fcn-s4-c64-d13",
+            "spotq-fcn",
+            "x",
+        ] {
+            assert_eq!(Trunk::from_architecture(bad), None, "{bad}");
+        }
+        assert!(Trunk::with_conv5_dilation(0).is_err());
     }
 }

@@ -13,7 +13,7 @@ use crate::embedding::{AseMap, EMBEDDING_DIM, QMap};
 use crate::error::PolicyError;
 use crate::input::{NET_RESOLUTION, NetInput};
 use crate::mask::common_sense_mask;
-use crate::net::{FEATURE_RESOLUTION, QNet, TRUNK_STRIDE, param_shapes};
+use crate::net::{FEATURE_RESOLUTION, QNet, TRUNK_STRIDE, Trunk, param_shapes};
 use crate::rotation::{BackMap, rotate_input_batch, sample_back};
 use crate::tensor_file::{self, F32Tensor};
 
@@ -42,7 +42,6 @@ fn cell_ase(
 
 /// `format` metadata value of a policy file.
 pub const FORMAT: &str = "seespot-policy";
-pub use crate::net::ARCHITECTURE;
 /// Version of the weights file layout; bumped when it changes.
 pub const FORMAT_VERSION: u32 = 1;
 
@@ -100,8 +99,19 @@ pub struct RotatedFeatures {
 }
 
 impl PolicyNet {
-    /// A freshly initialised policy for `task`, deterministic in `seed`.
+    /// A freshly initialised policy for `task` with the standard trunk,
+    /// deterministic in `seed`.
     pub fn new(task: TaskId, resolution: usize, seed: u64) -> Result<Self, PolicyError> {
+        Self::with_trunk(task, resolution, seed, Trunk::STANDARD)
+    }
+
+    /// [`Self::new`] with `trunk` for both primitives' nets.
+    pub fn with_trunk(
+        task: TaskId,
+        resolution: usize,
+        seed: u64,
+        trunk: Trunk,
+    ) -> Result<Self, PolicyError> {
         Ok(Self {
             meta: PolicyMeta {
                 task: task.as_str().to_string(),
@@ -111,8 +121,16 @@ impl PolicyNet {
                 seespot_version: seespot_sim::VERSION.to_string(),
                 extra: BTreeMap::new(),
             },
-            nets: [QNet::new(seed)?, QNet::new(seed ^ 0x9e37_79b9_7f4a_7c15)?],
+            nets: [
+                QNet::with_trunk(seed, trunk)?,
+                QNet::with_trunk(seed ^ 0x9e37_79b9_7f4a_7c15, trunk)?,
+            ],
         })
+    }
+
+    /// The trunk of the policy's nets (both primitives have the same).
+    pub fn trunk(&self) -> Trunk {
+        self.nets[0].trunk
     }
 
     pub fn net(&self, primitive: Primitive) -> &QNet {
@@ -310,7 +328,7 @@ impl PolicyNet {
         }
         let mut meta = tensor_file::header(
             FORMAT,
-            ARCHITECTURE,
+            &self.trunk().architecture(),
             FORMAT_VERSION,
             &self.meta.seespot_version,
             &self.meta.task,
@@ -342,7 +360,17 @@ impl PolicyNet {
             Ok(())
         };
         expect("format", FORMAT)?;
-        expect("architecture", ARCHITECTURE)?;
+        let architecture = get("architecture")?;
+        let trunk = Trunk::from_architecture(architecture).ok_or_else(|| {
+            format(format!(
+                "metadata field `architecture` is `{architecture}`, expected `{}` or `{}` with conv5 dilated N (2 to {})",
+                Trunk::STANDARD.architecture(),
+                Trunk::with_conv5_dilation(2)
+                    .map(|t| t.architecture().replace("d2", "dN"))
+                    .unwrap_or_default(),
+                Trunk::MAX_DILATION
+            ))
+        })?;
         expect("format_version", &FORMAT_VERSION.to_string())?;
         expect("rotations", &NUM_ROTATIONS.to_string())?;
         expect("embedding_dim", &EMBEDDING_DIM.to_string())?;
@@ -365,7 +393,7 @@ impl PolicyNet {
                 ts.push(Tensor::from_vec(t.data.clone(), shape, &Device::Cpu)?);
                 expected.insert(full);
             }
-            nets.push(QNet::from_tensors(ts)?);
+            nets.push(QNet::from_tensors(ts, trunk)?);
         }
         if let Some(extra) = file.tensors.keys().find(|k| !expected.contains(*k)) {
             return Err(PolicyError::Tensor {

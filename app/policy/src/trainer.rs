@@ -37,6 +37,7 @@ pub use crate::replay::Experience;
 use crate::curve;
 use crate::error::PolicyError;
 use crate::mask::random_action;
+use crate::net::Trunk;
 use crate::policy::{PolicyNet, greedy_action};
 use crate::replay::Replay;
 use crate::reward::{step_reward, trial_rewards};
@@ -106,6 +107,9 @@ pub struct TrainConfig {
     /// before this setting.
     #[serde(default)]
     pub reload_on_decline: bool,
+    /// The policy's trunk (runs made before this setting have the standard one).
+    #[serde(default)]
+    pub trunk: Trunk,
     pub adam: LearnerConfig,
 }
 
@@ -213,6 +217,7 @@ impl TrainConfig {
             window: 20,
             best_window: BEST_SNAPSHOT_WINDOW,
             reload_on_decline: false,
+            trunk: Trunk::STANDARD,
             adam: LearnerConfig::default(),
         }
     }
@@ -432,7 +437,18 @@ pub fn open_run(
                 ),
             });
         }
-        let learner = Learner::load_checkpoint(&run_dir.join(&state.checkpoint))?;
+        let checkpoint = run_dir.join(&state.checkpoint);
+        let learner = Learner::load_checkpoint(&checkpoint, state.config.trunk)?;
+        if learner.policy.trunk() != state.config.trunk {
+            return Err(PolicyError::Checkpoint {
+                path: checkpoint,
+                reason: format!(
+                    "its network is `{}`, the run's `{}`",
+                    learner.policy.trunk().architecture(),
+                    state.config.trunk.architecture()
+                ),
+            });
+        }
         state.config.actions = config.actions;
         state.config.decay_actions = config.decay_actions;
         state.config.checkpoint_every = config.checkpoint_every;
@@ -440,7 +456,7 @@ pub fn open_run(
         return Ok((learner, state, Some(resumed)));
     }
     std::fs::create_dir_all(run_dir).map_err(|e| PolicyError::io(run_dir, e))?;
-    let policy = PolicyNet::new(config.task, config.resolution, config.seed)?;
+    let policy = PolicyNet::with_trunk(config.task, config.resolution, config.seed, config.trunk)?;
     let learner = Learner::new(policy, config.adam)?;
     let state = TrainState {
         config: config.clone(),

@@ -4,6 +4,8 @@
 use std::path::Path;
 
 use seespot_policy::bench::{fixed_batch, scene};
+use seespot_policy::net::Trunk;
+use seespot_policy::tensor_file;
 use seespot_policy::trainer::{Learner, LearnerConfig};
 use seespot_policy::{EMBEDDING_DIM, PolicyError, PolicyNet, common_sense_mask, greedy_action};
 use seespot_sim::{NUM_ROTATIONS, Primitive, TaskId};
@@ -91,7 +93,7 @@ fn checkpoint_round_trip_is_bit_identical() {
     }
     let path = dir.path().join("ckpt.safetensors");
     learner.save_checkpoint(&path).unwrap();
-    let back = Learner::load_checkpoint(&path).unwrap();
+    let back = Learner::load_checkpoint(&path, Default::default()).unwrap();
     let bits = |v: Vec<Vec<f32>>| -> Vec<Vec<u32>> {
         v.into_iter()
             .map(|t| t.into_iter().map(f32::to_bits).collect())
@@ -161,6 +163,41 @@ fn save_load_round_trip() {
     }
 }
 
+/// A policy with conv5 dilated 8 is saved under its own architecture name
+/// and comes back with that trunk, from a policy file and from a training
+/// checkpoint; its Q-values differ from the standard trunk's on the same
+/// weights (the dilation is used, not just recorded).
+#[test]
+fn a_dilated_trunk_survives_files_and_changes_q() {
+    let dir = tempfile::tempdir().unwrap();
+    let d8 = Trunk::with_conv5_dilation(8).unwrap();
+    let policy = PolicyNet::with_trunk(TaskId::Row, 112, 5, d8).unwrap();
+    let path = dir.path().join("row.safetensors");
+    policy.save(&path).unwrap();
+    let file = tensor_file::read(&path).unwrap();
+    assert_eq!(file.metadata["architecture"], "spotq-fcn-s4-c64-d8");
+    let back = PolicyNet::load(&path).unwrap();
+    assert_eq!(back.trunk(), d8);
+    let learner = Learner::new(back, LearnerConfig::default()).unwrap();
+    let ckpt = dir.path().join("ckpt.safetensors");
+    learner.save_checkpoint(&ckpt).unwrap();
+    // The checkpoint names its trunk, so the fallback for unnamed ones is not used.
+    let again = Learner::load_checkpoint(&ckpt, Trunk::STANDARD).unwrap();
+    assert_eq!(again.policy.trunk(), d8);
+    let standard = PolicyNet::new(TaskId::Row, 112, 5).unwrap();
+    let hm = seespot_sim::World::random(
+        seespot_sim::WorldConfig {
+            grid: seespot_sim::Grid::new(112),
+            ..Default::default()
+        },
+        3,
+    )
+    .observe();
+    let qa = policy.q_values(&hm, Primitive::Grasp).unwrap().q;
+    let qb = standard.q_values(&hm, Primitive::Grasp).unwrap().q;
+    assert_ne!(qa, qb);
+}
+
 #[test]
 fn damaged_weights_name_the_file_and_tensor() {
     let dir = tempfile::tempdir().unwrap();
@@ -200,7 +237,6 @@ fn damaged_weights_name_the_file_and_tensor() {
     assert!(err.to_string().contains("stack.safetensors"));
 
     // Issue 27: finite but absurd weights (all 3e38) loaded without a word.
-    use seespot_policy::tensor_file;
     std::fs::write(&path, &bytes).unwrap();
     let file = tensor_file::read(&path).unwrap();
     let mut tensors = file.tensors.clone();
