@@ -583,7 +583,7 @@ fn the_review_of_the_committed_results_counts_every_record() {
 }
 
 /// Every committed trial record (`results/trials/`, `results/pure-rl/` and
-/// the two paper-scale sets', test and validation seeds)
+/// the three paper-scale sets', test and validation seeds)
 /// names the model and demonstration files it was made with by checksums
 /// that match the shipped files, and records of one file agree on them.
 #[test]
@@ -599,6 +599,8 @@ fn committed_records_carry_the_checksums_of_the_shipped_files() {
         "results/paper-scale-reload/trials",
         "results/paper-scale/validation/trials",
         "results/paper-scale-reload/validation/trials",
+        "results/paper-scale-d8/trials",
+        "results/paper-scale-d8/validation/trials",
     ] {
         for m in std::fs::read_dir(root.join(dir)).expect("trials") {
             for f in std::fs::read_dir(m.expect("method").path()).expect("method dir") {
