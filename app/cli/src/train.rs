@@ -86,8 +86,8 @@ pub struct TrainArgs {
     /// trunk (a Q-value sees 15.6 cm of the scene), 8 the wider one of
     /// `models/paper-scale-d8/` (38 cm). The weights file names it
     /// (`spotq-fcn-s4-c64-dN`).
-    #[arg(long, default_value_t = 1, value_parser = parse_conv5_dilation)]
-    pub conv5_dilation: usize,
+    #[arg(long = "conv5-dilation", value_name = "N", default_value = "1", value_parser = parse_conv5_dilation)]
+    pub trunk: seespot_policy::net::Trunk,
     /// Hide the progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -97,11 +97,11 @@ pub struct TrainArgs {
     pub json: bool,
 }
 
-fn parse_conv5_dilation(s: &str) -> Result<usize, String> {
+fn parse_conv5_dilation(s: &str) -> Result<seespot_policy::net::Trunk, String> {
     let d: usize = s
         .parse()
         .map_err(|_| format!("`{s}` is not a whole number"))?;
-    seespot_policy::net::Trunk::with_conv5_dilation(d).map(|t| t.conv5_dilation)
+    seespot_policy::net::Trunk::with_conv5_dilation(d)
 }
 
 fn bar(len: u64, quiet: bool, template: &str) -> indicatif::ProgressBar {
@@ -155,8 +155,7 @@ pub fn run(args: TrainArgs) -> anyhow::Result<()> {
     config.epsilon_decay = args.epsilon_decay;
     config.trial_reward_end = args.trial_reward_end;
     config.reload_on_decline = args.reload_on_decline;
-    config.trunk = seespot_policy::net::Trunk::with_conv5_dilation(args.conv5_dilation)
-        .map_err(anyhow::Error::msg)?;
+    config.trunk = args.trunk;
 
     let pb = bar(
         args.actions as u64,
@@ -354,7 +353,7 @@ fn model_card(
          | seespot version | {ver} |\n\n",
         arch = c.trunk.architecture(),
         dil = c.trunk.conv5_dilation,
-        rf_cm = c.trunk.receptive_field() as f32 * 0.4,
+        rf_cm = c.trunk.receptive_field_m() * 100.0,
         res = c.resolution,
         mm = 448.0 / c.resolution as f32,
         rot = seespot_sim::NUM_ROTATIONS,

@@ -25,6 +25,7 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::embedding::EMBEDDING_DIM;
 use crate::input::{INPUT_CHANNELS, NET_RESOLUTION};
+use seespot_sim::workspace::WORKSPACE_SIZE;
 
 /// Total stride of the trunk: feature cell `k` is centred on input pixel `4k`.
 pub const TRUNK_STRIDE: usize = 4;
@@ -114,6 +115,11 @@ impl Trunk {
             jump *= s.stride;
         }
         rf
+    }
+
+    /// [`Self::receptive_field`] in metres of the workspace.
+    pub fn receptive_field_m(&self) -> f32 {
+        self.receptive_field() as f32 * WORKSPACE_SIZE / NET_RESOLUTION as f32
     }
 }
 
@@ -316,6 +322,7 @@ mod tests {
         let d8 = Trunk::with_conv5_dilation(8).expect("d8");
         assert_eq!(d8.architecture(), "spotq-fcn-s4-c64-d8");
         assert_eq!(d8.receptive_field(), 95);
+        assert!((d8.receptive_field_m() - 0.38).abs() < 1e-6);
         assert_eq!(d8.specs()[4].dilation, 8);
         for t in [Trunk::STANDARD, d4, d8] {
             assert_eq!(Trunk::from_architecture(&t.architecture()), Some(t));

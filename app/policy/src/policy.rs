@@ -363,12 +363,9 @@ impl PolicyNet {
         let architecture = get("architecture")?;
         let trunk = Trunk::from_architecture(architecture).ok_or_else(|| {
             format(format!(
-                "metadata field `architecture` is `{architecture}`, expected `{}` or `{}` with conv5 dilated N (2 to {})",
-                Trunk::STANDARD.architecture(),
-                Trunk::with_conv5_dilation(2)
-                    .map(|t| t.architecture().replace("d2", "dN"))
-                    .unwrap_or_default(),
-                Trunk::MAX_DILATION
+                "metadata field `architecture` is `{architecture}`, expected `{base}` or `{base}-dN` with conv5 dilated N (2 to {})",
+                Trunk::MAX_DILATION,
+                base = Trunk::STANDARD.architecture(),
             ))
         })?;
         expect("format_version", &FORMAT_VERSION.to_string())?;
