@@ -23,6 +23,7 @@ from collections.abc import Iterator
 from typing import Any
 
 from seespot._core import (
+    DEFAULT_RESOLUTION,
     MAX_TRIAL_ACTIONS,
     METHODS,
     NUM_ROTATIONS,
@@ -51,6 +52,7 @@ from seespot._core import (
 from seespot.env import register_envs
 
 __all__ = [
+    "DEFAULT_RESOLUTION",
     "MAX_TRIAL_ACTIONS",
     "METHODS",
     "NUM_ROTATIONS",
@@ -88,7 +90,7 @@ def run_trial(
     index: int = 0,
     models_dir: str = "models",
     demos_dir: str = "demos",
-    resolution: int = 112,
+    resolution: int = DEFAULT_RESOLUTION,
     correspond: str = "reference",
 ) -> dict[str, Any]:
     """Runs one trial of ``method`` on ``task`` from ``seed`` and returns its

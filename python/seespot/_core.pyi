@@ -11,6 +11,7 @@ __all__ = [
     "MAX_TRIAL_ACTIONS",
     "METHODS",
     "NUM_ROTATIONS",
+    "DEFAULT_RESOLUTION",
     "TASKS",
     "Evaluator",
     "OutputLock",
@@ -40,6 +41,7 @@ __version__: str
 TASKS: list[str]
 METHODS: list[str]
 NUM_ROTATIONS: int
+DEFAULT_RESOLUTION: int
 MAX_TRIAL_ACTIONS: int
 
 _Ix3: TypeAlias = tuple[int, int, int]
@@ -47,7 +49,7 @@ _Ix3: TypeAlias = tuple[int, int, int]
 @final
 class Trial:
     def __new__(
-        cls, task: str, seed: int, resolution: int = 112, demos_dir: str | os.PathLike[str] = ...
+        cls, task: str, seed: int, resolution: int = 224, demos_dir: str | os.PathLike[str] = ...
     ) -> Trial: ...
     @staticmethod
     def from_scene(path: str | os.PathLike[str], index: int = 0) -> Trial: ...
@@ -77,7 +79,7 @@ class VectorTrials:
         cls,
         task: str,
         seeds: list[int],
-        resolution: int = 112,
+        resolution: int = 224,
         demos_dir: str | os.PathLike[str] = ...,
     ) -> VectorTrials: ...
     @property
@@ -126,7 +128,7 @@ class Evaluator:
         task: str,
         models_dir: str | os.PathLike[str] = ...,
         demos_dir: str | os.PathLike[str] = ...,
-        resolution: int = 112,
+        resolution: int = 224,
         correspond: str = "reference",
     ) -> Evaluator: ...
     @property
@@ -149,7 +151,7 @@ def record_demo(
     seed: int,
     actions: list[tuple[str, int, int, int]],
     out: str | os.PathLike[str],
-    resolution: int = 112,
+    resolution: int = 224,
     colours_matter: bool = False,
     overwrite: bool = False,
 ) -> int: ...

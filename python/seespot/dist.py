@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from seespot._core import (
+    DEFAULT_RESOLUTION,
     METHODS,
     TASKS,
     Evaluator,
@@ -113,7 +114,7 @@ def evaluate(
     out_dir: str | os.PathLike[str] = "results",
     models_dir: str = "models",
     demos_dir: str = "demos",
-    resolution: int = 112,
+    resolution: int = DEFAULT_RESOLUTION,
     correspond: str = "reference",
     num_workers: int = 2,
     threads_per_worker: int | None = None,
@@ -211,7 +212,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     p.add_argument("--out", default="results")
     p.add_argument("--models", default="models")
     p.add_argument("--demos", default="demos")
-    p.add_argument("--resolution", type=int, default=112)
+    p.add_argument("--resolution", type=int, default=DEFAULT_RESOLUTION)
     p.add_argument("--correspond", default="reference")
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--address", default=None, help="a Ray cluster's address (default: local)")

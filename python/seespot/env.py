@@ -29,7 +29,14 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from seespot._core import MAX_TRIAL_ACTIONS, NUM_ROTATIONS, Trial, VectorTrials, check_resolution
+from seespot._core import (
+    DEFAULT_RESOLUTION,
+    MAX_TRIAL_ACTIONS,
+    NUM_ROTATIONS,
+    Trial,
+    VectorTrials,
+    check_resolution,
+)
 
 ENV_IDS = {
     "stack": "seespot/Stack-v0",
@@ -64,7 +71,7 @@ class SeespotEnv(gym.Env[Obs, np.ndarray]):
 
     metadata: dict[str, Any] = {"render_modes": ["rgb_array"]}
 
-    def __init__(self, task: str, resolution: int = 112, render_mode: str | None = None):
+    def __init__(self, task: str, resolution: int = DEFAULT_RESOLUTION, render_mode: str | None = None):
         if task not in ENV_IDS:
             raise ValueError(f"task: unknown task '{task}' (expected one of {sorted(ENV_IDS)})")
         if render_mode not in (None, "rgb_array"):
@@ -149,7 +156,7 @@ class SeespotVectorEnv(VectorEnv[Obs, np.ndarray, np.ndarray]):
 
     metadata: dict[str, Any] = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
 
-    def __init__(self, task: str, num_envs: int = 1, resolution: int = 112, **kwargs: Any):
+    def __init__(self, task: str, num_envs: int = 1, resolution: int = DEFAULT_RESOLUTION, **kwargs: Any):
         if task not in ENV_IDS:
             raise ValueError(f"task: unknown task '{task}' (expected one of {sorted(ENV_IDS)})")
         if not isinstance(num_envs, int) or num_envs < 1:

@@ -21,8 +21,19 @@ import onnxruntime as ort
 from onnx import TensorProto, helper, numpy_helper
 
 # The trunk of app/policy/src/net.rs: (name, stride, dilation); 3x3 kernels,
-# padding = dilation, a ReLU after each.
-TRUNK = [("conv1", 2, 1), ("conv2", 2, 1), ("conv3", 1, 1), ("conv4", 1, 2), ("conv5", 1, 1)]
+# padding = dilation, a ReLU after each. conv5's dilation is the weights
+# file's: its architecture `spotq-fcn-s4-c64-dN` names it (N = 1 without -dN).
+def trunk_layers(conv5_dilation):
+    return [("conv1", 2, 1), ("conv2", 2, 1), ("conv3", 1, 1), ("conv4", 1, 2),
+            ("conv5", 1, conv5_dilation)]
+
+
+def conv5_dilation(path):
+    with open(path, "rb") as f:
+        n = struct.unpack("<Q", f.read(8))[0]
+        arch = json.loads(f.read(n)).get("__metadata__", {}).get("architecture", "")
+    tail = arch.rsplit("-", 1)[-1]
+    return int(tail[1:]) if tail.startswith("d") and tail[1:].isdigit() else 1
 
 
 def read_safetensors(path):
@@ -40,12 +51,12 @@ def read_safetensors(path):
     return out
 
 
-def trunk_graph(weights, batch, n):
+def trunk_graph(weights, batch, n, dilation=1):
     nodes, inits, outputs = [], [], []
     x = helper.make_tensor_value_info("x", TensorProto.FLOAT, [batch, 4, n, n])
     for prim in ("grasp", "place"):
         h = "x"
-        for name, stride, dil in TRUNK:
+        for name, stride, dil in trunk_layers(dilation):
             w = f"{prim}.{name}.weight"
             b = f"{prim}.{name}.bias"
             inits += [numpy_helper.from_array(weights[w], w), numpy_helper.from_array(weights[b], b)]
@@ -69,7 +80,7 @@ def main():
     ap.add_argument("--threads", type=int, default=2)
     args = ap.parse_args()
     batch, n = 16, 112
-    model = trunk_graph(read_safetensors(args.weights), batch, n)
+    model = trunk_graph(read_safetensors(args.weights), batch, n, conv5_dilation(args.weights))
     opts = ort.SessionOptions()
     opts.intra_op_num_threads = args.threads
     opts.inter_op_num_threads = 1

@@ -38,6 +38,8 @@ pub enum BenchCommand {
         actions: usize,
         #[arg(long, default_value_t = seespot_sim::TaskId::Stack)]
         task: seespot_sim::TaskId,
+        #[command(flatten)]
+        trunk: crate::train::TrunkArg,
         #[arg(long)]
         json: bool,
     },
@@ -82,15 +84,17 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
             resolution,
             actions,
             task,
+            trunk,
             json,
         } => {
-            let r = seespot_policy::bench::bench_train(task, resolution, actions)?;
+            let r = seespot_policy::bench::bench_train(task, resolution, actions, trunk.trunk)?;
             if json {
                 return crate::io::print_json(&r);
             }
             let part = |k: &str| r["ms_per_action"][k].as_f64().unwrap_or(f64::NAN);
             outln!(
-                "train {task} at {resolution} px: {:.1} actions/s (per action: choose {:.1} ms, simulate {:.1} ms, learn {:.1} ms, other {:.1} ms)",
+                "train {task} at {resolution} px, {}: {:.1} actions/s (per action: choose {:.1} ms, simulate {:.1} ms, learn {:.1} ms, other {:.1} ms)",
+                trunk.trunk.architecture(),
                 r["actions_per_s"].as_f64().unwrap_or(f64::NAN),
                 part("choose"),
                 part("simulate"),

@@ -37,7 +37,7 @@ pub enum DemoCommand {
         #[arg(long)]
         overwrite: bool,
         /// Heightmap pixels per side.
-        #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 112)]
+        #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = seespot_sim::DEFAULT_RESOLUTION)]
         resolution: usize,
         /// Print one machine-readable summary object on stdout.
         #[arg(long)]

@@ -43,7 +43,7 @@ pub struct EvalArgs {
     #[arg(long, default_value = "demos")]
     demos: PathBuf,
     /// Heightmap pixels per side (must match the demonstrations).
-    #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 112)]
+    #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = seespot_sim::DEFAULT_RESOLUTION)]
     resolution: usize,
     /// How SSR computes Correspond: `reference` (the default: the reference
     /// code's masks, smoothing, rematch window and tie order; see

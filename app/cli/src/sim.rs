@@ -34,7 +34,8 @@ pub struct RunArgs {
     /// `[[blocks]]`); flags override its task, seeds and resolution.
     #[arg(long)]
     scene: Option<PathBuf>,
-    /// Heightmap pixels per side (default 112, or the scene's).
+    /// Heightmap pixels per side (default: the scene's, else the policy's own,
+    /// else 224).
     #[arg(long, value_parser = seespot_sim::scene::parse_resolution)]
     resolution: Option<usize>,
     /// Print one machine-readable summary object on stdout.
@@ -58,10 +59,6 @@ fn run_trials(args: RunArgs) -> anyhow::Result<()> {
     seespot_ssr::Layout::default()
         .load_task(task)
         .with_context(|| format!("task {task}"))?;
-    let mut config = scene.as_ref().map(|s| s.world_config()).unwrap_or_default();
-    if let Some(r) = args.resolution {
-        config.grid = Grid::new(r);
-    }
     let scene_seeds = scene.as_ref().map(|s| s.seeds);
     let seeds = Seeds::new(
         args.seed
@@ -69,12 +66,27 @@ fn run_trials(args: RunArgs) -> anyhow::Result<()> {
             .unwrap_or(Split::Test.first()),
         args.trials.or(scene_seeds.map(|s| s.count())).unwrap_or(20),
     )?;
-    let mut actor: Box<dyn Actor> = match args.policy.as_str() {
-        "oracle" => Box::new(Oracle::new(task)),
-        "random" => Box::new(RandomActor::default()),
-        path => Box::new(
+    let policy = match args.policy.as_str() {
+        "oracle" | "random" => None,
+        path => Some(
             PolicyNet::load(Path::new(path)).with_context(|| format!("loading policy {path}"))?,
         ),
+    };
+    // The heightmap: the flag's, else the scene's, else the policy's own
+    // (a policy sees the resolution it was trained at), else the default.
+    let mut config = scene.as_ref().map(|s| s.world_config()).unwrap_or_default();
+    let resolution = args.resolution.or_else(|| match (&scene, &policy) {
+        (Some(_), _) => None,
+        (None, Some(p)) => Some(p.meta.resolution),
+        (None, None) => Some(seespot_sim::DEFAULT_RESOLUTION),
+    });
+    if let Some(r) = resolution {
+        config.grid = Grid::new(r);
+    }
+    let mut actor: Box<dyn Actor> = match (policy, args.policy.as_str()) {
+        (Some(p), _) => Box::new(p),
+        (None, "oracle") => Box::new(Oracle::new(task)),
+        (None, _) => Box::new(RandomActor::default()),
     };
     let bar = crate::io::progress_bar(seeds.count(), false);
     let mut ok = 0;

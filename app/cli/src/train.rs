@@ -40,7 +40,7 @@ pub struct TrainArgs {
     #[arg(long)]
     pub overwrite: bool,
     /// Heightmap resolution of the training worlds, pixels.
-    #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 112)]
+    #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = seespot_sim::DEFAULT_RESOLUTION)]
     pub resolution: usize,
     /// Checkpoint at the first trial end after every this many actions.
     #[arg(long, default_value_t = 200, value_parser = seespot_sim::bounds::parse_train_actions)]
@@ -82,12 +82,8 @@ pub struct TrainArgs {
     /// actions on, at most once every 60 actions).
     #[arg(long)]
     pub reload_on_decline: bool,
-    /// Dilate the trunk's last convolution (conv5) by N: 1 is the standard
-    /// trunk (a Q-value sees 15.6 cm of the scene), 8 the wider one of
-    /// `models/paper-scale-d8/` (38 cm). The weights file names it
-    /// (`spotq-fcn-s4-c64-dN`).
-    #[arg(long = "conv5-dilation", value_name = "N", default_value = "1", value_parser = parse_conv5_dilation)]
-    pub trunk: seespot_policy::net::Trunk,
+    #[command(flatten)]
+    pub trunk: TrunkArg,
     /// Hide the progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -95,6 +91,17 @@ pub struct TrainArgs {
     /// model card, the run's counters and the own-task metrics).
     #[arg(long)]
     pub json: bool,
+}
+
+/// The trunk's conv5 dilation, one flag shared by `train` and `bench train`.
+#[derive(clap::Args, Debug, Clone, Copy)]
+pub struct TrunkArg {
+    /// Dilate the trunk's last convolution (conv5) by N: 8 is the shipped
+    /// trunk (a Q-value sees 38 cm of the scene), 1 the standard one of the
+    /// first two paper-scale sets and the 112 px set (15.6 cm). The weights
+    /// file names it (`spotq-fcn-s4-c64-dN`).
+    #[arg(long = "conv5-dilation", value_name = "N", default_value = "8", value_parser = parse_conv5_dilation)]
+    pub trunk: seespot_policy::net::Trunk,
 }
 
 fn parse_conv5_dilation(s: &str) -> Result<seespot_policy::net::Trunk, String> {
@@ -155,7 +162,7 @@ pub fn run(args: TrainArgs) -> anyhow::Result<()> {
     config.epsilon_decay = args.epsilon_decay;
     config.trial_reward_end = args.trial_reward_end;
     config.reload_on_decline = args.reload_on_decline;
-    config.trunk = args.trunk;
+    config.trunk = args.trunk.trunk;
 
     let pb = bar(
         args.actions as u64,
@@ -276,7 +283,11 @@ fn kept_weights(
         );
     };
     let path = run_dir.join(best.file());
-    PolicyNet::load(&path).with_context(|| format!("--keep-best: reading {}", path.display()))
+    let mut policy = PolicyNet::load(&path)
+        .with_context(|| format!("--keep-best: reading {}", path.display()))?;
+    policy.meta.extra =
+        seespot_policy::trainer::kept_snapshot_facts(&policy.meta.extra, &outcome.state);
+    Ok(policy)
 }
 
 /// The own-task measurement of a model card.
@@ -389,9 +400,8 @@ fn model_card(
         args.actions,
         c.seed
     );
-    if c.resolution != 112 {
-        retrain.push_str(&format!(" --resolution {}", c.resolution));
-    }
+    // Resolution and trunk are always named: their defaults have changed once.
+    retrain.push_str(&format!(" --resolution {}", c.resolution));
     if c.epsilon_decay != EpsilonDecay::default() {
         retrain.push_str(&format!(" --epsilon-decay {}", c.epsilon_decay.as_str()));
     }
@@ -407,9 +417,7 @@ fn model_card(
     if c.reload_on_decline {
         retrain.push_str(" --reload-on-decline");
     }
-    if c.trunk != seespot_policy::net::Trunk::STANDARD {
-        retrain.push_str(&format!(" --conv5-dilation {}", c.trunk.conv5_dilation));
-    }
+    retrain.push_str(&format!(" --conv5-dilation {}", c.trunk.conv5_dilation));
     if c.replay_capacity != DEFAULT_REPLAY_CAPACITY {
         retrain.push_str(&format!(" --replay-capacity {}", c.replay_capacity));
     }

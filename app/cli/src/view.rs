@@ -57,7 +57,7 @@ pub struct ViewArgs {
     pub seed: u64,
     /// Heightmap resolution, pixels per side (224 = the paper's 2 mm/px); a
     /// replay's comes from its record.
-    #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 112, conflicts_with = "replay")]
+    #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = seespot_sim::DEFAULT_RESOLUTION, conflicts_with = "replay")]
     pub resolution: usize,
     /// Address to serve the page on. A non-loopback address (e.g. `0.0.0.0`)
     /// needs `--allow-remote`.
@@ -221,7 +221,7 @@ pub struct RecordArgs {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Heightmap resolution, pixels per side.
-    #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 112)]
+    #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = seespot_sim::DEFAULT_RESOLUTION)]
     pub resolution: usize,
     /// Output folder (`<task>-<seed>.rrd` files).
     #[arg(long, default_value = "recordings")]

@@ -200,9 +200,11 @@ pub fn bench_train(
     task: TaskId,
     resolution: usize,
     actions: usize,
+    trunk: crate::net::Trunk,
 ) -> Result<serde_json::Value, PolicyError> {
     let mut config = trainer::TrainConfig::new(task, actions, 0);
     config.resolution = resolution;
+    config.trunk = trunk;
     config.oracle_start = 0.0;
     config.oracle_end = 0.0;
     config.epsilon_start = config.epsilon_end;
@@ -231,6 +233,7 @@ pub fn bench_train(
     Ok(serde_json::json!({
         "task": task.as_str(),
         "resolution": resolution,
+        "architecture": trunk.architecture(),
         "actions": state.actions,
         "train_steps": state.train_steps,
         "epsilon": config.epsilon_end,

@@ -14,7 +14,7 @@
 //! (32 channels in the 28 x 28 layers keep the forward of 2 primitives x 16
 //! rotations near 150 ms on 2 cores; 64 there measured about 2x slower.)
 //! Every conv is followed by a ReLU; there is no normalisation. The receptive
-//! field is 39 network pixels (15.6 cm); conv5 dilated 8 (`models/paper-scale-d8/`)
+//! field is 39 network pixels (15.6 cm); conv5 dilated 8 (the shipped `models/`)
 //! makes it 95 (38 cm, [`Trunk::receptive_field`]). With padding `dilation` every output
 //! cell `k` is centred on input pixel `4k` ([`TRUNK_STRIDE`]).
 
@@ -43,8 +43,9 @@ pub struct ConvSpec {
 }
 
 /// Which trunk a Q-network has: the five convolutions above, conv5 dilated
-/// by `conv5_dilation` (1 in the shipped oracle-guided policies, 8 in
-/// `models/paper-scale-d8/`). A policy file names it in its `architecture`
+/// by `conv5_dilation` (8 in the shipped policies, 1 in the earlier sets:
+/// `models/oracle-guided/`, `models/pure-rl/`, the two standard paper-scale
+/// sets). A policy file names it in its `architecture`
 /// field ([`Trunk::architecture`]); the wider the dilation, the more of the
 /// scene one Q-value sees ([`Trunk::receptive_field`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]

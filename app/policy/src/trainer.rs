@@ -792,10 +792,55 @@ pub fn run_facts(state: &TrainState) -> std::collections::BTreeMap<String, Strin
     );
     m.insert(
         "exploration".into(),
+        exploration_words(&state.config, state.mode_counts),
+    );
+    m
+}
+
+/// How a run explored: "epsilon-greedy, RL alone" when the oracle was never
+/// asked (`--pure-rl`), otherwise "oracle-guided epsilon-greedy", with the
+/// actions of each mode (`counts`: oracle, random, greedy).
+pub fn exploration_words(config: &TrainConfig, counts: [usize; 3]) -> String {
+    if config.oracle_start == 0.0 && config.oracle_end == 0.0 {
         format!(
-            "oracle-guided epsilon-greedy: oracle {}, random {}, greedy {} actions",
-            state.mode_counts[0], state.mode_counts[1], state.mode_counts[2]
-        ),
+            "{RL_ALONE}: oracle {}, random {}, greedy {} actions",
+            counts[0], counts[1], counts[2]
+        )
+    } else {
+        format!(
+            "{ORACLE_GUIDED}: oracle {}, random {}, greedy {} actions",
+            counts[0], counts[1], counts[2]
+        )
+    }
+}
+
+const RL_ALONE: &str = "epsilon-greedy, RL alone";
+const ORACLE_GUIDED: &str = "oracle-guided epsilon-greedy";
+
+/// The metadata of the weights a finished run writes out when they are its
+/// best snapshot (`snapshot`: the facts saved with the snapshot, at its own
+/// point of the run): the snapshot's `train_*` facts, and beside them the
+/// whole run's (`run_actions`, `run_steps`, `run_trials`, `run_exploration`),
+/// so that the file says both how long the run trained and where its weights
+/// were taken. Snapshots written before seespot named RL alone call it
+/// "oracle-guided epsilon-greedy: oracle 0"; their label is mended here.
+pub fn kept_snapshot_facts(
+    snapshot: &std::collections::BTreeMap<String, String>,
+    state: &TrainState,
+) -> std::collections::BTreeMap<String, String> {
+    let mut m = snapshot.clone();
+    let rl_alone = state.config.oracle_start == 0.0 && state.config.oracle_end == 0.0;
+    if let Some(label) = m.get_mut("exploration") {
+        if rl_alone && label.starts_with(ORACLE_GUIDED) {
+            *label = label.replacen(ORACLE_GUIDED, RL_ALONE, 1);
+        }
+    }
+    m.insert("run_actions".into(), state.actions.to_string());
+    m.insert("run_steps".into(), state.train_steps.to_string());
+    m.insert("run_trials".into(), state.trials.to_string());
+    m.insert(
+        "run_exploration".into(),
+        exploration_words(&state.config, state.mode_counts),
     );
     m
 }

@@ -227,3 +227,53 @@ fn epsilon_schedules() {
     let old: TrainConfig = serde_json::from_value(json).expect("an old run's config");
     assert_eq!(old.epsilon_decay, EpsilonDecay::Linear);
 }
+
+/// Weights kept from a best snapshot name both the snapshot's point of the
+/// run (`train_*`) and the whole run (`run_*`); a run by RL alone is labelled
+/// so, also in a snapshot saved before seespot named it (whose label read
+/// "oracle-guided epsilon-greedy: oracle 0"), and an oracle-guided run keeps
+/// its label.
+#[test]
+fn kept_snapshots_name_the_whole_run_and_how_it_explored() {
+    use seespot_policy::trainer::{exploration_words, kept_snapshot_facts};
+    let dir = tempfile::tempdir().unwrap();
+    let mut config = TrainConfig::new(TaskId::Stack, 40, 3);
+    config.oracle_start = 0.0;
+    config.oracle_end = 0.0;
+    config.max_trial_actions = 8;
+    config.best_window = 12;
+    let outcome = seespot_policy::train(&config, dir.path(), &mut |_| {}).unwrap();
+    let s = &outcome.state;
+    assert_eq!(s.mode_counts[0], 0);
+    let words = exploration_words(&s.config, s.mode_counts);
+    assert!(
+        words.starts_with("epsilon-greedy, RL alone: oracle 0,"),
+        "{words}"
+    );
+    let best = s.best.expect("a best snapshot");
+    let snapshot = seespot_policy::PolicyNet::load(&dir.path().join(best.file())).unwrap();
+    let mut old = snapshot.meta.extra.clone();
+    old.insert(
+        "exploration".into(),
+        "oracle-guided epsilon-greedy: oracle 0, random 5, greedy 7 actions".into(),
+    );
+    for facts in [&snapshot.meta.extra, &old] {
+        let kept = kept_snapshot_facts(facts, s);
+        assert_eq!(kept["train_actions"], best.actions.to_string());
+        assert_eq!(kept["run_actions"], s.actions.to_string());
+        assert_eq!(kept["run_steps"], s.train_steps.to_string());
+        assert_eq!(kept["run_trials"], s.trials.to_string());
+        assert_eq!(kept["run_exploration"], words);
+        assert!(
+            kept["exploration"].starts_with("epsilon-greedy, RL alone: oracle 0,"),
+            "{}",
+            kept["exploration"]
+        );
+    }
+    let mut guided = config.clone();
+    guided.oracle_start = 0.5;
+    assert!(
+        exploration_words(&guided, [3, 4, 5])
+            .starts_with("oracle-guided epsilon-greedy: oracle 3,")
+    );
+}

@@ -21,7 +21,7 @@ use crate::arrays::bad;
 // Python keyword arguments, each with its default: one call, not a builder.
 #[allow(clippy::too_many_arguments)]
 #[pyfunction]
-#[pyo3(signature = (task, seed, actions, out, resolution = 112, colours_matter = false, overwrite = false))]
+#[pyo3(signature = (task, seed, actions, out, resolution = seespot_sim::DEFAULT_RESOLUTION, colours_matter = false, overwrite = false))]
 pub fn record_demo(
     py: Python<'_>,
     task: &str,

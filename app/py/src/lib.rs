@@ -49,6 +49,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
         seespot_eval::EvalMethod::ALL.map(|m| m.as_str()).to_vec(),
     )?;
     m.add("NUM_ROTATIONS", seespot_sim::NUM_ROTATIONS)?;
+    m.add("DEFAULT_RESOLUTION", seespot_sim::DEFAULT_RESOLUTION)?;
     m.add("MAX_TRIAL_ACTIONS", seespot_sim::task::MAX_TRIAL_ACTIONS)?;
     m.add_class::<trial::Trial>()?;
     m.add_class::<vector::VectorTrials>()?;

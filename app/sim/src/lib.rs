@@ -62,5 +62,11 @@ pub use trial::{StepRecord, Trial, TrialEnd};
 pub use workspace::Grid;
 pub use world::{ActionOutcome, BlockPose, World, WorldConfig};
 
+/// Heightmap pixels per side of the shipped set (2 mm per pixel, the paper's
+/// heightmaps): the default of the command line, the debugger and the Python
+/// package. [`Grid::default`] stays at 112 px, the quick world of the tests and
+/// examples.
+pub const DEFAULT_RESOLUTION: usize = 224;
+
 /// The version of seespot that wrote a file (demos, models, results).
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");

@@ -51,6 +51,7 @@ from typing import Any
 
 import numpy as np
 
+from seespot._core import DEFAULT_RESOLUTION
 from seespot.viz.viser import BLOCK_COLORS, BLOCK_SIZE, DEMO_OFFSET, WORKSPACE_SIZE, pixel_to_world
 
 #: Where the simulator parks a held block, out of the camera's view (metres;
@@ -183,7 +184,7 @@ def record_trial(
     method: str = "ssr-ccd",
     models_dir: str | Path = "models",
     demos_dir: str | Path = "demos",
-    resolution: int = 112,
+    resolution: int = DEFAULT_RESOLUTION,
     correspond: str = "reference",
     max_actions: int | None = None,
 ) -> TrialFrames:
@@ -591,7 +592,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--method", default="ssr-ccd", help="ssr-ccd, ssr-l2cd, ssr-ccd-loopbreak, oracle, spot-q, ...")
     ap.add_argument("--models", default="models", help="the policies' folder")
     ap.add_argument("--demos", default="demos", help="the demonstrations' folder")
-    ap.add_argument("--resolution", type=int, default=112)
+    ap.add_argument("--resolution", type=int, default=DEFAULT_RESOLUTION)
     ap.add_argument("--max-actions", type=int, default=None, help="stop after this many actions")
     ap.add_argument("--out", default=None, help="write the HTML file here (default: open it in the browser)")
     args = ap.parse_args(argv)
