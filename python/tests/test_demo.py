@@ -41,7 +41,7 @@ def test_bad_demonstrations_name_what_is_wrong(tmp_path: Path) -> None:
         seespot.record_demo("custom:../up", 0, [("grasp", 0, 5, 5)], tmp_path / "x")
     with pytest.raises(ValueError, match="'push' is not 'grasp' or 'place'"):
         seespot.record_demo("stack", 0, [("push", 0, 5, 5)], tmp_path / "x")
-    with pytest.raises(ValueError, match="action 0: .*outside the 112 x 112 workspace"):
+    with pytest.raises(ValueError, match="action 0: .*outside the 224 x 224 workspace"):
         seespot.record_demo("stack", 0, [("grasp", 0, 500, 5)], tmp_path / "x")
     with pytest.raises(ValueError, match="no actions"):
         seespot.record_demo("custom:empty", 0, [], tmp_path / "x")

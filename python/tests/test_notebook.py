@@ -72,7 +72,7 @@ def test_the_example_notebook_runs_and_shows_each_view(tmp_path, monkeypatch):
 
     page = html_of(cell("seespot.notebook.meshcat("))
     assert page.startswith("<iframe srcdoc=") and "new MeshCat.Viewer" in page
-    assert "stack · seed 1 · ssr-ccd · success" in page
+    assert "unstack · seed 1 · ssr-ccd · success" in page
 
     assert 'src="http://127.0.0.1:8765/' in html_of(cell("seespot.notebook.debugger("))
 

@@ -11,8 +11,10 @@ use seespot_ssr::layout::records_path;
 use seespot_ssr::policy::{DemoQuery, SsrConfig, SsrPolicy, choose, chosen_pair};
 use seespot_ssr::{CorrespondOptions, Layout, Method};
 
+/// The 112 px set's demonstrations, the quick world of these tests (the
+/// shipped 224 px set's are in `demos/`).
 fn demos_dir() -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../demos")
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../demos/112px")
 }
 
 fn demos(task: TaskId) -> Vec<Demo> {
@@ -271,14 +273,15 @@ fn ties_are_broken_in_the_documented_order() {
 }
 
 /// Stack seed 3: the faithful SSR CCD repeats one failed grasp until the
-/// 30-action limit (results/trials/ssr-ccd/stack.jsonl). The loop-breaking
+/// 30-action limit with the 112 px set
+/// (results/oracle-guided/trials/ssr-ccd/stack.jsonl). The loop-breaking
 /// extension never executes an action inside the masked neighbourhood of an
 /// action that left the scene unchanged.
 #[test]
 fn loop_breaking_never_repeats_an_action_that_changed_nothing() {
     use seespot_sim::actor::run_trial;
     use seespot_ssr::policy::LOOP_BREAK_RADIUS;
-    let models = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../models");
+    let models = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../models/oracle-guided");
     let config = SsrConfig {
         loop_break: true,
         ..SsrConfig::default()
@@ -513,7 +516,7 @@ fn a_record_replays_exactly_and_is_refused_after_its_files_change() {
             std::fs::copy(&f, to.join(f.file_name().expect("name"))).expect("copy");
         }
     }
-    let models = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../models");
+    let models = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../models/oracle-guided");
     let config = EvalConfig {
         method: EvalMethod::SsrL2cd,
         seeds: Seeds::new(5, 1).expect("test seed"),
@@ -582,8 +585,29 @@ fn the_review_of_the_committed_results_counts_every_record() {
     assert!(trials.iter().all(|t| t.success == t.failure.is_none()));
 }
 
-/// Every committed trial record (`results/trials/`, `results/pure-rl/` and
-/// the three paper-scale sets', test and validation seeds)
+/// The records files under `dir`, at any depth (a custom task's are in
+/// `<method>/custom/`), in a stable order.
+fn jsonl_files(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let mut out = Vec::new();
+    let mut entries: Vec<_> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.expect("entry").path())
+        .collect();
+    entries.sort();
+    for path in entries {
+        if path.is_dir() {
+            out.extend(jsonl_files(&path));
+        } else if path.extension().is_some_and(|e| e == "jsonl") {
+            out.push(path);
+        }
+    }
+    out
+}
+
+/// Every committed trial record (the shipped set's in `results/trials/` and
+/// `results/validation/` and `results/custom/`, the 112 px set's in
+/// `results/oracle-guided/`, `results/pure-rl/`, and the two earlier
+/// paper-scale sets', test and validation seeds, and their custom tasks)
 /// names the model and demonstration files it was made with by checksums
 /// that match the shipped files, and records of one file agree on them.
 #[test]
@@ -594,33 +618,30 @@ fn committed_records_carry_the_checksums_of_the_shipped_files() {
     let (mut records, mut files_checked) = (0, 0);
     for dir in [
         "results/trials",
+        "results/validation/trials",
+        "results/custom/trials",
+        "results/oracle-guided/trials",
+        "results/oracle-guided/custom/trials",
         "results/pure-rl/trials",
         "results/paper-scale/trials",
         "results/paper-scale-reload/trials",
         "results/paper-scale/validation/trials",
         "results/paper-scale-reload/validation/trials",
-        "results/paper-scale-d8/trials",
-        "results/paper-scale-d8/validation/trials",
+        "results/custom-224/trials",
     ] {
-        for m in std::fs::read_dir(root.join(dir)).expect("trials") {
-            for f in std::fs::read_dir(m.expect("method").path()).expect("method dir") {
-                let path = f.expect("file").path();
-                if path.extension().is_none_or(|e| e != "jsonl") {
-                    continue;
-                }
-                for r in seespot_eval::records::read_records(&path).expect("records") {
-                    records += 1;
-                    let p = r.provenance.unwrap_or_else(|| {
-                        panic!("{}: a record without provenance", path.display())
+        for path in jsonl_files(&root.join(dir)) {
+            for r in seespot_eval::records::read_records(&path).expect("records") {
+                records += 1;
+                let p = r
+                    .provenance
+                    .unwrap_or_else(|| panic!("{}: a record without provenance", path.display()));
+                for (file, sum) in p.files {
+                    let want = known.entry(file.clone()).or_insert_with(|| {
+                        files_checked += 1;
+                        sha256_file(&root.join(&file))
+                            .unwrap_or_else(|e| panic!("{}: {file}: {e}", path.display()))
                     });
-                    for (file, sum) in p.files {
-                        let want = known.entry(file.clone()).or_insert_with(|| {
-                            files_checked += 1;
-                            sha256_file(&root.join(&file))
-                                .unwrap_or_else(|e| panic!("{}: {file}: {e}", path.display()))
-                        });
-                        assert_eq!(&sum, want, "{}: {file}", path.display());
-                    }
+                    assert_eq!(&sum, want, "{}: {file}", path.display());
                 }
             }
         }
@@ -630,7 +651,7 @@ fn committed_records_carry_the_checksums_of_the_shipped_files() {
     assert!(files_checked > 0);
 }
 
-/// Re-recording every shipped demonstration (`demos/` and
+/// Re-recording every shipped demonstration (`demos/`, `demos/112px/` and
 /// `demos/paper-scale/`) from its seed gives exactly the shipped bytes: the
 /// oracle, the physics and the PNG encoding are all deterministic, so the
 /// README's re-record commands leave `git status` clean.
@@ -638,7 +659,8 @@ fn committed_records_carry_the_checksums_of_the_shipped_files() {
 fn every_shipped_demo_re_records_to_the_same_bytes() {
     use seespot_ssr::correspond::reference::record_demo;
     let mut checked = 0;
-    for root in [demos_dir(), demos_dir().join("paper-scale")] {
+    let all = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../demos");
+    for root in [all.clone(), demos_dir(), all.join("paper-scale")] {
         for task in TaskId::ALL {
             for dir in Layout::new("models", &root).demo_dirs(task) {
                 let shipped = Demo::read(&dir).expect("shipped demo");
@@ -665,8 +687,8 @@ fn every_shipped_demo_re_records_to_the_same_bytes() {
         }
     }
     assert_eq!(
-        checked, 16,
-        "two demonstrations per task, at 112 and 224 px"
+        checked, 24,
+        "two demonstrations per task, at 224 px (twice) and 112 px"
     );
 }
 

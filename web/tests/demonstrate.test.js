@@ -144,7 +144,7 @@ test('bad demonstrations are refused with what is wrong', async () => {
   await page.getByTestId('demo-task').fill('custom:../escape');
   await page.getByTestId('demo-start').click();
   await page.waitForFunction(() => window.seespot.errors.some((e) => e.includes('holds no path')));
-  assert.match(await errors(), /outside the 112 x 112 workspace/);
+  assert.match(await errors(), /outside the 224 x 224 workspace/);
   assert.ok(!existsSync(join(tmp, 'escape')));
   await page.getByTestId('demo-stop').click();
 });

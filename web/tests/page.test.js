@@ -24,7 +24,7 @@ import { root, BIN, CHROMIUM, startView, stopView } from './serve.js';
 const shots = process.env.SEESPOT_SCREENSHOTS
   ? resolve(process.env.SEESPOT_SCREENSHOTS)
   : mkdtempSync(join(tmpdir(), 'seespot-screenshots-'));
-const RES = Number(process.env.SEESPOT_TEST_RESOLUTION || 112);
+const RES = Number(process.env.SEESPOT_TEST_RESOLUTION || 224);
 const FLAGS = ['--headless', '--no-sandbox', '--disable-gpu', '--enable-unsafe-swiftshader', '--no-first-run',
   '--disable-background-networking', '--disable-component-update', '--disable-sync'];
 

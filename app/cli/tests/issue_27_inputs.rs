@@ -146,6 +146,8 @@ fn issue_27_eval_noise_refuses_a_scene_with_blocks() {
             "oracle",
             "--noise",
             &scene,
+            "--resolution",
+            "112",
             "--out",
             out.to_str().expect("utf-8"),
         ],

@@ -16,7 +16,7 @@ fn model(task: TaskId) -> PathBuf {
 
 #[test]
 fn shipped_transporters_load_and_plan() {
-    let (_, hm) = scene(112, 9);
+    let (_, hm) = scene(224, 9);
     for task in TaskId::ALL {
         let net = TransporterNet::load(&model(task)).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(net.meta.task, task.as_str());

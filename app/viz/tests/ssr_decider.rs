@@ -9,7 +9,7 @@ use seespot_viz::session::{PairQuery, Phase, Session, SessionConfig};
 #[test]
 fn ssr_decider_explains_and_answers_queries() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let demos = root.join("demos");
+    let demos = root.join("demos/112px");
     if !demos.join("stack/0/meta.json").exists() {
         eprintln!("no shipped demos: skipped");
         return;

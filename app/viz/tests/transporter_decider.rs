@@ -10,12 +10,12 @@ use seespot_viz::session::{Phase, Session, SessionConfig};
 #[test]
 fn transporter_decider_shows_its_score_maps() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let demos = root.join("demos");
+    let demos = root.join("demos/112px");
     if !demos.join("row/0/meta.json").exists() {
         eprintln!("no shipped demos: skipped");
         return;
     }
-    let models = root.join("models");
+    let models = root.join("models/oracle-guided");
     let factory = registry::factory(
         DeciderKind::Transporter,
         seespot_ssr::Layout::new(models, demos),
