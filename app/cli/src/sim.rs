@@ -75,7 +75,7 @@ fn run_trials(args: RunArgs) -> anyhow::Result<()> {
     // The heightmap: the flag's, else the scene's, else the policy's own
     // (a policy sees the resolution it was trained at), else the default.
     let mut config = scene.as_ref().map(|s| s.world_config()).unwrap_or_default();
-    let resolution = args.resolution.or_else(|| match (&scene, &policy) {
+    let resolution = args.resolution.or(match (&scene, &policy) {
         (Some(_), _) => None,
         (None, Some(p)) => Some(p.meta.resolution),
         (None, None) => Some(seespot_sim::DEFAULT_RESOLUTION),

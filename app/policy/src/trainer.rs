@@ -830,10 +830,11 @@ pub fn kept_snapshot_facts(
 ) -> std::collections::BTreeMap<String, String> {
     let mut m = snapshot.clone();
     let rl_alone = state.config.oracle_start == 0.0 && state.config.oracle_end == 0.0;
-    if let Some(label) = m.get_mut("exploration") {
-        if rl_alone && label.starts_with(ORACLE_GUIDED) {
-            *label = label.replacen(ORACLE_GUIDED, RL_ALONE, 1);
-        }
+    if let Some(label) = m.get_mut("exploration")
+        && rl_alone
+        && label.starts_with(ORACLE_GUIDED)
+    {
+        *label = label.replacen(ORACLE_GUIDED, RL_ALONE, 1);
     }
     m.insert("run_actions".into(), state.actions.to_string());
     m.insert("run_steps".into(), state.train_steps.to_string());

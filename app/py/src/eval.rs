@@ -29,7 +29,7 @@ impl Evaluator {
     /// spot-q, oracle, random, transporter; no finetuning);
     /// `correspond`: `reference` or `plain` (SSR only).
     #[new]
-    #[pyo3(signature = (method, task, models_dir = "models".into(), demos_dir = "demos".into(), resolution = seespot_sim::DEFAULT_RESOLUTION, correspond = "reference"))]
+    #[pyo3(signature = (method, task, models_dir = "models".into(), demos_dir = "demos".into(), resolution = seespot_sim::DEFAULT_RESOLUTION as i64, correspond = "reference"))]
     fn new(
         py: Python<'_>,
         method: &str,

@@ -38,7 +38,7 @@ impl Trial {
     /// `custom:NAME`, defined by `demos_dir/custom/NAME/`) from `seed` at
     /// `resolution` pixels per side.
     #[new]
-    #[pyo3(signature = (task, seed, resolution = seespot_sim::DEFAULT_RESOLUTION, demos_dir = "demos".into()))]
+    #[pyo3(signature = (task, seed, resolution = seespot_sim::DEFAULT_RESOLUTION as i64, demos_dir = "demos".into()))]
     fn new(
         py: Python<'_>,
         task: &str,

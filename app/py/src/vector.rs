@@ -216,7 +216,7 @@ impl VectorTrials {
     /// One trial of `task` per seed of `seeds`, at `resolution` pixels per
     /// side (a custom task is defined by `demos_dir/custom/NAME/`).
     #[new]
-    #[pyo3(signature = (task, seeds, resolution = seespot_sim::DEFAULT_RESOLUTION, demos_dir = "demos".into()))]
+    #[pyo3(signature = (task, seeds, resolution = seespot_sim::DEFAULT_RESOLUTION as i64, demos_dir = "demos".into()))]
     fn new(
         py: Python<'_>,
         task: &str,
