@@ -42,6 +42,8 @@ TASKS: list[str]
 METHODS: list[str]
 NUM_ROTATIONS: int
 DEFAULT_RESOLUTION: int
+"""Heightmap pixels per side of the shipped set (224, 2 mm/px): the default
+of every ``resolution`` argument below (shown as ``...``)."""
 MAX_TRIAL_ACTIONS: int
 
 _Ix3: TypeAlias = tuple[int, int, int]
@@ -49,7 +51,7 @@ _Ix3: TypeAlias = tuple[int, int, int]
 @final
 class Trial:
     def __new__(
-        cls, task: str, seed: int, resolution: int = 224, demos_dir: str | os.PathLike[str] = ...
+        cls, task: str, seed: int, resolution: int = ..., demos_dir: str | os.PathLike[str] = ...
     ) -> Trial: ...
     @staticmethod
     def from_scene(path: str | os.PathLike[str], index: int = 0) -> Trial: ...
@@ -79,7 +81,7 @@ class VectorTrials:
         cls,
         task: str,
         seeds: list[int],
-        resolution: int = 224,
+        resolution: int = ...,
         demos_dir: str | os.PathLike[str] = ...,
     ) -> VectorTrials: ...
     @property
@@ -128,7 +130,7 @@ class Evaluator:
         task: str,
         models_dir: str | os.PathLike[str] = ...,
         demos_dir: str | os.PathLike[str] = ...,
-        resolution: int = 224,
+        resolution: int = ...,
         correspond: str = "reference",
     ) -> Evaluator: ...
     @property
@@ -151,7 +153,7 @@ def record_demo(
     seed: int,
     actions: list[tuple[str, int, int, int]],
     out: str | os.PathLike[str],
-    resolution: int = 224,
+    resolution: int = ...,
     colours_matter: bool = False,
     overwrite: bool = False,
 ) -> int: ...
