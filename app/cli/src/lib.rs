@@ -16,6 +16,7 @@ macro_rules! outln {
 }
 
 mod bench;
+mod compare;
 mod demo;
 mod eval;
 mod export;
@@ -53,6 +54,9 @@ enum Command {
     Export(export::ExportCommand),
     /// The trials of an evaluation with their failure kinds, and how to replay each.
     Review(review::ReviewArgs),
+    /// Two evaluations trial by trial: each run's success on the trials both
+    /// ran, with the exact McNemar test.
+    Compare(compare::CompareArgs),
     /// Train one task's SPOT-Q policy (resumable from its run directory).
     Train(train::TrainArgs),
     /// The TransporterNet baseline: train it on a task's demonstrations.
@@ -133,6 +137,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Train(a) => train::run(a),
         Command::Transporter(c) => transporter::run(c),
         Command::Review(a) => review::run(a),
+        Command::Compare(a) => compare::run(a),
         #[cfg(feature = "viewer")]
         Command::View(a) => view::run_view(a),
         #[cfg(feature = "viewer")]

@@ -1,0 +1,83 @@
+//! `seespot compare`: two evaluations' records, trial by trial. For every run
+//! (a records folder's `trials/<run>/`) both hold, the success of each on the
+//! trials both ran, paired by task and seed, with the exact McNemar test
+//! (`seespot_eval::stats::paired_success`), as a Markdown table.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use seespot_eval::records::{custom_records_files, read_records, records_files};
+use seespot_eval::stats::paired_success;
+use seespot_sim::TrialRecord;
+
+#[derive(clap::Args, Debug)]
+pub struct CompareArgs {
+    /// An evaluation's output folder (holding `trials/<run>/<task>.jsonl`,
+    /// custom tasks' in `trials/<run>/custom/`).
+    first: PathBuf,
+    /// The evaluation to compare it with.
+    second: PathBuf,
+    /// The two evaluations' names in the table's header.
+    #[arg(long, num_args = 2, value_names = ["FIRST", "SECOND"], default_values = ["first", "second"])]
+    names: Vec<String>,
+}
+
+/// Every record of `dir`, by run (the folder under `trials/`).
+fn runs(dir: &Path) -> anyhow::Result<BTreeMap<String, Vec<TrialRecord>>> {
+    let trials = seespot_ssr::layout::trials_dir(dir);
+    anyhow::ensure!(trials.is_dir(), "{}: no records folder", trials.display());
+    let mut out = BTreeMap::<String, Vec<TrialRecord>>::new();
+    for file in records_files(dir)?
+        .into_iter()
+        .chain(custom_records_files(dir)?)
+    {
+        let run = file
+            .strip_prefix(&trials)
+            .ok()
+            .and_then(|p| p.components().next())
+            .map(|c| c.as_os_str().to_string_lossy().into_owned())
+            .unwrap_or_default();
+        out.entry(run).or_default().extend(read_records(&file)?);
+    }
+    Ok(out)
+}
+
+fn p_text(p: f64) -> String {
+    if p < 0.001 {
+        "< 0.001".into()
+    } else {
+        format!("{p:.3}")
+    }
+}
+
+pub fn run(args: CompareArgs) -> anyhow::Result<()> {
+    let (one, two) = (runs(&args.first)?, runs(&args.second)?);
+    let (n1, n2) = (&args.names[0], &args.names[1]);
+    outln!("| run | paired trials | {n1} | {n2} | only {n1} / only {n2} | p (exact McNemar) |")?;
+    outln!("|---|---|---|---|---|---|")?;
+    for (run, a) in &one {
+        let Some(b) = two.get(run) else { continue };
+        let paired = paired_success(a, b, None);
+        if paired.pairs == 0 {
+            continue;
+        }
+        // The paired trials both succeeded in; with the discordant ones, each
+        // side's successes on the paired trials.
+        let wins: BTreeMap<_, bool> = b.iter().map(|r| ((r.task, r.seed), r.success)).collect();
+        let both = a
+            .iter()
+            .filter(|r| r.success && wins.get(&(r.task, r.seed)) == Some(&true))
+            .count();
+        let rate = |k: usize| 100.0 * k as f64 / paired.pairs as f64;
+        outln!(
+            "| {run} | {} | {:.1}% | {:.1}% | {} / {} | {} |",
+            paired.pairs,
+            rate(both + paired.only_a),
+            rate(both + paired.only_b),
+            paired.only_a,
+            paired.only_b,
+            p_text(paired.p_value)
+        )?;
+    }
+    Ok(())
+}
