@@ -585,25 +585,6 @@ fn the_review_of_the_committed_results_counts_every_record() {
     assert!(trials.iter().all(|t| t.success == t.failure.is_none()));
 }
 
-/// The records files under `dir`, at any depth (a custom task's are in
-/// `<method>/custom/`), in a stable order.
-fn jsonl_files(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
-    let mut out = Vec::new();
-    let mut entries: Vec<_> = std::fs::read_dir(dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .map(|e| e.expect("entry").path())
-        .collect();
-    entries.sort();
-    for path in entries {
-        if path.is_dir() {
-            out.extend(jsonl_files(&path));
-        } else if path.extension().is_some_and(|e| e == "jsonl") {
-            out.push(path);
-        }
-    }
-    out
-}
-
 /// Every committed trial record (the shipped set's in `results/trials/` and
 /// `results/validation/` and `results/custom/`, the 112 px set's in
 /// `results/oracle-guided/`, `results/pure-rl/`, and the two earlier
@@ -617,19 +598,24 @@ fn committed_records_carry_the_checksums_of_the_shipped_files() {
     let mut known = std::collections::BTreeMap::<String, String>::new();
     let (mut records, mut files_checked) = (0, 0);
     for dir in [
-        "results/trials",
-        "results/validation/trials",
-        "results/custom/trials",
-        "results/oracle-guided/trials",
-        "results/oracle-guided/custom/trials",
-        "results/pure-rl/trials",
-        "results/paper-scale/trials",
-        "results/paper-scale-reload/trials",
-        "results/paper-scale/validation/trials",
-        "results/paper-scale-reload/validation/trials",
-        "results/custom-224/trials",
+        "results",
+        "results/validation",
+        "results/custom",
+        "results/oracle-guided",
+        "results/oracle-guided/custom",
+        "results/pure-rl",
+        "results/paper-scale",
+        "results/paper-scale-reload",
+        "results/paper-scale/validation",
+        "results/paper-scale-reload/validation",
+        "results/custom-224",
     ] {
-        for path in jsonl_files(&root.join(dir)) {
+        use seespot_eval::records::{custom_records_files, records_files};
+        let out = root.join(dir);
+        let files = records_files(&out).expect("records files");
+        let custom = custom_records_files(&out).expect("custom records files");
+        assert!(!files.is_empty() || !custom.is_empty(), "{dir}: no records");
+        for path in files.into_iter().chain(custom) {
             for r in seespot_eval::records::read_records(&path).expect("records") {
                 records += 1;
                 let p = r
