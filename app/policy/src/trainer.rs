@@ -240,6 +240,12 @@ impl TrainConfig {
     pub fn oracle_probability(&self, actions: usize) -> f32 {
         self.decayed(self.oracle_start, self.oracle_end, actions)
     }
+
+    /// Whether the oracle is never asked (`--pure-rl`): exploration by
+    /// reinforcement learning alone.
+    pub fn rl_alone(&self) -> bool {
+        self.oracle_start == 0.0 && self.oracle_end == 0.0
+    }
 }
 
 /// Counters, replay and curve of a run: everything but the tensors.
@@ -801,17 +807,15 @@ pub fn run_facts(state: &TrainState) -> std::collections::BTreeMap<String, Strin
 /// asked (`--pure-rl`), otherwise "oracle-guided epsilon-greedy", with the
 /// actions of each mode (`counts`: oracle, random, greedy).
 pub fn exploration_words(config: &TrainConfig, counts: [usize; 3]) -> String {
-    if config.oracle_start == 0.0 && config.oracle_end == 0.0 {
-        format!(
-            "{RL_ALONE}: oracle {}, random {}, greedy {} actions",
-            counts[0], counts[1], counts[2]
-        )
+    let how = if config.rl_alone() {
+        RL_ALONE
     } else {
-        format!(
-            "{ORACLE_GUIDED}: oracle {}, random {}, greedy {} actions",
-            counts[0], counts[1], counts[2]
-        )
-    }
+        ORACLE_GUIDED
+    };
+    format!(
+        "{how}: oracle {}, random {}, greedy {} actions",
+        counts[0], counts[1], counts[2]
+    )
 }
 
 const RL_ALONE: &str = "epsilon-greedy, RL alone";
@@ -829,9 +833,8 @@ pub fn kept_snapshot_facts(
     state: &TrainState,
 ) -> std::collections::BTreeMap<String, String> {
     let mut m = snapshot.clone();
-    let rl_alone = state.config.oracle_start == 0.0 && state.config.oracle_end == 0.0;
     if let Some(label) = m.get_mut("exploration")
-        && rl_alone
+        && state.config.rl_alone()
         && label.starts_with(ORACLE_GUIDED)
     {
         *label = label.replacen(ORACLE_GUIDED, RL_ALONE, 1);
