@@ -28,15 +28,13 @@ def trunk_layers(conv5_dilation):
             ("conv5", 1, conv5_dilation)]
 
 
-def conv5_dilation(path):
-    with open(path, "rb") as f:
-        n = struct.unpack("<Q", f.read(8))[0]
-        arch = json.loads(f.read(n)).get("__metadata__", {}).get("architecture", "")
-    tail = arch.rsplit("-", 1)[-1]
+def conv5_dilation(metadata):
+    tail = metadata.get("architecture", "").rsplit("-", 1)[-1]
     return int(tail[1:]) if tail.startswith("d") and tail[1:].isdigit() else 1
 
 
 def read_safetensors(path):
+    """The file's tensors by name, and its metadata."""
     with open(path, "rb") as f:
         n = struct.unpack("<Q", f.read(8))[0]
         header = json.loads(f.read(n))
@@ -48,7 +46,7 @@ def read_safetensors(path):
         assert t["dtype"] == "F32", (name, t["dtype"])
         a, b = t["data_offsets"]
         out[name] = np.frombuffer(data[a:b], dtype="<f4").reshape(t["shape"]).copy()
-    return out
+    return out, header.get("__metadata__", {})
 
 
 def trunk_graph(weights, batch, n, dilation=1):
@@ -80,7 +78,8 @@ def main():
     ap.add_argument("--threads", type=int, default=2)
     args = ap.parse_args()
     batch, n = 16, 112
-    model = trunk_graph(read_safetensors(args.weights), batch, n, conv5_dilation(args.weights))
+    weights, metadata = read_safetensors(args.weights)
+    model = trunk_graph(weights, batch, n, conv5_dilation(metadata))
     opts = ort.SessionOptions()
     opts.intra_op_num_threads = args.threads
     opts.inter_op_num_threads = 1
