@@ -330,6 +330,7 @@ fn name_of(
         world: world_config(112),
         correspond,
         finetune_steps,
+        finetune_procedure: seespot_policy::finetune::FinetuneProcedure::Reference,
     };
     if noisy {
         config.world.noise = seespot_sim::noise::SensorNoise {
@@ -414,6 +415,7 @@ fn evaluation_writes_records_and_resumes_after_interruption() {
         world: world_config(112),
         correspond: CorrespondOptions::default(),
         finetune_steps: 0,
+        finetune_procedure: seespot_policy::finetune::FinetuneProcedure::Reference,
     };
     let first = run_task(&config, TaskId::Row, &mut |_| {}).expect("eval");
     assert_eq!(first.len(), 3);
@@ -525,6 +527,7 @@ fn a_record_replays_exactly_and_is_refused_after_its_files_change() {
         world: world_config(112),
         correspond: CorrespondOptions::default(),
         finetune_steps: 0,
+        finetune_procedure: seespot_policy::finetune::FinetuneProcedure::Reference,
     };
     let record = run_task(&config, TaskId::Unstack, &mut |_| {})
         .expect("eval")
@@ -694,6 +697,7 @@ fn a_custom_task_records_the_demonstrations_that_define_it() {
         world: world_config(112),
         correspond: CorrespondOptions::default(),
         finetune_steps: 0,
+        finetune_procedure: seespot_policy::finetune::FinetuneProcedure::Reference,
     };
     let prov =
         seespot_eval::runner::provenance(&config(EvalMethod::Random), task).expect("provenance");

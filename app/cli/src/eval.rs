@@ -81,6 +81,14 @@ pub struct EvalArgs {
     /// TransporterNet on the demonstrations (1000 = the paper's finetuned row).
     #[arg(long, default_value_t = 0, value_parser = seespot_sim::bounds::parse_finetune_steps)]
     finetune_steps: usize,
+    /// With --finetune-steps and SPOT-Q policies (SSR, spot-q): `reference`
+    /// (the default, as the paper finetuned: SGD at 1e-5, one demonstrated
+    /// transition per step, bootstrapped labels, the best 25-step snapshot;
+    /// each model written to `<out>/finetuned/` and reused) or `adam`
+    /// (seespot's first procedure, a labelled variant: Adam, batches of 8,
+    /// trial-reward targets; recorded as `<method>-finetuned-adam`).
+    #[arg(long, default_value = "reference")]
+    finetune_procedure: seespot_policy::finetune::FinetuneProcedure,
     /// Sensor noise for a domain-shift run: a scene file whose `[noise]` table
     /// is applied to every observation (its resolution must equal
     /// --resolution). Records are named `<method>-noisy`.
@@ -107,13 +115,7 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         vec![args.task.parse::<TaskId>().map_err(anyhow::Error::msg)?]
     };
     let seeds = Seeds::new(args.seed, args.trials)?;
-    if seeds.split() == seespot_sim::Split::Train && !args.training_seeds {
-        anyhow::bail!(
-            "--seed {}: an even seed starts the training and demonstration seeds; \
-             evaluate on odd seeds (1: test, 10001: validation), or pass --training-seeds",
-            args.seed
-        );
-    }
+    crate::io::check_trial_seed(args.seed, args.training_seeds)?;
     let mut world = world_config(args.resolution);
     if let Some(path) = &args.noise {
         world.noise = noise_of(path, args.resolution)?;
@@ -126,6 +128,7 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         world,
         correspond: correspond_options(&args)?,
         finetune_steps: args.finetune_steps,
+        finetune_procedure: args.finetune_procedure,
     };
     let name = config.spec().to_string();
     // Holds the output folder's lock until the report is written.
@@ -148,15 +151,23 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
     bar.finish_and_clear();
     let mut doc = serde_json::json!({"method": name, "out": args.out, "seeds": seeds});
     match evaluation.finish(args.finetune_steps.max(333))? {
-        Finished::Custom { path, text } => {
+        Finished::Custom {
+            path,
+            text,
+            summaries,
+        } => {
             if args.json {
                 doc["report"] = serde_json::json!(path);
+                doc["summaries"] = serde_json::json!(summaries);
                 return crate::io::print_json(&doc);
             }
             outln!("{text}")?;
             outln!("report: {}", path.display())?;
         }
         Finished::Table(summary) => {
+            for w in &summary.warnings {
+                eprintln!("warning: {w}");
+            }
             let ours: Vec<&Summary> = summary
                 .summaries
                 .iter()
@@ -172,6 +183,7 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
                         serde_json::json!(summary.disagreements),
                     ),
                     ("c_histograms", serde_json::json!(summary.c_histograms)),
+                    ("warnings", serde_json::json!(summary.warnings)),
                 ] {
                     doc[k] = v;
                 }

@@ -13,14 +13,25 @@ use seespot_sim::TrialRecord;
 use seespot_sim::task::{MAX_PROGRESS, TaskId};
 
 /// Annotated actions the paper counts for two demonstrations, for every task
-/// (Table 1: 2 demonstrations x 6 actions).
+/// (Table 1: 2 demonstrations x 6 actions). seespot counts its own
+/// demonstrations' actions instead ([`demo_actions`]): its row and vertical
+/// square demonstrations hold 4 actions each.
 pub const PAPER_ANNOTATED_ACTIONS: usize = 12;
 
-/// Annotated actions of a method that sees demonstrations holding
-/// `demo_actions` actions in all: the paper's 12, or more if the demonstrations
-/// hold more (seespot's row demonstrations hold 8, counted as 12 like the paper).
-pub fn annotated_actions(demo_actions: usize) -> usize {
-    demo_actions.max(PAPER_ANNOTATED_ACTIONS)
+/// The annotated actions of `task` in `layout`: the actions its
+/// demonstrations hold, all of them counted (a missing demonstration counts
+/// 0). An error names a demonstration that cannot be read.
+pub fn demo_actions(
+    layout: &seespot_ssr::Layout,
+    task: TaskId,
+) -> Result<usize, seespot_sim::DemoError> {
+    let mut n = 0;
+    for dir in layout.demo_dirs(task) {
+        if dir.exists() {
+            n += seespot_sim::Demo::read(&dir)?.steps.len();
+        }
+    }
+    Ok(n)
 }
 
 /// The metrics of one (method, task), or of a method's mean over tasks
@@ -289,11 +300,11 @@ mod tests {
         let runs = |ok: usize| -> Vec<TrialRecord> {
             (0..50).map(|k| rec(k, k < ok, 6, 4, false)).collect()
         };
-        let ccd = summarize(&runs(18), 6, 0, annotated_actions(12));
+        let ccd = summarize(&runs(18), 6, 0, 12);
         assert!((ccd.success_rate - 0.36).abs() < 1e-12);
         assert!((ccd.compute_efficiency - 0.36).abs() < 1e-12);
         assert!((ccd.sample_efficiency.unwrap_or(0.0) - 0.03).abs() < 1e-12);
-        let tn = summarize(&runs(15), 6, 40_000, annotated_actions(12));
+        let tn = summarize(&runs(15), 6, 40_000, 12);
         assert!((100.0 * tn.compute_efficiency - 0.00075).abs() < 5e-6);
         assert!((tn.sample_efficiency.unwrap_or(0.0) - 0.025).abs() < 1e-12);
     }
@@ -322,15 +333,11 @@ mod tests {
         let mut row = rec(0, true, 4, 4, false);
         row.task = TaskId::Row;
         all.push(row);
-        let s = summarize_all(
-            &all,
-            |_, _| 0,
-            |_, t| annotated_actions(4 + 2 * t.ideal_actions()),
-        );
+        let s = summarize_all(&all, |_, _| 0, |_, t| 4 + 2 * t.ideal_actions());
         assert_eq!(s.len(), 2);
         // BTreeMap order follows TaskId's derive order: Stack before Row.
         assert_eq!(s[0].task, Some(TaskId::Stack));
-        // Row demos hold 8 actions: counted as the paper's 12; stack's 12 + 4 = 16.
+        // Row demos hold 4 + 8 = 12 actions, stack's 4 + 12 = 16.
         assert_eq!(s[1].annotated_actions, 12);
         assert_eq!(s[0].annotated_actions, 16);
         assert_eq!(s[1].action_efficiency, Some(1.0));

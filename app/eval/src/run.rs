@@ -18,6 +18,7 @@ use std::fmt;
 use std::str::FromStr;
 use std::sync::OnceLock;
 
+use seespot_policy::finetune::FinetuneProcedure;
 use seespot_ssr::correspond::{CUnit, CorrespondOptions, DemoFeatures, Rematch, Smoothing};
 
 /// A method of the evaluation table.
@@ -199,8 +200,8 @@ pub enum TaskTraining {
     /// The test task's own TransporterNet (its recorded iterations).
     OwnTransporter,
     /// Finetuning on the demonstrations: `factor` x the run's finetune steps
-    /// (SSR: each of three policies; "Good Robot": one policy as many in all;
-    /// TransporterNet: 1).
+    /// (SSR: three policies; "Good Robot": one policy, or with the Adam
+    /// variant one policy for three times the steps; TransporterNet: 1).
     Finetuning { factor: u64 },
 }
 
@@ -209,7 +210,9 @@ pub enum TaskTraining {
 pub struct RunSpec {
     method: EvalMethod,
     correspond: CorrespondName,
-    finetuned: bool,
+    /// How the run was finetuned on the demonstrations, if it was (the
+    /// TransporterNet has one finetuning, named `Reference`).
+    finetuned: Option<FinetuneProcedure>,
     noisy: bool,
 }
 
@@ -220,7 +223,7 @@ impl RunSpec {
         Self {
             method,
             correspond: CorrespondName::REFERENCE,
-            finetuned: false,
+            finetuned: None,
             noisy: false,
         }
     }
@@ -240,16 +243,27 @@ impl RunSpec {
         })
     }
 
-    /// This run finetuned on the demonstrations; an error for the oracle and
-    /// random actions, which have no policy to finetune.
+    /// This run finetuned on the demonstrations as the reference finetuned;
+    /// an error for the oracle and random actions, which have no policy to
+    /// finetune.
     pub fn finetuned(self) -> Result<Self, String> {
+        self.finetuned_by(FinetuneProcedure::Reference)
+    }
+
+    /// This run finetuned by `procedure`; an error for the oracle and random
+    /// actions, and for the TransporterNet with another procedure than its own.
+    pub fn finetuned_by(self, procedure: FinetuneProcedure) -> Result<Self, String> {
         match self.method {
             EvalMethod::Oracle | EvalMethod::Random => Err(format!(
                 "{} has no policy to finetune",
                 self.method.as_str()
             )),
+            EvalMethod::Transporter if procedure != FinetuneProcedure::Reference => Err(
+                "the TransporterNet has one finetuning procedure; --finetune-procedure applies to SPOT-Q policies"
+                    .to_owned(),
+            ),
             _ => Ok(Self {
-                finetuned: true,
+                finetuned: Some(procedure),
                 ..self
             }),
         }
@@ -270,6 +284,7 @@ impl RunSpec {
         method: EvalMethod,
         correspond: &CorrespondOptions,
         finetune_steps: usize,
+        procedure: FinetuneProcedure,
         noisy: bool,
     ) -> Self {
         Self {
@@ -279,8 +294,13 @@ impl RunSpec {
             } else {
                 CorrespondName::REFERENCE
             },
-            finetuned: finetune_steps > 0
-                && !matches!(method, EvalMethod::Oracle | EvalMethod::Random),
+            finetuned: (finetune_steps > 0
+                && !matches!(method, EvalMethod::Oracle | EvalMethod::Random))
+            .then_some(if method == EvalMethod::Transporter {
+                FinetuneProcedure::Reference
+            } else {
+                procedure
+            }),
             noisy,
         }
     }
@@ -295,12 +315,15 @@ impl RunSpec {
                 vec![CorrespondName::REFERENCE]
             };
             for c in variants {
-                for finetuned in [false, true] {
+                let finetunings = std::iter::once(None).chain(FinetuneProcedure::ALL.map(Some));
+                for finetuned in finetunings {
                     for noisy in [false, true] {
                         let mut spec = Self::new(method);
                         spec.correspond = c;
-                        if finetuned {
-                            let Ok(f) = spec.finetuned() else { continue };
+                        if let Some(procedure) = finetuned {
+                            let Ok(f) = spec.finetuned_by(procedure) else {
+                                continue;
+                            };
                             spec = f;
                         }
                         out.push(if noisy { spec.noisy() } else { spec });
@@ -329,6 +352,11 @@ impl RunSpec {
     }
 
     pub fn is_finetuned(&self) -> bool {
+        self.finetuned.is_some()
+    }
+
+    /// How the run was finetuned, if it was.
+    pub fn finetune_procedure(&self) -> Option<FinetuneProcedure> {
         self.finetuned
     }
 
@@ -344,7 +372,7 @@ impl RunSpec {
     /// finetuned`, `SSR CCD, sensor noise`, ...); the paper's table uses the
     /// same names.
     pub fn display_name(&self) -> String {
-        let base = match (self.method, self.finetuned) {
+        let base = match (self.method, self.is_finetuned()) {
             (EvalMethod::SsrCcd, _) => "SSR CCD",
             (EvalMethod::SsrL2cd, _) => "SSR L2CD",
             (EvalMethod::SsrCcdLoopBreak, _) => "Extension: SSR CCD + loop breaking",
@@ -355,14 +383,19 @@ impl RunSpec {
             (EvalMethod::Oracle, _) => "Oracle",
             (EvalMethod::Random, _) => "Random",
         };
-        let finetuned = if self.finetuned && self.is_ssr() {
+        let finetuned = if self.is_finetuned() && self.is_ssr() {
             " finetuned"
+        } else {
+            ""
+        };
+        let adam = if self.finetuned == Some(FinetuneProcedure::Adam) {
+            " (seespot's Adam variant)"
         } else {
             ""
         };
         let noise = if self.noisy { ", sensor noise" } else { "" };
         format!(
-            "{base}{finetuned}{}{noise}",
+            "{base}{finetuned}{adam}{}{noise}",
             self.correspond.display_suffix()
         )
     }
@@ -371,29 +404,29 @@ impl RunSpec {
     /// TransporterNet, the finetuned rows): the report counts their
     /// annotated actions.
     pub fn sees_demos(&self) -> bool {
-        self.is_ssr() || self.method == EvalMethod::Transporter || self.finetuned
+        self.is_ssr() || self.method == EvalMethod::Transporter || self.is_finetuned()
     }
 
     /// What the run trained on its test task.
     pub fn task_training(&self) -> TaskTraining {
         match (self.method, self.finetuned) {
-            (EvalMethod::Transporter, true) => TaskTraining::Finetuning { factor: 1 },
-            (EvalMethod::Transporter, false) => TaskTraining::OwnTransporter,
-            (_, true) => TaskTraining::Finetuning { factor: 3 },
-            (EvalMethod::SpotQ, false) => TaskTraining::OwnSpotQ,
+            (EvalMethod::Transporter, Some(_)) => TaskTraining::Finetuning { factor: 1 },
+            (EvalMethod::Transporter, None) => TaskTraining::OwnTransporter,
+            // "Good Robot" finetuned runs one model: the reference finetunes
+            // it once; the Adam variant for three times the steps.
+            (EvalMethod::SpotQ, Some(FinetuneProcedure::Reference)) => {
+                TaskTraining::Finetuning { factor: 1 }
+            }
+            (_, Some(_)) => TaskTraining::Finetuning { factor: 3 },
+            (EvalMethod::SpotQ, None) => TaskTraining::OwnSpotQ,
             _ => TaskTraining::Nothing,
         }
     }
 
     /// Why the debugger cannot run this run's trials again, if it cannot:
-    /// it replays SSR, TransporterNet and oracle trials, unfinetuned and
-    /// without sensor noise.
+    /// it replays SSR, TransporterNet and oracle trials (finetuned ones from
+    /// their model files), without sensor noise.
     pub fn replay_refusal(&self) -> Option<String> {
-        if self.finetuned {
-            return Some(format!(
-                "{self}: finetuned runs cannot be replayed in the debugger"
-            ));
-        }
         if self.noisy {
             return Some(format!(
                 "{self}: runs under sensor noise cannot be replayed in the debugger"
@@ -411,8 +444,13 @@ impl RunSpec {
 impl fmt::Display for RunSpec {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let noise = if self.noisy { "-noisy" } else { "" };
-        match (self.method, self.finetuned) {
-            (EvalMethod::SpotQ, true) => write!(f, "good-robot-finetuned{noise}"),
+        let adam = if self.finetuned == Some(FinetuneProcedure::Adam) {
+            "-adam"
+        } else {
+            ""
+        };
+        match (self.method, self.is_finetuned()) {
+            (EvalMethod::SpotQ, true) => write!(f, "good-robot-finetuned{adam}{noise}"),
             (EvalMethod::Transporter, true) => write!(f, "transporter-finetuned{noise}"),
             (m, finetuned) => {
                 let suffix = if m.is_ssr() {
@@ -421,7 +459,7 @@ impl fmt::Display for RunSpec {
                     String::new()
                 };
                 let finetuned = if finetuned { "-finetuned" } else { "" };
-                write!(f, "{}{suffix}{finetuned}{noise}", m.as_str())
+                write!(f, "{}{suffix}{finetuned}{adam}{noise}", m.as_str())
             }
         }
     }
@@ -468,9 +506,10 @@ mod tests {
     #[test]
     fn every_spec_round_trips_through_its_name() {
         let all = RunSpec::all();
-        // 3 SSR methods x 9 correspondences x 2 x 2, SPOT-Q and TransporterNet
-        // x 2 x 2, oracle and random x 2 (noise only).
-        assert_eq!(all.len(), 3 * 9 * 4 + 2 * 4 + 2 * 2);
+        // 3 SSR methods x 9 correspondences x 3 finetunings x 2 noises,
+        // SPOT-Q x 3 x 2, TransporterNet x 2 x 2, oracle and random x 2
+        // (noise only).
+        assert_eq!(all.len(), 3 * 9 * 6 + 6 + 4 + 2 * 2);
         let mut names = std::collections::HashSet::new();
         for spec in &all {
             let name = spec.to_string();
@@ -517,6 +556,18 @@ mod tests {
                 RunSpec::new(EvalMethod::SpotQ).finetuned().expect("spot-q"),
                 "good-robot-finetuned",
                 "Good Robot finetuned",
+            ),
+            (
+                RunSpec::new(EvalMethod::SpotQ)
+                    .finetuned_by(FinetuneProcedure::Adam)
+                    .expect("spot-q"),
+                "good-robot-finetuned-adam",
+                "Good Robot finetuned (seespot's Adam variant)",
+            ),
+            (
+                ccd.finetuned_by(FinetuneProcedure::Adam).expect("ssr"),
+                "ssr-ccd-finetuned-adam",
+                "SSR CCD finetuned (seespot's Adam variant)",
             ),
             (
                 RunSpec::new(EvalMethod::SsrL2cd)

@@ -8,10 +8,11 @@
 
 use std::path::{Path, PathBuf};
 
+use seespot_policy::finetune::FinetuneProcedure;
 use seespot_policy::transporter::finetune_transporter;
-use seespot_policy::{PolicyNet, RandomActor, TransporterActor, TransporterNet, finetune};
+use seespot_policy::{PolicyNet, RandomActor, TransporterActor, TransporterNet};
 use seespot_sim::{
-    Actor, Demo, Grid, Oracle, Provenance, Seeds, TaskId, Trial, TrialRecord, WorldConfig,
+    Actor, Grid, Oracle, Provenance, Seeds, TaskId, Trial, TrialRecord, WorldConfig,
 };
 
 use seespot_ssr::correspond::{
@@ -21,6 +22,7 @@ use seespot_ssr::explain::Method;
 use seespot_ssr::layout::{Layout, records_path};
 use seespot_ssr::policy::{SsrConfig, SsrError, SsrPolicy};
 
+use crate::finetuned::{self, FinetuneSettings, read_demos};
 use crate::lock::{LockError, OutputLock};
 use crate::records::{RecordError, append_record, read_records};
 use crate::report::{Report, ReportError, custom_markdown, write_report};
@@ -41,8 +43,11 @@ pub struct EvalConfig {
     /// Finetuning steps per policy on the two demonstrations before the trials
     /// (0 = none). With SSR each of the three policies gets this many (333 each
     /// is the paper's 1k in all); with `spot-q` it gives the "Good Robot
-    /// finetuned" row: one other-task policy finetuned for 3x this many steps.
+    /// finetuned" row: one other-task policy finetuned as many steps (the Adam
+    /// variant: 3x as many).
     pub finetune_steps: usize,
+    /// How the SPOT-Q policies are finetuned ([`crate::finetuned`]).
+    pub finetune_procedure: FinetuneProcedure,
 }
 
 impl EvalConfig {
@@ -52,6 +57,7 @@ impl EvalConfig {
             self.method,
             &self.correspond,
             self.finetune_steps,
+            self.finetune_procedure,
             !self.world.noise.is_none(),
         )
     }
@@ -135,11 +141,16 @@ pub struct RunSettings {
     /// appended to one file or replayed as each other.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub trunk: Option<String>,
+    /// How a reference-finetuned run finetuned (optimiser, learning rate,
+    /// batch, steps, bases and their model files). Absent in other runs and
+    /// in the Adam variant's, whose records state `finetune_steps` alone.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub finetune: Option<FinetuneSettings>,
 }
 
 impl RunSettings {
-    /// The settings of an evaluation configuration.
-    pub fn of(config: &EvalConfig) -> Self {
+    /// The settings of an evaluation configuration on fold `task`.
+    pub fn of(config: &EvalConfig, task: TaskId) -> Self {
         let c = &config.correspond;
         // The reference's options, for SSR (the only methods that correspond).
         let reference = match *c {
@@ -167,6 +178,7 @@ impl RunSettings {
                 .method
                 .runs_spot_q_nets()
                 .then(|| seespot_policy::infer::TRUNK_KERNELS.to_owned()),
+            finetune: finetuned::settings(config, task),
         }
     }
 
@@ -241,13 +253,15 @@ pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalE
                 paths.push(config.layout.model(t));
             }
             paths.extend(demos()?);
+            paths.extend(finetuned::model_paths(config, task));
         }
         (EvalMethod::SpotQ, 0) => paths.push(config.layout.model(task)),
         (EvalMethod::SpotQ, _) => {
-            if let Some(base) = TaskId::ALL.into_iter().find(|t| *t != task) {
+            for base in finetuned::bases(config, task) {
                 paths.push(config.layout.model(base));
             }
             paths.extend(demos()?);
+            paths.extend(finetuned::model_paths(config, task));
         }
         (EvalMethod::Transporter, 0) => {
             paths.push(config.layout.transporter(task));
@@ -269,7 +283,7 @@ pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalE
     for p in paths {
         files.insert(p.display().to_string(), sha256_file(&p)?);
     }
-    let settings = serde_json::to_value(RunSettings::of(config))
+    let settings = serde_json::to_value(RunSettings::of(config, task))
         .map_err(|e| EvalError::Invalid(format!("settings: {e}")))?;
     Ok(Provenance {
         seespot_version: seespot_sim::VERSION.to_owned(),
@@ -280,9 +294,14 @@ pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalE
 
 /// The evaluation settings a record was made with, read back from its
 /// provenance (for replaying it): the method, the correspondence, the
-/// resolution. Refuses what cannot be replayed exactly (finetuned or noisy
-/// runs) and records without provenance.
-pub fn replay_config(record: &TrialRecord, layout: &Layout) -> Result<EvalConfig, EvalError> {
+/// resolution, the finetuning (its models read from `out_dir`, the records'
+/// output folder). Refuses what cannot be replayed exactly (noisy runs) and
+/// records without provenance.
+pub fn replay_config(
+    record: &TrialRecord,
+    layout: &Layout,
+    out_dir: &Path,
+) -> Result<EvalConfig, EvalError> {
     let prov = record.provenance.as_ref().ok_or_else(|| {
         EvalError::Invalid(format!(
             "the {} record of seed {} has no provenance: it cannot be checked against today's files",
@@ -300,26 +319,32 @@ pub fn replay_config(record: &TrialRecord, layout: &Layout) -> Result<EvalConfig
         return Err(EvalError::Invalid(why));
     }
     let method = spec.method();
-    if settings.finetune_steps != 0 {
-        return Err(EvalError::Invalid(
-            "finetuned runs cannot be replayed in the debugger".into(),
-        ));
-    }
     let correspond = settings
         .correspond_options()
         .map_err(|e| EvalError::Invalid(format!("provenance settings `{}`: {e}", prov.settings)))?;
     let config = EvalConfig {
         method,
         seeds: Seeds::new(record.seed, 1).map_err(|e| EvalError::Invalid(e.to_string()))?,
-        out_dir: PathBuf::new(),
+        out_dir: out_dir.to_path_buf(),
         layout: layout.clone(),
         world: WorldConfig {
             noise: settings.noise,
             ..world_config(settings.resolution)
         },
         correspond,
-        finetune_steps: 0,
+        finetune_steps: settings.finetune_steps,
+        finetune_procedure: spec
+            .finetune_procedure()
+            .unwrap_or(FinetuneProcedure::Reference),
     };
+    for p in finetuned::model_paths(&config, record.task) {
+        if !p.is_file() {
+            return Err(EvalError::Invalid(format!(
+                "{}: the finetuned model is missing; `seespot eval` with the run's settings remakes it",
+                p.display()
+            )));
+        }
+    }
     let now = provenance(&config, record.task)?;
     if now.settings != prov.settings {
         return Err(EvalError::Invalid(format!(
@@ -335,6 +360,7 @@ pub fn replay_config(record: &TrialRecord, layout: &Layout) -> Result<EvalConfig
         let p = Path::new(key);
         p.strip_prefix(&layout.models)
             .or_else(|_| p.strip_prefix(&layout.demos))
+            .or_else(|_| p.strip_prefix(out_dir))
             .map_or_else(|_| key.to_owned(), |t| t.display().to_string())
     };
     let recorded = |tail: &str, hash: &String| {
@@ -385,8 +411,13 @@ pub struct Evaluation {
 pub enum Finished {
     /// The four folds' report (`summary.md`, `summary.csv`, `figure4.png`).
     Table(Report),
-    /// The custom tasks' report (`custom.md`) and its text.
-    Custom { path: PathBuf, text: String },
+    /// The custom tasks' report (`custom.md`), its text, and this run's
+    /// summary per custom task it evaluated (as a built-in fold's).
+    Custom {
+        path: PathBuf,
+        text: String,
+        summaries: Vec<crate::Summary>,
+    },
 }
 
 impl Evaluation {
@@ -460,7 +491,29 @@ impl Evaluation {
             let text = custom_markdown(out)?;
             std::fs::write(&path, &text)
                 .map_err(|e| EvalError::Invalid(format!("{}: {e}", path.display())))?;
-            return Ok(Finished::Custom { path, text });
+            let name = self.config.spec().to_string();
+            let mut records = Vec::new();
+            for t in self.tasks.iter().filter(|t| !t.is_builtin()) {
+                let file = records_path(out, &name, *t);
+                if file.is_file() {
+                    let rs = read_records(&file)?;
+                    records.extend(
+                        rs.into_iter()
+                            .filter(|r| self.config.seeds.contains(r.seed)),
+                    );
+                }
+            }
+            let layout = &self.config.layout;
+            let summaries = crate::summarize_all(
+                &records,
+                |_, _| 0,
+                |_, t| crate::metrics::demo_actions(layout, t).unwrap_or(0),
+            );
+            return Ok(Finished::Custom {
+                path,
+                text,
+                summaries,
+            });
         }
         Ok(Finished::Table(write_report(
             out,
@@ -487,8 +540,20 @@ pub fn run_task(
         std::fs::create_dir_all(dir)
             .map_err(|e| EvalError::Invalid(format!("{}: {e}", dir.display())))?;
     }
-    let prov = provenance(config, task)?;
     let mut records = read_records(&path)?;
+    let todo = config
+        .seeds
+        .iter()
+        .any(|s| !records.iter().any(|r| r.seed == s));
+    // The finetuned models first: the provenance names them with their
+    // checksums. Made only when there are trials to run (a finished run's
+    // report and checks read the files as they are).
+    if todo {
+        finetuned::prepare_models(config, task, &mut |base| {
+            eprintln!("finetuning the {base} policy on the {task} demonstrations ...");
+        })?;
+    }
+    let prov = provenance(config, task)?;
     if let Some(other) = records
         .iter()
         .find(|r| r.provenance.as_ref() != Some(&prov))
@@ -561,26 +626,9 @@ pub fn make_actor(
 ) -> Result<Box<dyn Actor + Send + Sync>, EvalError> {
     Ok(match config.method {
         EvalMethod::SsrCcd | EvalMethod::SsrL2cd | EvalMethod::SsrCcdLoopBreak => {
-            let mut ssr = SsrPolicy::load(task, &config.layout, config.ssr_config())?;
-            if config.finetune_steps > 0 {
-                let demos = ssr.demos().to_vec();
-                for (i, (_, policy)) in ssr.policies_mut().iter_mut().enumerate() {
-                    *policy = finetune(policy.clone(), &demos, config.finetune_steps, i as u64)?;
-                }
-            }
-            Box::new(ssr)
+            Box::new(ssr_policy(config, task)?)
         }
-        EvalMethod::SpotQ if config.finetune_steps > 0 => {
-            // "Good Robot finetuned": the first other-task policy, finetuned on the
-            // demonstrations for as many steps as SSR's three together, run greedily.
-            let policy = PolicyNet::load(&config.layout.model(finetune_base(task)))?;
-            Box::new(finetune(
-                policy,
-                &read_demos(config, task)?,
-                3 * config.finetune_steps,
-                0,
-            )?)
-        }
+        EvalMethod::SpotQ => Box::new(spot_q_policy(config, task)?),
         EvalMethod::Transporter if config.finetune_steps > 0 => {
             let base = TransporterNet::load(&config.layout.transporter(finetune_base(task)))?;
             let net =
@@ -590,28 +638,61 @@ pub fn make_actor(
         EvalMethod::Transporter => Box::new(TransporterActor::new(TransporterNet::load(
             &config.layout.transporter(task),
         )?)),
-        EvalMethod::SpotQ => Box::new(PolicyNet::load(&config.layout.model(task))?),
         EvalMethod::Oracle => Box::new(Oracle::new(task)),
         EvalMethod::Random => Box::new(RandomActor::default()),
     })
 }
 
-/// The other task whose model the finetuned rows start from: the first in
-/// [`TaskId::ALL`] that is not `task`.
-pub fn finetune_base(task: TaskId) -> TaskId {
-    TaskId::ALL
-        .into_iter()
-        .find(|t| *t != task)
-        .unwrap_or(TaskId::Stack)
+/// See-SPOT-Run as `config` runs it on `task`: over the other tasks'
+/// policies, finetuned first when the run is (from the model files of the
+/// reference procedure, which must exist, or in memory for the Adam variant).
+pub fn ssr_policy(config: &EvalConfig, task: TaskId) -> Result<SsrPolicy, EvalError> {
+    let mut ssr = SsrPolicy::load(task, &config.layout, config.ssr_config())?;
+    if config.finetune_steps > 0 {
+        let tuned = finetuned_policies(config, task)?;
+        for ((t, policy), (base, tuned)) in ssr.policies_mut().iter_mut().zip(tuned) {
+            debug_assert_eq!(*t, base);
+            *policy = tuned;
+        }
+    }
+    Ok(ssr)
 }
 
-fn read_demos(config: &EvalConfig, task: TaskId) -> Result<Vec<Demo>, EvalError> {
-    Ok(config
-        .layout
-        .demo_dirs(task)
-        .iter()
-        .map(|d| Demo::read(d))
-        .collect::<Result<Vec<_>, _>>()?)
+/// The SPOT-Q policy `config` runs greedily on `task`: the task's own, or
+/// for "Good Robot" finetuned one other task's policy finetuned on the
+/// demonstrations.
+pub fn spot_q_policy(config: &EvalConfig, task: TaskId) -> Result<PolicyNet, EvalError> {
+    if config.finetune_steps == 0 {
+        return Ok(PolicyNet::load(&config.layout.model(task))?);
+    }
+    finetuned_policies(config, task)?
+        .pop()
+        .map(|(_, p)| p)
+        .ok_or_else(|| EvalError::Invalid(format!("{task}: no base policy to finetune")))
+}
+
+/// The finetuned SPOT-Q policies of `config` on `task`, in
+/// [`finetuned::bases`] order.
+fn finetuned_policies(
+    config: &EvalConfig,
+    task: TaskId,
+) -> Result<Vec<(TaskId, PolicyNet)>, EvalError> {
+    match config.finetune_procedure {
+        FinetuneProcedure::Reference => finetuned::load_models(config, task),
+        FinetuneProcedure::Adam => {
+            let bases = finetuned::bases(config, task)
+                .into_iter()
+                .map(|b| Ok((b, PolicyNet::load(&config.layout.model(b))?)))
+                .collect::<Result<Vec<_>, EvalError>>()?;
+            finetuned::adam_models(config, task, bases)
+        }
+    }
+}
+
+/// The other task whose TransporterNet the finetuned TransporterNet row
+/// starts from: the first in [`TaskId::ALL`] that is not `task`.
+pub fn finetune_base(task: TaskId) -> TaskId {
+    finetuned::adam_good_robot_base(task)
 }
 
 /// Default world of an evaluation at `resolution` px.

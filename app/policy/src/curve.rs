@@ -1,16 +1,12 @@
 //! The learning curve: one row per finished training trial, written as CSV and
-//! drawn as a PNG (an SVG without text if the font is missing).
+//! drawn as a PNG with the embedded font ([`crate::font`]).
 
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
 
 use plotters::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::error::PolicyError;
-
-/// Font used for the plot's labels.
-pub const FONT_PATH: &str = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
 
 /// A named, coloured line of the plot.
 type Line = (&'static str, RGBColor, Vec<(f32, f32)>);
@@ -71,22 +67,11 @@ pub fn write_csv(path: &Path, rows: &[CurveRow]) -> Result<(), PolicyError> {
     std::fs::write(path, s).map_err(|e| PolicyError::io(path, e))
 }
 
-fn font_loaded() -> bool {
-    static LOADED: OnceLock<bool> = OnceLock::new();
-    *LOADED.get_or_init(|| match std::fs::read(FONT_PATH) {
-        Ok(bytes) => {
-            let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
-            plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).is_ok()
-        }
-        Err(_) => false,
-    })
-}
-
 /// Draws success rate, action efficiency and loss against actions. Writes
-/// `<stem>.png`, or `<stem>.svg` without text when the font cannot be loaded.
-/// Returns the file written.
+/// `<stem>.png`, or `<stem>.svg` without text should the embedded font fail
+/// to load. Returns the file written.
 pub fn plot(stem: &Path, title: &str, rows: &[CurveRow]) -> Result<PathBuf, PolicyError> {
-    let with_text = font_loaded();
+    let with_text = crate::font::register().is_ok();
     let path = stem.with_extension(if with_text { "png" } else { "svg" });
     let err = |e: String| PolicyError::Checkpoint {
         path: path.clone(),

@@ -57,6 +57,19 @@ impl StepStats {
     }
 }
 
+/// What [`Learner::gradients`] computed for one batch.
+#[derive(Debug)]
+pub struct Gradients {
+    /// The batch's loss and predictions.
+    pub stats: StepStats,
+    /// Both nets' parameters the gradients were taken at, grasp then place,
+    /// one vector per tensor in [`param_shapes`] order.
+    pub params: Vec<Vec<Vec<f32>>>,
+    /// The gradients of the mean loss, per net ([`Primitive::index`]); `None`
+    /// for a net no experience of the batch used.
+    pub grads: [Option<Vec<Vec<f32>>>; 2],
+}
+
 /// An experience made ready for the net: rotated input and bilinear taps.
 struct Prepared {
     input: Vec<f32>,
@@ -110,8 +123,29 @@ impl Learner {
     /// the action's receptive field ([`crate::cone`]), one Adam update of the
     /// nets of the primitives in the batch.
     pub fn train_step(&mut self, batch: &[Experience]) -> Result<StepStats, PolicyError> {
-        if batch.is_empty() {
+        let Some(step) = self.gradients(batch)? else {
             return Ok(StepStats::nothing(0));
+        };
+        self.adam.t += 1;
+        let per = param_shapes().len();
+        for (k, g) in step.grads.iter().enumerate() {
+            let Some(g) = g else { continue };
+            let mut p = step.params[k].clone();
+            for (i, (p, g)) in p.iter_mut().zip(g).enumerate() {
+                self.adam.update(k * per + i, p, g);
+            }
+            self.set_params(k, p)?;
+        }
+        Ok(step.stats)
+    }
+
+    /// The loss of `batch` and its gradients, without an update: the mean
+    /// Huber loss between each experience's target and the Q of its executed
+    /// action, differentiated through the cone of the action's receptive
+    /// field ([`crate::cone`]). `None` for an empty batch.
+    pub fn gradients(&self, batch: &[Experience]) -> Result<Option<Gradients>, PolicyError> {
+        if batch.is_empty() {
+            return Ok(None);
         }
         let params: Vec<Vec<Vec<f32>>> = self
             .policy
@@ -148,25 +182,28 @@ impl Learner {
                 }
             }
         }
-        self.adam.t += 1;
-        let per = param_shapes().len();
-        for (k, g) in grads.iter().enumerate() {
-            let Some(g) = g else { continue };
-            let mut p = params[k].clone();
-            for (i, (p, g)) in p.iter_mut().zip(g).enumerate() {
-                self.adam.update(k * per + i, p, g);
-            }
-            let net = &self.policy.nets[k];
-            for (var, (data, (_, shape))) in
-                net.params.iter().zip(p.into_iter().zip(param_shapes()))
-            {
-                var.set(&Tensor::from_vec(data, shape, &Device::Cpu)?)?;
-            }
+        Ok(Some(Gradients {
+            stats: StepStats {
+                loss: loss * scale,
+                predictions: cones.iter().map(|c| c.q).collect(),
+            },
+            params,
+            grads,
+        }))
+    }
+
+    /// Replaces the parameters of net `k` ([`Primitive::index`]) with
+    /// `params`, one vector per tensor in [`param_shapes`] order.
+    pub fn set_params(&mut self, k: usize, params: Vec<Vec<f32>>) -> Result<(), PolicyError> {
+        let net = &self.policy.nets[k];
+        for (var, (data, (_, shape))) in net
+            .params
+            .iter()
+            .zip(params.into_iter().zip(param_shapes()))
+        {
+            var.set(&Tensor::from_vec(data, shape, &Device::Cpu)?)?;
         }
-        Ok(StepStats {
-            loss: loss * scale,
-            predictions: cones.iter().map(|c| c.q).collect(),
-        })
+        Ok(())
     }
 
     /// [`Self::train_step`] through candle (the whole trunk, its autograd and

@@ -22,6 +22,7 @@ pub mod curve;
 pub mod embedding;
 pub mod error;
 pub mod finetune;
+pub mod font;
 pub mod infer;
 pub mod input;
 pub mod learner;

@@ -126,3 +126,85 @@ impl FlatAdam {
         }
     }
 }
+
+/// Stochastic gradient descent with momentum and L2 weight decay, as
+/// PyTorch's `torch.optim.SGD` updates (no dampening, no Nesterov): per
+/// element `g += weight_decay * p; b = momentum * b + g` (`b = g` on the
+/// first step) `; p -= lr * b`. The reference code finetuned with it.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SgdConfig {
+    pub lr: f64,
+    pub momentum: f64,
+    pub weight_decay: f64,
+}
+
+impl SgdConfig {
+    /// The reference's finetuning optimiser (`train_offline.py`'s default
+    /// learning rate, `trainer.py`'s momentum and weight decay).
+    pub const REFERENCE_FINETUNE: Self = Self {
+        lr: 1e-5,
+        momentum: 0.9,
+        weight_decay: 2e-5,
+    };
+}
+
+/// [`SgdConfig`]'s update on plain `f32` vectors, with one momentum buffer
+/// per parameter tensor (created at the first update of that tensor).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FlatSgd {
+    pub config: SgdConfig,
+    pub momentum: Vec<Option<Vec<f32>>>,
+}
+
+impl FlatSgd {
+    /// An optimiser for `tensors` parameter tensors.
+    pub fn new(tensors: usize, config: SgdConfig) -> Self {
+        Self {
+            config,
+            momentum: vec![None; tensors],
+        }
+    }
+
+    /// Updates tensor `i` (`param`) from its gradient `grad`.
+    ///
+    /// # Panics
+    /// If `param` and `grad` differ in length.
+    pub fn update(&mut self, i: usize, param: &mut [f32], grad: &[f32]) {
+        assert_eq!(param.len(), grad.len(), "tensor {i}: sizes differ");
+        let c = self.config;
+        let (lr, mu, wd) = (c.lr as f32, c.momentum as f32, c.weight_decay as f32);
+        let first = self.momentum[i].is_none();
+        let buf = self.momentum[i].get_or_insert_with(|| vec![0.0; param.len()]);
+        for k in 0..param.len() {
+            let g = grad[k] + wd * param[k];
+            buf[k] = if first { g } else { mu * buf[k] + g };
+            param[k] -= lr * buf[k];
+        }
+    }
+}
+
+#[cfg(test)]
+mod sgd_tests {
+    use super::*;
+
+    /// Two steps by hand: the first sets the buffer to the decayed gradient,
+    /// the second adds momentum.
+    #[test]
+    fn sgd_matches_pytorchs_update() {
+        let config = SgdConfig {
+            lr: 0.1,
+            momentum: 0.5,
+            weight_decay: 0.01,
+        };
+        let mut sgd = FlatSgd::new(1, config);
+        let mut p = vec![1.0f32, -2.0];
+        sgd.update(0, &mut p, &[0.5, 0.25]);
+        let g1 = [0.5 + 0.01 * 1.0, 0.25 + 0.01 * -2.0];
+        let p1 = [1.0 - 0.1 * g1[0], -2.0 - 0.1 * g1[1]];
+        assert!((p[0] - p1[0]).abs() < 1e-6 && (p[1] - p1[1]).abs() < 1e-6);
+        sgd.update(0, &mut p, &[0.0, 0.0]);
+        let b2 = [0.5 * g1[0] + 0.01 * p1[0], 0.5 * g1[1] + 0.01 * p1[1]];
+        assert!((p[0] - (p1[0] - 0.1 * b2[0])).abs() < 1e-6);
+        assert!((p[1] - (p1[1] - 0.1 * b2[1])).abs() < 1e-6);
+    }
+}

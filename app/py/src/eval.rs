@@ -53,6 +53,7 @@ impl Evaluator {
             world: seespot_eval::runner::world_config(resolution),
             correspond: seespot_ssr::CorrespondOptions::of_mode(mode),
             finetune_steps: 0,
+            finetune_procedure: seespot_policy::finetune::FinetuneProcedure::Reference,
         };
         let name = config.spec().to_string();
         let (actor, provenance) = py

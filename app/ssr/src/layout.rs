@@ -54,6 +54,28 @@ impl Layout {
         self.models.join(format!("{}.safetensors", task.as_str()))
     }
 
+    /// The custom tasks that have demonstrations here
+    /// (`<demos>/custom/NAME/<n>/`), sorted by name.
+    pub fn custom_tasks(&self) -> Vec<TaskId> {
+        let Ok(entries) = std::fs::read_dir(self.demos.join("custom")) else {
+            return Vec::new();
+        };
+        let mut out: Vec<TaskId> = entries
+            .filter_map(|e| e.ok())
+            .filter(|e| e.path().is_dir())
+            .filter_map(|e| {
+                format!("custom:{}", e.file_name().to_string_lossy())
+                    .parse()
+                    .ok()
+            })
+            .filter(|t| {
+                seespot_sim::custom::demo_dirs(&self.task_demos(*t)).is_ok_and(|d| !d.is_empty())
+            })
+            .collect();
+        out.sort_by_key(|t| t.to_string());
+        out
+    }
+
     /// The TransporterNet trained on `task`'s demonstrations.
     pub fn transporter(&self, task: TaskId) -> PathBuf {
         self.models
@@ -110,6 +132,25 @@ pub fn records_path(out_dir: &Path, run: &str, task: TaskId) -> PathBuf {
     let mut path = trials_dir(out_dir).join(run).join(task.path());
     path.set_extension("jsonl");
     path
+}
+
+/// The output folder of a records file ([`records_path`]): the folder above
+/// its `trials/`. `None` for a file outside any `trials/` folder.
+pub fn out_dir_of_records(path: &Path) -> Option<PathBuf> {
+    path.ancestors()
+        .find(|a| a.file_name().is_some_and(|n| n == "trials"))
+        .and_then(Path::parent)
+        .map(Path::to_path_buf)
+}
+
+/// The model the evaluation finetuned from `base`'s policy on `fold`'s
+/// demonstrations for `steps` steps, kept next to the records it made
+/// (`<out>/finetuned/<fold>/<base>-<steps>.safetensors`).
+pub fn finetuned_model_path(out_dir: &Path, fold: TaskId, base: TaskId, steps: usize) -> PathBuf {
+    out_dir
+        .join("finetuned")
+        .join(fold.path())
+        .join(format!("{}-{steps}.safetensors", base.as_str()))
 }
 
 /// The default run directory of `seespot train` (`prefix`: `train` or

@@ -62,6 +62,26 @@ impl Decider for Oracle {
     }
 }
 
+/// A SPOT-Q policy acting greedily on its own Q maps (the `spot-q` and
+/// "Good Robot" finetuned rows): no demonstrations, no explanation.
+impl Decider for seespot_policy::PolicyNet {
+    fn demos(&self) -> &[Demo] {
+        &[]
+    }
+
+    fn policies(&self) -> Vec<TaskId> {
+        Vec::new()
+    }
+
+    fn decision(&self) -> Option<&Decision> {
+        None
+    }
+
+    fn query(&mut self, _: &Heightmaps, _: DemoQuery) -> anyhow::Result<Option<Vec<f32>>> {
+        Ok(None)
+    }
+}
+
 /// See-SPOT-Run with the shipped policies and demonstrations.
 impl Decider for SsrPolicy {
     fn demos(&self) -> &[Demo] {

@@ -40,16 +40,15 @@ pub fn replay(path: &Path, seed: u64, layout: &Layout) -> anyhow::Result<Replay>
                 .join(", ")
         )
     })?;
-    let config = replay_config(record, layout)
-        .with_context(|| format!("cannot replay {} seed {seed}", path.display()))?;
-    let kind = DeciderKind::of_method(config.method).with_context(|| {
+    let out_dir = seespot_ssr::layout::out_dir_of_records(path).with_context(|| {
         format!(
-            "{}: the debugger replays SSR, TransporterNet and oracle trials, not {}",
-            path.display(),
-            config.method.as_str()
+            "{}: a records file lies in a `trials/` folder",
+            path.display()
         )
     })?;
-    let factory = factory_with(kind, layout.clone(), config.ssr_config());
+    let config = replay_config(record, layout, &out_dir)
+        .with_context(|| format!("cannot replay {} seed {seed}", path.display()))?;
+    let factory = replay_factory(config.clone(), layout, path)?;
     let summary = format!(
         "replay of {} on {} seed {} ({} actions, {})",
         record.method,
@@ -69,6 +68,39 @@ pub fn replay(path: &Path, seed: u64, layout: &Layout) -> anyhow::Result<Replay>
         factory,
         summary,
     })
+}
+
+/// The decider factory a replay of `config`'s run uses: the debugger's own
+/// for unfinetuned SSR, TransporterNet and oracle runs; SSR over the
+/// finetuned models, or the SPOT-Q policy (own or finetuned), as the
+/// evaluation ran them.
+fn replay_factory(
+    config: seespot_eval::EvalConfig,
+    layout: &Layout,
+    path: &Path,
+) -> anyhow::Result<crate::registry::DeciderFactory> {
+    use seespot_eval::EvalMethod;
+    if config.method == EvalMethod::SpotQ {
+        return Ok(Box::new(move |task: TaskId, _world| {
+            let policy = seespot_eval::runner::spot_q_policy(&config, task)?;
+            let note = format!("SPOT-Q policy {} (greedy)", policy.meta.task);
+            Ok((Box::new(policy) as Box<dyn crate::decider::Decider>, note))
+        }));
+    }
+    if config.method.is_ssr() && config.finetune_steps > 0 {
+        return Ok(Box::new(move |task: TaskId, world| {
+            let policy = seespot_eval::runner::ssr_policy(&config, task)?;
+            crate::ssr::prepared(policy, world, "finetuned policies".to_owned())
+        }));
+    }
+    let kind = DeciderKind::of_method(config.method).with_context(|| {
+        format!(
+            "{}: the debugger replays SSR, SPOT-Q, TransporterNet and oracle trials, not {}",
+            path.display(),
+            config.method.as_str()
+        )
+    })?;
+    Ok(factory_with(kind, layout.clone(), config.ssr_config()))
 }
 
 /// Whether the trials of each records file among `trials` replay in the

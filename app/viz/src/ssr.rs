@@ -25,7 +25,7 @@ pub fn load_with(
     world: WorldConfig,
     config: SsrConfig,
 ) -> anyhow::Result<(Box<dyn Decider>, String)> {
-    let mut policy = SsrPolicy::load(task, layout, config).with_context(|| {
+    let policy = SsrPolicy::load(task, layout, config).with_context(|| {
         format!(
             "cannot load SSR for {} from {} and {}",
             task.as_str(),
@@ -33,6 +33,28 @@ pub fn load_with(
             layout.demos.display()
         )
     })?;
+    let note = format!(
+        "policies {} from {}, demos from {}",
+        policy
+            .policy_tasks()
+            .iter()
+            .map(|t| t.as_str())
+            .collect::<Vec<_>>()
+            .join(", "),
+        layout.models.display(),
+        layout.task_demos(task).display()
+    );
+    prepared(policy, world, note)
+}
+
+/// `policy` ready for the debugger's session: its demonstrations checked
+/// against the trial's resolution and embedded now, not in the first Embed
+/// phases.
+pub fn prepared(
+    mut policy: SsrPolicy,
+    world: WorldConfig,
+    note: String,
+) -> anyhow::Result<(Box<dyn Decider>, String)> {
     let n = world.grid.resolution;
     if let Some(d) = policy.demos().iter().find(|d| d.meta.resolution != n) {
         anyhow::bail!(
@@ -45,16 +67,5 @@ pub fn load_with(
     policy
         .prepare_demos()
         .context("cannot embed the demonstrations")?;
-    let note = format!(
-        "policies {} from {}, demos from {}",
-        policy
-            .policy_tasks()
-            .iter()
-            .map(|t| t.as_str())
-            .collect::<Vec<_>>()
-            .join(", "),
-        layout.models.display(),
-        layout.task_demos(task).display()
-    );
     Ok((Box::new(policy), note))
 }
