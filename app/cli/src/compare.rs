@@ -20,6 +20,11 @@ pub struct CompareArgs {
     /// The two evaluations' names in the table's header.
     #[arg(long, num_args = 2, value_names = ["FIRST", "SECOND"], default_values = ["first", "second"])]
     names: Vec<String>,
+    /// Print one machine-readable object on stdout: per run, the paired
+    /// trials, each side's successes on them, the discordant counts and the
+    /// p-value.
+    #[arg(long)]
+    json: bool,
 }
 
 /// Every record of `dir`, by run (the folder under `trials/`).
@@ -50,11 +55,24 @@ fn p_text(p: f64) -> String {
     }
 }
 
+/// One run's paired comparison.
+#[derive(Debug, serde::Serialize)]
+struct Row {
+    run: String,
+    paired_trials: usize,
+    /// Successes of each side on the paired trials.
+    first_successes: usize,
+    second_successes: usize,
+    only_first: usize,
+    only_second: usize,
+    /// Exact McNemar test, two-sided.
+    p_value: f64,
+}
+
 pub fn run(args: CompareArgs) -> anyhow::Result<()> {
     let (one, two) = (runs(&args.first)?, runs(&args.second)?);
     let (n1, n2) = (&args.names[0], &args.names[1]);
-    outln!("| run | paired trials | {n1} | {n2} | only {n1} / only {n2} | p (exact McNemar) |")?;
-    outln!("|---|---|---|---|---|---|")?;
+    let mut rows = Vec::new();
     for (run, a) in &one {
         let Some(b) = two.get(run) else { continue };
         let paired = paired_success(a, b, None);
@@ -68,15 +86,37 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
             .iter()
             .filter(|r| r.success && wins.get(&(r.task, r.seed)) == Some(&true))
             .count();
-        let rate = |k: usize| 100.0 * k as f64 / paired.pairs as f64;
+        rows.push(Row {
+            run: run.clone(),
+            paired_trials: paired.pairs,
+            first_successes: both + paired.only_a,
+            second_successes: both + paired.only_b,
+            only_first: paired.only_a,
+            only_second: paired.only_b,
+            p_value: paired.p_value,
+        });
+    }
+    if args.json {
+        return crate::io::print_json(&serde_json::json!({
+            "first": args.first,
+            "second": args.second,
+            "names": [n1, n2],
+            "runs": rows,
+        }));
+    }
+    outln!("| run | paired trials | {n1} | {n2} | only {n1} / only {n2} | p (exact McNemar) |")?;
+    outln!("|---|---|---|---|---|---|")?;
+    for r in &rows {
+        let rate = |k: usize| 100.0 * k as f64 / r.paired_trials as f64;
         outln!(
-            "| {run} | {} | {:.1}% | {:.1}% | {} / {} | {} |",
-            paired.pairs,
-            rate(both + paired.only_a),
-            rate(both + paired.only_b),
-            paired.only_a,
-            paired.only_b,
-            p_text(paired.p_value)
+            "| {} | {} | {:.1}% | {:.1}% | {} / {} | {} |",
+            r.run,
+            r.paired_trials,
+            rate(r.first_successes),
+            rate(r.second_successes),
+            r.only_first,
+            r.only_second,
+            p_text(r.p_value)
         )?;
     }
     Ok(())

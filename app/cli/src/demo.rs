@@ -27,7 +27,9 @@ pub enum DemoCommand {
         /// World seed (demonstration seeds are even by convention).
         #[arg(long)]
         seed: u64,
-        /// Output directory (default `runs/demos/<task>/<seed>`). A directory
+        /// Output directory (default: `runs/demos/<task>/<seed>` for a built-in
+        /// task; for a custom task the next free `demos/custom/NAME/<n>`, where
+        /// `view`, `eval` and the page read its demonstrations). A directory
         /// that holds another demonstration, such as a shipped one under
         /// `demos/`, is replaced only with `--overwrite`; one that holds the
         /// same bytes is left untouched.
@@ -75,8 +77,10 @@ pub fn run(cmd: DemoCommand) -> anyhow::Result<()> {
             let out = match (out, task.is_builtin()) {
                 (Some(out), _) => out,
                 (None, true) => seespot_ssr::layout::new_layout().demo_dir(task, seed),
+                // A custom task is its demonstrations: the next one goes
+                // where `view`, `eval` and the page's Save find them.
                 (None, false) => seespot_sim::custom::next_demo_dir(
-                    &seespot_ssr::layout::new_layout().task_demos(task),
+                    &seespot_ssr::Layout::default().task_demos(task),
                 )?,
             };
             let demo = match actions {

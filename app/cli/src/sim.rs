@@ -30,6 +30,10 @@ pub struct RunArgs {
     /// scene's first seed; 10001 starts the validation seeds).
     #[arg(long)]
     seed: Option<u64>,
+    /// Allow an even first seed: run the training and demonstration starts
+    /// (never for a reported result).
+    #[arg(long)]
+    training_seeds: bool,
     /// A scene file (task, seeds, resolution, noise, and an explicit start in
     /// `[[blocks]]`); flags override its task, seeds and resolution.
     #[arg(long)]
@@ -66,6 +70,15 @@ fn run_trials(args: RunArgs) -> anyhow::Result<()> {
             .unwrap_or(Split::Test.first()),
         args.trials.or(scene_seeds.map(|s| s.count())).unwrap_or(20),
     )?;
+    if args.policy == "oracle" && !task.is_builtin() {
+        anyhow::bail!(
+            "--policy oracle: the scripted oracle knows the four built-in tasks, not {task}; \
+             run {task} with --policy random, or evaluate it with \
+             `seespot eval --method ssr-ccd --task {task}` (ssr-ccd, ssr-l2cd, \
+             ssr-ccd-loopbreak or random)"
+        );
+    }
+    crate::io::check_trial_seed(seeds.start(), args.training_seeds)?;
     let policy = match args.policy.as_str() {
         "oracle" | "random" => None,
         path => Some(

@@ -55,6 +55,9 @@ pub struct ViewArgs {
     /// Trial seed (test seeds are odd).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Allow an even --seed: a training and demonstration start.
+    #[arg(long)]
+    pub training_seeds: bool,
     /// Heightmap resolution, pixels per side (224 = the paper's 2 mm/px); a
     /// replay's comes from its record.
     #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = seespot_sim::DEFAULT_RESOLUTION, conflicts_with = "replay")]
@@ -147,6 +150,9 @@ pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
             scene.blocks,
         );
     }
+    if args.replay.is_none() {
+        crate::io::check_trial_seed(seed, args.training_seeds)?;
+    }
     // A custom task is defined by its demonstrations: read their final layout.
     args.decider.load_task(task)?;
     let opts = ViewOptions {
@@ -220,6 +226,9 @@ pub struct RecordArgs {
     /// test seeds; see `seespot_sim::seeds`).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Allow an even --seed: training and demonstration starts.
+    #[arg(long)]
+    pub training_seeds: bool,
     /// Heightmap resolution, pixels per side.
     #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = seespot_sim::DEFAULT_RESOLUTION)]
     pub resolution: usize,
@@ -236,6 +245,7 @@ pub struct RecordArgs {
 
 /// Runs `seespot record`; Ctrl-C finishes the current file and stops.
 pub fn run_record(args: RecordArgs) -> anyhow::Result<()> {
+    crate::io::check_trial_seed(args.seed, args.training_seeds)?;
     args.decider.load_task(args.task)?;
     let factory = args.decider.factory()?;
     let stop = live::ctrl_c_flag();

@@ -88,6 +88,11 @@ pub fn factory_with(
         move |task: TaskId, world: WorldConfig| -> anyhow::Result<(Box<dyn Decider>, String)> {
             match kind {
                 DeciderKind::Oracle => {
+                    anyhow::ensure!(
+                        task.is_builtin(),
+                        "the scripted oracle knows the four built-in tasks, not {task}: \
+                         choose the SSR decider (or features) for a custom task"
+                    );
                     Ok((Box::new(Oracle::new(task)), "scripted oracle".to_owned()))
                 }
                 DeciderKind::Ssr => crate::ssr::load_with(task, &layout, world, ssr),

@@ -119,6 +119,23 @@ impl AppState {
         })
     }
 
+    /// The page's facts as of now: the static ones, with the task box's
+    /// tasks listed afresh (the built-in tasks, then every custom task with
+    /// demonstrations in the demos folder, one saved a moment ago included).
+    fn info_now(&self) -> Value {
+        let mut info = self.info.clone();
+        if let Some(r) = &self.review {
+            info["tasks"] = serde_json::json!(
+                seespot_sim::TaskId::ALL
+                    .into_iter()
+                    .chain(r.layout.custom_tasks())
+                    .map(|t| t.to_string())
+                    .collect::<Vec<_>>()
+            );
+        }
+        info
+    }
+
     /// Locks the session; a panic while stepping does not poison the server.
     pub fn session(&self) -> MutexGuard<'_, Session> {
         self.session
@@ -166,7 +183,11 @@ async fn asset(uri: Uri) -> Response {
 }
 
 async fn info(State(s): State<Arc<AppState>>) -> Response {
-    axum::Json(s.info.clone()).into_response()
+    let st = s.clone();
+    let info = tokio::task::spawn_blocking(move || st.info_now())
+        .await
+        .unwrap_or_else(|_| s.info.clone());
+    axum::Json(info).into_response()
 }
 
 async fn api_state(State(s): State<Arc<AppState>>) -> Response {
@@ -374,7 +395,8 @@ async fn client(socket: WebSocket, s: Arc<AppState>) {
     let (mut sink, mut stream) = socket.split();
     let mut rx = s.tx.subscribe();
     let (direct_tx, mut direct_rx) = mpsc::channel::<String>(16);
-    let hello = ServerMessage::Info { info: &s.info }.to_text();
+    let info = s.info_now();
+    let hello = ServerMessage::Info { info: &info }.to_text();
     let st = s.clone();
     let state = tokio::task::spawn_blocking(move || to_text(&st.session().state()))
         .await
