@@ -25,6 +25,16 @@ pub struct CompareArgs {
     /// p-value.
     #[arg(long)]
     json: bool,
+    /// Compare run FIRST of the first folder with run SECOND of the second
+    /// (e.g. `results results --runs ssr-ccd ssr-l2cd`), instead of every
+    /// run the two folders both hold.
+    #[arg(long, num_args = 2, value_names = ["FIRST", "SECOND"])]
+    runs: Option<Vec<String>>,
+    /// Per discordant seed (one run succeeded, the other failed), the first
+    /// action where the two trials part and what each chose there (policy,
+    /// demonstration, action F, L, C), sorted by where they part.
+    #[arg(long)]
+    diverge: bool,
 }
 
 /// Every record of `dir`, by run (the folder under `trials/`).
@@ -69,12 +79,106 @@ struct Row {
     p_value: f64,
 }
 
+/// The pairs of runs to compare: `--runs`, or every run both folders hold
+/// by name. Each pair: (label, first run's records, second run's records).
+fn pairs<'a>(
+    args: &CompareArgs,
+    one: &'a BTreeMap<String, Vec<TrialRecord>>,
+    two: &'a BTreeMap<String, Vec<TrialRecord>>,
+) -> anyhow::Result<Vec<(String, &'a [TrialRecord], &'a [TrialRecord])>> {
+    if let Some(r) = &args.runs {
+        let get = |m: &'a BTreeMap<String, Vec<TrialRecord>>, dir: &Path, run: &str| {
+            m.get(run).map(Vec::as_slice).ok_or_else(|| {
+                anyhow::anyhow!(
+                    "{}: no run `{run}` (it holds {})",
+                    dir.display(),
+                    m.keys().cloned().collect::<Vec<_>>().join(", ")
+                )
+            })
+        };
+        return Ok(vec![(
+            format!("{} / {}", r[0], r[1]),
+            get(one, &args.first, &r[0])?,
+            get(two, &args.second, &r[1])?,
+        )]);
+    }
+    Ok(one
+        .iter()
+        .filter_map(|(run, a)| {
+            two.get(run)
+                .map(|b| (run.clone(), a.as_slice(), b.as_slice()))
+        })
+        .collect())
+}
+
+fn side_text(s: &Option<seespot_eval::diverge::Side>) -> String {
+    let Some(s) = s else {
+        return "(trial over)".into();
+    };
+    let a = s.action;
+    let pair = match (s.policy, s.demo) {
+        (Some(p), Some(d)) => format!(" from {p} demo {d}"),
+        _ => String::new(),
+    };
+    let num = |v: Option<f32>| v.map_or("-".into(), |v| format!("{v:.2}"));
+    format!(
+        "{} r{} ({}, {}){pair}, L {}, C {} -> P {}",
+        a.primitive.as_str(),
+        a.rotation,
+        a.y,
+        a.x,
+        num(s.l),
+        num(s.c),
+        s.progress_after
+    )
+}
+
+fn diverge(
+    args: &CompareArgs,
+    pairs: &[(String, &[TrialRecord], &[TrialRecord])],
+) -> anyhow::Result<()> {
+    let (n1, n2) = (&args.names[0], &args.names[1]);
+    let all: Vec<_> = pairs
+        .iter()
+        .map(|(run, a, b)| (run, seespot_eval::diverge::divergences(a, b)))
+        .collect();
+    if args.json {
+        let runs: Vec<_> = all
+            .iter()
+            .map(|(run, d)| serde_json::json!({"run": run, "divergences": d}))
+            .collect();
+        return crate::io::print_json(&serde_json::json!({
+            "first": args.first, "second": args.second, "names": [n1, n2], "runs": runs,
+        }));
+    }
+    outln!("| run | task | seed | succeeded | parts at action | P | {n1} chose | {n2} chose |")?;
+    outln!("|---|---|---|---|---|---|---|---|")?;
+    for (run, ds) in &all {
+        for d in ds {
+            let who = if d.first_succeeded { n1 } else { n2 };
+            outln!(
+                "| {run} | {} | {} | only {who} | {} | {} | {} | {} |",
+                d.task,
+                d.seed,
+                d.action_index,
+                d.progress_before,
+                side_text(&d.first),
+                side_text(&d.second)
+            )?;
+        }
+    }
+    Ok(())
+}
+
 pub fn run(args: CompareArgs) -> anyhow::Result<()> {
     let (one, two) = (runs(&args.first)?, runs(&args.second)?);
+    let pairs = pairs(&args, &one, &two)?;
+    if args.diverge {
+        return diverge(&args, &pairs);
+    }
     let (n1, n2) = (&args.names[0], &args.names[1]);
     let mut rows = Vec::new();
-    for (run, a) in &one {
-        let Some(b) = two.get(run) else { continue };
+    for (run, a, b) in &pairs {
         let paired = paired_success(a, b, None);
         if paired.pairs == 0 {
             continue;
