@@ -6,6 +6,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use seespot_sim::TaskId;
+use seespot_sim::noise::SensorNoise;
 use seespot_ssr::Layout;
 use seespot_viz::live::{self, ViewOptions};
 use seespot_viz::registry::{self, DeciderFactory, DeciderKind};
@@ -112,15 +113,15 @@ pub struct ViewArgs {
 fn replay(
     args: &ViewArgs,
     path: &std::path::Path,
-) -> anyhow::Result<(TaskId, usize, DeciderFactory, String)> {
+) -> anyhow::Result<(TaskId, usize, DeciderFactory, String, SensorNoise)> {
     let r = seespot_viz::review::replay(path, args.seed, &args.decider.layout())?;
     outln!("{}: the files it was made with match today's", r.summary)?;
-    Ok((r.task, r.resolution, r.factory, r.summary))
+    Ok((r.task, r.resolution, r.factory, r.summary, r.noise))
 }
 
 /// Runs `seespot view` until Ctrl-C.
 pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
-    let (mut task, mut resolution, factory, replay_summary) = match &args.replay {
+    let (mut task, mut resolution, factory, replay_summary, noise) = match &args.replay {
         Some(path) => {
             if args.decider.decider != DeciderKind::Ssr {
                 anyhow::bail!(
@@ -129,10 +130,16 @@ pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
                     path.display()
                 );
             }
-            let (task, resolution, factory, summary) = replay(&args, path)?;
-            (task, resolution, factory, Some(summary))
+            let (task, resolution, factory, summary, noise) = replay(&args, path)?;
+            (task, resolution, factory, Some(summary), noise)
         }
-        None => (args.task, args.resolution, args.decider.factory()?, None),
+        None => (
+            args.task,
+            args.resolution,
+            args.decider.factory()?,
+            None,
+            SensorNoise::default(),
+        ),
     };
     let (mut seed, mut layout) = (args.seed, None);
     if let Some(path) = &args.scene {
@@ -160,6 +167,7 @@ pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
         seed,
         layout,
         resolution,
+        noise,
         bind: args.bind,
         allow_remote: args.allow_remote,
         port: args.port,

@@ -423,21 +423,12 @@ impl RunSpec {
         }
     }
 
-    /// Why the debugger cannot run this run's trials again, if it cannot:
-    /// it replays SSR, TransporterNet and oracle trials (finetuned ones from
-    /// their model files), without sensor noise.
+    /// Why the debugger cannot run this run's trials again, if it cannot.
+    /// It replays every run: SSR, SPOT-Q, TransporterNet, oracle and random
+    /// trials, finetuned ones from their model files, noisy ones under the
+    /// same seeded noise.
     pub fn replay_refusal(&self) -> Option<String> {
-        if self.noisy {
-            return Some(format!(
-                "{self}: runs under sensor noise cannot be replayed in the debugger"
-            ));
-        }
-        match self.method {
-            EvalMethod::SpotQ | EvalMethod::Random => Some(format!(
-                "the debugger replays SSR, TransporterNet and oracle trials, not {self}"
-            )),
-            _ => None,
-        }
+        None
     }
 }
 

@@ -82,6 +82,26 @@ impl Decider for seespot_policy::PolicyNet {
     }
 }
 
+/// Uniformly random actions (the `random` row), reseeded from each trial's
+/// seed: no demonstrations, no explanation.
+impl Decider for seespot_policy::RandomActor {
+    fn demos(&self) -> &[Demo] {
+        &[]
+    }
+
+    fn policies(&self) -> Vec<TaskId> {
+        Vec::new()
+    }
+
+    fn decision(&self) -> Option<&Decision> {
+        None
+    }
+
+    fn query(&mut self, _: &Heightmaps, _: DemoQuery) -> anyhow::Result<Option<Vec<f32>>> {
+        Ok(None)
+    }
+}
+
 /// See-SPOT-Run with the shipped policies and demonstrations.
 impl Decider for SsrPolicy {
     fn demos(&self) -> &[Demo] {

@@ -26,6 +26,8 @@ pub struct ViewOptions {
     pub task: TaskId,
     pub seed: u64,
     pub resolution: usize,
+    /// Sensor noise on every observation (a replay of a noisy trial).
+    pub noise: seespot_sim::noise::SensorNoise,
     /// Address of the page. Off loopback it needs `allow_remote`, and every
     /// request then needs the run's token (in [`ViewUrls::page`]); the rerun
     /// viewer and its gRPC stream, which cannot check a token, stay on
@@ -97,6 +99,7 @@ pub async fn serve_view(
     };
     let world = WorldConfig {
         grid: Grid::new(opts.resolution),
+        noise: opts.noise,
         ..WorldConfig::default()
     };
     let mut viewer_server = None;

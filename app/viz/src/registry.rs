@@ -111,6 +111,9 @@ pub struct Replay {
     pub task: TaskId,
     pub seed: u64,
     pub resolution: usize,
+    /// The sensor noise the trial saw (seeded per trial, so a replay sees the
+    /// same observations).
+    pub noise: seespot_sim::noise::SensorNoise,
     pub factory: DeciderFactory,
     /// What is replayed and how it ended, in one line.
     pub summary: String,
@@ -121,6 +124,16 @@ impl std::fmt::Debug for Replay {
         f.debug_struct("Replay")
             .field("summary", &self.summary)
             .finish_non_exhaustive()
+    }
+}
+
+impl Replay {
+    /// The world the trial ran in: its resolution and sensor noise.
+    pub fn world(&self) -> WorldConfig {
+        WorldConfig {
+            noise: self.noise,
+            ..world(self.resolution)
+        }
     }
 }
 

@@ -332,7 +332,7 @@ impl Session {
     /// and resolution replace this session's, and its trial starts from the
     /// beginning. Later resets keep that decider.
     pub fn load_replay(&mut self, r: Replay) -> anyhow::Result<()> {
-        let world = crate::registry::world(r.resolution);
+        let world = r.world();
         let (decider, note) = (r.factory)(r.task, world)?;
         self.factory = r.factory;
         self.decider = decider;

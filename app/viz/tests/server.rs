@@ -364,6 +364,7 @@ async fn issue_10_non_loopback_bind_is_refused_without_allow_remote() {
         task: TaskId::Stack,
         seed: 1,
         resolution: 64,
+        noise: Default::default(),
         bind: "0.0.0.0".parse().expect("ip"),
         allow_remote: false,
         port: 0,
