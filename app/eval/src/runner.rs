@@ -629,15 +629,7 @@ pub fn make_actor(
             Box::new(ssr_policy(config, task)?)
         }
         EvalMethod::SpotQ => Box::new(spot_q_policy(config, task)?),
-        EvalMethod::Transporter if config.finetune_steps > 0 => {
-            let base = TransporterNet::load(&config.layout.transporter(finetune_base(task)))?;
-            let net =
-                finetune_transporter(&base, &read_demos(config, task)?, config.finetune_steps, 0)?;
-            Box::new(TransporterActor::new(net))
-        }
-        EvalMethod::Transporter => Box::new(TransporterActor::new(TransporterNet::load(
-            &config.layout.transporter(task),
-        )?)),
+        EvalMethod::Transporter => Box::new(TransporterActor::new(transporter_net(config, task)?)),
         EvalMethod::Oracle => Box::new(Oracle::new(task)),
         EvalMethod::Random => Box::new(RandomActor::default()),
     })
@@ -687,6 +679,22 @@ fn finetuned_policies(
             finetuned::adam_models(config, task, bases)
         }
     }
+}
+
+/// The TransporterNet `config` runs on `task`: the task's own, or with
+/// finetuning steps another task's finetuned on the demonstrations (in
+/// memory, deterministic).
+pub fn transporter_net(config: &EvalConfig, task: TaskId) -> Result<TransporterNet, EvalError> {
+    if config.finetune_steps == 0 {
+        return Ok(TransporterNet::load(&config.layout.transporter(task))?);
+    }
+    let base = TransporterNet::load(&config.layout.transporter(finetune_base(task)))?;
+    Ok(finetune_transporter(
+        &base,
+        &read_demos(config, task)?,
+        config.finetune_steps,
+        0,
+    )?)
 }
 
 /// The other task whose TransporterNet the finetuned TransporterNet row

@@ -489,7 +489,7 @@ impl Session {
         let action_index = self.trial.actions();
         match next {
             Phase::Embed => {
-                let hm = self.trial.world().render();
+                let hm = self.trial.world_mut().observe();
                 let t0 = std::time::Instant::now();
                 let decided = self.decider.act(&self.trial, &hm);
                 self.last_decide_ms = t0.elapsed().as_secs_f64() * 1e3;

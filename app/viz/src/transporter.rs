@@ -39,12 +39,24 @@ pub fn load(
     let path = layout.transporter(task);
     let net = TransporterNet::load(&path)
         .with_context(|| format!("cannot load the {task} TransporterNet"))?;
-    let (demos, _) = load_demos(task, layout, world)?;
     let note = format!(
         "TransporterNet {} ({} iterations on the {task} demonstrations)",
         path.display(),
         net.meta.extra.get("iterations").map_or("?", |s| s.as_str())
     );
+    with_net(task, net, note, layout, world)
+}
+
+/// The TransporterNet decider over a given net (a finetuned one, as an
+/// evaluation made it), with `task`'s demonstrations from `layout`.
+pub fn with_net(
+    task: TaskId,
+    net: TransporterNet,
+    note: String,
+    layout: &Layout,
+    world: WorldConfig,
+) -> anyhow::Result<(Box<dyn Decider>, String)> {
+    let (demos, _) = load_demos(task, layout, world)?;
     Ok((
         Box::new(TransporterDecider {
             actor: TransporterActor::new(net),
