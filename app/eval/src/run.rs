@@ -389,7 +389,7 @@ impl RunSpec {
             ""
         };
         let adam = if self.finetuned == Some(FinetuneProcedure::Adam) {
-            " (seespot's Adam variant)"
+            ", seespot's Adam variant"
         } else {
             ""
         };
@@ -553,12 +553,12 @@ mod tests {
                     .finetuned_by(FinetuneProcedure::Adam)
                     .expect("spot-q"),
                 "good-robot-finetuned-adam",
-                "Good Robot finetuned (seespot's Adam variant)",
+                "Good Robot finetuned, seespot's Adam variant",
             ),
             (
                 ccd.finetuned_by(FinetuneProcedure::Adam).expect("ssr"),
                 "ssr-ccd-finetuned-adam",
-                "SSR CCD finetuned (seespot's Adam variant)",
+                "SSR CCD finetuned, seespot's Adam variant",
             ),
             (
                 RunSpec::new(EvalMethod::SsrL2cd)
