@@ -536,3 +536,74 @@ fn fuzz_websocket_message_decoder() {
         },
     );
 }
+
+/// A custom task's demonstrations (`demos/custom/l-shape/`, whose
+/// `meta.json` holds the goal layout) copied into a temp folder laid out as
+/// `custom/l-shape/<n>/`: every file of each demonstration, and the folder.
+fn custom_task_dir() -> (tempfile::TempDir, PathBuf, Vec<(PathBuf, Vec<u8>)>) {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("../demos/custom/l-shape");
+    let task_dir = dir.path().join("custom/l-shape");
+    let mut files = Vec::new();
+    for demo in std::fs::read_dir(&src).expect("l-shape demos") {
+        let demo = demo.expect("entry").path();
+        let to = task_dir.join(demo.file_name().expect("name"));
+        std::fs::create_dir_all(&to).expect("mkdir");
+        for f in std::fs::read_dir(&demo).expect("demo files") {
+            let f = f.expect("entry").path();
+            let bytes = std::fs::read(&f).expect("read");
+            let dst = to.join(f.file_name().expect("name"));
+            std::fs::write(&dst, &bytes).expect("write");
+            files.push((dst, bytes));
+        }
+    }
+    files.sort();
+    (dir, task_dir, files)
+}
+
+/// Custom-task demonstrations and their goal layouts: a damaged `meta.json`
+/// (its `goal` included) or image is refused with an error, never a panic,
+/// when the task is defined from them.
+#[test]
+fn fuzz_custom_task_goals() {
+    let (_dir, task_dir, files) = custom_task_dir();
+    let task = "custom:l-shape"
+        .parse::<TaskId>()
+        .expect("task")
+        .custom()
+        .expect("custom");
+    seespot_sim::custom::load(&task_dir, task).expect("the valid task loads");
+    let metas: Vec<usize> = (0..files.len())
+        .filter(|&i| files[i].0.ends_with("meta.json"))
+        .collect();
+    let strategy = (any::<usize>(), edits(), json_edits(), 0u8..10);
+    fuzz("custom", strategy, |(file, e, je, how)| {
+        let (path, original) = if how < 6 {
+            &files[metas[file % metas.len()]]
+        } else {
+            &files[file % files.len()]
+        };
+        let bytes = match how {
+            0..=3 => {
+                let mut m: Value = serde_json::from_slice(original).expect("meta json");
+                // Half the JSON edits land in the goal.
+                let target = if how < 2 { &mut m["goal"] } else { &mut m };
+                apply_json(target, &je);
+                serde_json::to_vec_pretty(&m).expect("json")
+            }
+            9 => Vec::new(),
+            _ => {
+                let mut b = original.clone();
+                apply(&mut b, &e);
+                b
+            }
+        };
+        std::fs::write(path, &bytes).expect("write");
+        let peak = measured(|| {
+            let _ = seespot_sim::custom::load(&task_dir, task);
+        })
+        .1;
+        std::fs::write(path, original).expect("restore");
+        peak
+    });
+}
