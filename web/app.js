@@ -36,9 +36,9 @@ function connect() {
     if (m.type === 'info') onInfo(m.info);
     else if (m.type === 'state') onState(m);
     else if (m.type === 'query') onQuery(m);
-    else if (m.type === 'error') showError(m.message);
+    else if (m.type === 'error') showError(m.message, m.request);
     else if (m.type === 'demo_saved') {
-      app.saved = m.dir; $('demo-status').textContent = `saved to ${m.dir}`;
+      app.saved = m.dir; renderDemoStatus(app.state);
       // A custom task can be run once it has a demonstration.
       const t = $('demo-task').value.trim();
       if (t.startsWith('custom:')) addTask(t);
@@ -46,12 +46,71 @@ function connect() {
   };
 }
 
-function showError(msg) {
+/** Shows an error in the user's words (`userWords`); `app.errors` keeps the
+ *  server's own message, for the tests and the console. */
+function showError(msg, request) {
   app.errors.push(msg);
+  const words = userWords(msg, request);
+  app.shownErrors = [...(app.shownErrors || []), words];
   const e = $('error');
-  e.textContent = msg; e.hidden = false;
+  e.textContent = words; e.title = words === msg ? 'click to dismiss' : `the server said: ${msg} (click to dismiss)`; e.hidden = false;
   clearTimeout(showError.t);
-  showError.t = setTimeout(() => { e.hidden = true; }, 6000);
+  showError.t = setTimeout(() => { e.hidden = true; }, 8000);
+}
+$('error').onclick = () => { $('error').hidden = true; };
+
+// What each request is, in the page's words.
+const REQUEST_WORDS = {
+  reset: 'Reset', demonstrate: 'Demonstrate', demo_act: 'the demonstrated action', demo_undo: 'Undo',
+  demo_save: 'Save', demo_stop: 'Leave', goto: 'the history slider', live: 'Live', query: 'the click-to-query',
+  next_phase: 'Next phase', next_action: 'Next action', run: 'Run to end', replay: 'the replay', set_blocks: 'the layout edit',
+};
+// The whole numbers each request carries, by request.
+const NUMBER_WORDS = {
+  reset: 'the seed must be a whole number, 0 or more',
+  demonstrate: 'the seed must be a whole number, 0 or more',
+  replay: 'the seed must be a whole number, 0 or more',
+  goto: 'the history position must be a whole number, 0 or more',
+  query: 'the queried pixel must be whole numbers inside the heightmap',
+};
+const TASKS_WORDS = 'stack, row, unstack or vertical-square, or custom:NAME for a task you demonstrated';
+
+/** The server's error message in the user's words: the names of the
+ *  protocol (message types, field names, serde's "expected u64") replaced by
+ *  what the user did. Messages already in plain words pass through. */
+export function userWords(msg, request) {
+  if (typeof msg !== 'string') return String(msg);
+  let m = msg.match(/^malformed message \(not JSON\)/);
+  if (m) return 'the page sent the server something it could not read (not JSON); reload the page';
+  m = msg.match(/^message has no string field `type`/);
+  if (m) return 'the page sent the server a request it could not read; reload the page';
+  m = msg.match(/^bad `([a-z_]+)` message: (.*)$/s);
+  if (m) {
+    const [, kind, rest] = m;
+    const what = REQUEST_WORDS[kind] || kind;
+    if (/^unknown variant `/.test(rest)) return `the server does not know the request "${kind}"; reload the page (the server may be newer than it)`;
+    if (/^invalid (type|value): .*expected (u64|usize|u32|u8|i64|a nonnegative integer)/.test(rest)) {
+      return NUMBER_WORDS[kind] ? `${what}: ${NUMBER_WORDS[kind]}` : `${what}: a number must be a whole number, 0 or more`;
+    }
+    let t = rest.match(/^unknown task '(.*?)'/);
+    if (t) return t[1] === '' ? `${what}: name a task (${TASKS_WORDS})` : `${what}: there is no task "${t[1]}"; choose ${TASKS_WORDS}`;
+    t = rest.match(/^task name '(.*?)' must be/);
+    if (t) return `${what}: "${t[1]}" cannot be a custom task's name: use 1 to 48 lowercase letters, digits and '-' (the name is a folder under demos/custom, so no '/' or '..')`;
+    t = rest.match(/^missing field `(\w+)`/);
+    if (t) return `${what}: the request lacks its ${t[1]}; reload the page`;
+    return `${what} was refused: ${rest}`;
+  }
+  if (/^not demonstrating: send `demonstrate` first/.test(msg)) return 'not demonstrating: press Demonstrate first';
+  m = msg.match(/^colours_matter: only a custom task's goal is a layout; (.*) has its own rule/);
+  if (m) return `"colours matter" is for custom tasks only: ${m[1]} has its own goal; untick it or name a custom:NAME task`;
+  m = msg.match(/^history index (\d+) is out of range: this trial has shown (\d+) phases/);
+  if (m) return `there is no point ${m[1]} in the history: this trial has shown ${m[2]} phases so far`;
+  if (/^no decision yet: step to the embed phase first/.test(msg)) return 'nothing decided yet: press Next phase to embed the scene first';
+  m = msg.match(/^action (\w+) r\d+ \((\d+), (\d+)\): pixel \(\d+, \d+\) is outside the (\d+) x \d+ workspace heightmap/);
+  if (m) return `pixel (${m[2]}, ${m[3]}) is outside the ${m[4]} x ${m[4]} heightmap: click inside it`;
+  m = msg.match(/^action \w+ r\d+ \(\d+, \d+\): the next action must be a (\w+)/);
+  if (m) return `the next action must be a ${m[1]}: grasps and places alternate`;
+  return msg;
 }
 
 function onInfo(info) {
@@ -72,6 +131,10 @@ function addTask(t) {
 
 function fmt(v, d) { return v === null || v === undefined ? '…' : Number(v).toFixed(d); }
 function act(a) { return a ? `${a.primitive} r${a.rotation} (${a.y}, ${a.x})` : '…'; }
+/** An action without its primitive (the pairs table names it in F's header). */
+function where(a) { return a ? `r${a.rotation} (${a.y}, ${a.x})` : '…'; }
+/** Sets a cell's text, with the whole text as its tooltip (it may be cut short). */
+function setText(el, text) { el.textContent = text; el.title = text; }
 
 function onState(s) {
   const prev = app.state;
@@ -93,7 +156,8 @@ function onState(s) {
   $('progress').textContent = `${s.progress} / 4`;
   $('progress-bar').style.width = `${(s.progress / 4) * 100}%`;
   $('primitive').textContent = s.holding !== null ? `place (holding)` : s.primitive;
-  $('end').textContent = s.end ? (s.succeeded ? 'success ✓' : s.end_words) : (app.running ? 'in progress, running…' : 'in progress');
+  if (s.end) app.running = false;
+  setText($('end'), s.end ? (s.succeeded ? 'success ✓' : s.end_words) : (app.running ? 'in progress, running…' : 'in progress'));
   $('method').textContent = s.method ? s.method.toUpperCase() : '';
   $('decider').textContent = (s.replay ? `${s.replay[0].toUpperCase()}${s.replay.slice(1)}. ` : '')
     + `${s.decider}. ${s.decider_note}` + (s.recording ? ` Recording to ${s.recording}.` : '');
@@ -105,13 +169,13 @@ function onState(s) {
   document.body.classList.toggle('demonstrating', !!demo);
   $('demo-live').hidden = !demo;
   if (demo) {
-    $('demo-status').textContent = `demonstrating ${demo.task} from seed ${demo.seed}: ${demo.actions.length} action${demo.actions.length === 1 ? '' : 's'}`
-      + (demo.progress !== null ? `, progress ${demo.progress} / 4` : '') + ` · next: ${s.primitive} (click the live heightmap)`;
     $('demo-undo').disabled = !demo.actions.length;
-    $('progress').textContent = demo.progress !== null ? `${demo.progress} / 4` : '– (the goal is the final layout)';
+    $('progress').textContent = demo.progress !== null ? `${demo.progress} / 4` : '–';
+    $('progress').title = demo.progress !== null ? '' : 'a custom task\'s goal is its final layout: progress is known once it is saved';
     $('progress-bar').style.width = `${((demo.progress ?? 0) / 4) * 100}%`;
     $('action-index').textContent = String(demo.actions.length);
-  }
+  } else $('progress').title = '';
+  renderDemoStatus(s);
 
   // Query policies.
   const qp = $('query-policy');
@@ -123,6 +187,7 @@ function onState(s) {
   renderPairs(s);
   renderHistory(s);
   renderTimeline(s);
+  renderEmbeddingControl(s);
   if (s.error) showError(s.error);
   requestFrame();
 }
@@ -135,8 +200,13 @@ function shownPair() {
 }
 
 // C with its unit (documents.rs `PairDoc.c_unit`): squared 2 mm pixels with
-// the reference Correspond, heightmap pixels with the plain scan.
-const C_UNITS = { squared_reference_pixels: 'px² (2 mm)', pixels: 'px' };
+// the reference Correspond, heightmap pixels with the plain scan. Short, with
+// the unit in words for the header's tooltip.
+const C_UNITS = { squared_reference_pixels: 'px²', pixels: 'px' };
+const C_UNIT_WORDS = {
+  squared_reference_pixels: 'squared distance, in 2 mm heightmap pixels, between the rematch and the demonstrated action',
+  pixels: 'distance, in heightmap pixels, between the rematch and the demonstrated action',
+};
 function cValue(p) {
   return p.c == null ? fmt(p.c, 1) : `${fmt(p.c, 1)} ${C_UNITS[p.c_unit] || ''}`.trim();
 }
@@ -145,7 +215,15 @@ function renderPairs(s) {
   const body = $('pairs-body');
   body.innerHTML = '';
   const cHead = document.getElementById('c-head');
-  if (cHead && s.pairs.length) cHead.textContent = `C (${C_UNITS[s.pairs[0].c_unit] || '?'})`;
+  if (cHead && s.pairs.length) {
+    const u = s.pairs[0].c_unit;
+    cHead.textContent = `C (${C_UNITS[u] || '?'})`;
+    cHead.title = `C: cycle-consistency distance (Eq. 7): the ${C_UNIT_WORDS[u] || 'distance between the rematch and the demonstrated action'}; smaller is better`;
+  }
+  // F's primitive is the decision's, the same for every pair: it goes in the header.
+  const fHead = $('f-head');
+  const prim = s.decided_primitive || (s.pairs.find((p) => p.matched) || {}).matched?.primitive;
+  fHead.textContent = prim ? `F (${prim})` : 'F';
   const sel = shownPair();
   s.pairs.forEach((p, i) => {
     const tr = document.createElement('tr');
@@ -153,12 +231,13 @@ function renderPairs(s) {
     if (i === s.chosen) tr.classList.add('chosen');
     if (i === sel) tr.classList.add('selected');
     const picks = [s.ccd_choice === i ? 'CCD' : '', s.l2cd_choice === i ? 'L2CD' : ''].filter(Boolean).join(' ');
-    const cells = [i === s.chosen ? '★' : '', p.policy, `${p.demo}·${p.demo_step}`, fmt(p.l, 3), fmt(p.c, 1), act(p.matched), picks];
+    const cells = [i === s.chosen ? '★' : '', p.policy, `${p.demo}·${p.demo_step}`, fmt(p.l, 3), fmt(p.c, 1), where(p.matched), picks];
     cells.forEach((c, j) => {
       const td = document.createElement('td');
       td.textContent = c;
       if (c === '…') td.className = 'pending';
       if (j === 3) td.dataset.testid = 'l'; if (j === 4) td.dataset.testid = 'c';
+      if (j === 5 && p.matched) { td.dataset.testid = 'f'; td.title = `F: ${act(p.matched)} (rotation index, pixel y, x)`; }
       if (j === 6) { td.dataset.testid = 'picks'; td.className = 'picks'; }
       tr.appendChild(td);
     });
@@ -201,6 +280,53 @@ function renderTimeline(s) {
   $('timeline-label').textContent = at ? `viewing ${actionLabel(at)} (of ${h.len} phases)` : `live · ${h.len} phases`;
   $('go-live').disabled = h.viewing === null;
   document.body.classList.toggle('travelling', h.viewing !== null);
+}
+
+// PCA colours show the live decision only (the server keeps no embeddings of
+// past phases): while viewing history the control is off, and says why.
+function renderEmbeddingControl(s) {
+  const past = !!(s.history && s.history.viewing !== null);
+  const box = $('show-embedding');
+  box.disabled = past;
+  $('embedding-note').hidden = !past;
+  $('embedding-opt').title = past
+    ? 'embedding colours show the live decision only: press Live (or →) to see them'
+    : 'the pair\'s policy\'s embeddings, live (at the match rotation) and demo, on their joint first three principal components';
+}
+
+// Demonstrate mode's status: what is being demonstrated, how the last action
+// went (as far as the state tells), and what was saved. "saved to ..." stays
+// until the next Demonstrate or Reset.
+function renderDemoStatus(s) {
+  const el = $('demo-status');
+  const demo = s && s.demonstrate;
+  el.classList.remove('bad', 'ok');
+  if (!demo) {
+    setText(el, app.saved ? `saved to ${app.saved}` : '');
+    if (app.saved) el.classList.add('ok');
+    el.hidden = !app.saved;
+    return;
+  }
+  el.hidden = false;
+  const n = demo.actions.length;
+  // Progress after each number of actions (built-in tasks), to tell a place
+  // that lowered it.
+  app.demoProgress = (app.demoKey === `${demo.task}:${demo.seed}` && app.demoProgress) || [];
+  app.demoKey = `${demo.task}:${demo.seed}`;
+  app.demoProgress.length = n + 1;
+  app.demoProgress[n] = demo.progress;
+  const last = n ? demo.actions[n - 1] : null;
+  let outcome = '';
+  // A grasp that picked a block leaves it in the gripper: the state's
+  // `holding` is the demonstration's world's.
+  if (last && last.primitive === 'grasp' && s.holding === null) outcome = 'grasp missed: nothing was picked';
+  else if (last && last.primitive === 'place' && demo.progress !== null && app.demoProgress[n - 1] != null
+    && demo.progress < app.demoProgress[n - 1]) outcome = `place failed: progress fell from ${app.demoProgress[n - 1]} to ${demo.progress}`;
+  const base = `${n} action${n === 1 ? '' : 's'}` + (demo.progress !== null ? ` · progress ${demo.progress} / 4` : '');
+  if (outcome) { setText(el, `${outcome} · ${base} · undo, or ${s.primitive} again`); el.classList.add('bad'); }
+  else setText(el, `${base} · next: ${s.primitive}, click the live heightmap`);
+  el.title = `demonstrating ${demo.task} from seed ${demo.seed}: ${el.textContent}`;
+  app.demoOutcome = outcome || null;
 }
 
 function travel(delta) {
@@ -277,8 +403,9 @@ function draw() {
   }
   if (app.query) dm.push({ kind: 'point', at: app.query, color: '#ff4fd8', label: 'query', ring: true, below: true });
   const emb = images.embedding && images.embedding.pair === f.pair ? images.embedding : null;
-  compose($('demo-canvas'), n, emb ? emb.demo : (images.demo ? images.demo[kind] : null), images.rematch ? images.rematch.canvas : null, op, dm);
-  $('demo-title').textContent = f.demo ? `Demo ${f.demo.demo} · step ${f.demo.step}${p ? ` · policy ${p.policy}` : ''}` : 'Demo (none)';
+  const labels = window.__seespotLabels = {};
+  labels['demo-canvas'] = compose($('demo-canvas'), n, emb ? emb.demo : (images.demo ? images.demo[kind] : null), images.rematch ? images.rematch.canvas : null, op, dm);
+  setText($('demo-title'), f.demo ? `Demo ${f.demo.demo} · step ${f.demo.step}${p ? ` · policy ${p.policy}` : ''}` : 'Demo (none)');
 
   // Live side.
   const lm = [];
@@ -300,10 +427,10 @@ function draw() {
         color: s.primitive === 'grasp' ? '#00e676' : '#ffaa00', label: `${s.primitive} r${app.demoRotation}` });
     }
   }
-  compose($('live-canvas'), n, emb ? emb.live : images.live[kind], heat ? heat.canvas : null, op, lm);
+  labels['live-canvas'] = compose($('live-canvas'), n, emb ? emb.live : images.live[kind], heat ? heat.canvas : null, op, lm);
   document.body.dataset.embedding = emb ? `${emb.policy}:${emb.version}` : '';
-  $('overlay-label').textContent = label;
-  $('live-title').textContent = demo ? `Demonstrating ${demo.task}` : (s.phase === 'act' ? 'Live scene (before the action)' : 'Live scene');
+  setText($('overlay-label'), label);
+  setText($('live-title'), demo ? `Demonstrating ${demo.task} from seed ${demo.seed}` : (s.phase === 'act' ? 'Live scene (before the action)' : 'Live scene'));
 }
 
 function onQuery(m) {
@@ -331,14 +458,30 @@ $('next-phase').onclick = () => send({ type: 'next_phase' });
 $('next-action').onclick = () => send({ type: 'next_action' });
 $('run').onclick = () => { app.running = true; send({ type: 'run' }); };
 $('stop').onclick = () => { app.running = false; send({ type: 'stop' }); };
+/** The seed box's value as a whole number, or null (and says so). */
+function seedValue(what) {
+  const raw = $('seed').value.trim();
+  const v = Number(raw);
+  if (raw === '' || !Number.isSafeInteger(v) || v < 0) {
+    showError(`${what}: the seed must be a whole number, 0 or more${raw === '' ? '' : ` (not "${raw}")`}`);
+    return null;
+  }
+  return v;
+}
 $('reset-form').onsubmit = (ev) => {
   ev.preventDefault();
+  const seed = seedValue('Reset');
+  if (seed === null) return;
   app.selectedPair = null; clearQuery(false);
-  send({ type: 'reset', task: $('task').value, seed: Number($('seed').value) });
+  app.saved = null; renderDemoStatus(app.state);
+  send({ type: 'reset', task: $('task').value, seed });
 };
 $('timeline').oninput = () => send({ type: 'goto', index: Number($('timeline').value) });
 $('go-live').onclick = () => send({ type: 'live' });
 $('show-depth').onchange = draw;
+// Labels keep 12 CSS pixels: redraw when the heightmaps change size.
+let resizeTimer = null;
+window.addEventListener('resize', () => { clearTimeout(resizeTimer); resizeTimer = setTimeout(draw, 100); });
 $('show-embedding').onchange = () => { images.embedding = null; draw(); requestEmbedding(); };
 $('opacity').oninput = draw;
 $('clear-query').onclick = () => clearQuery();
@@ -351,8 +494,10 @@ $('demo-canvas').onclick = (ev) => {
 // Demonstrate mode: the live heightmap is the controller.
 $('demo-start').onclick = () => {
   const task = $('demo-task').value.trim() || (app.state && app.state.task);
-  app.saved = null;
-  send({ type: 'demonstrate', task, seed: Number($('seed').value), colours_matter: $('demo-colours').checked });
+  const seed = seedValue('Demonstrate');
+  if (seed === null) return;
+  app.saved = null; renderDemoStatus(app.state);
+  send({ type: 'demonstrate', task, seed, colours_matter: $('demo-colours').checked });
 };
 $('demo-undo').onclick = () => send({ type: 'demo_undo' });
 $('demo-save').onclick = () => send({ type: 'demo_save', overwrite: $('demo-overwrite').checked });

@@ -72,25 +72,44 @@ export function heatCanvas(map, n) {
   return { canvas: c, lo, hi };
 }
 
-/** Draws layers onto a visible canvas: base image, optional heatmap, then marks. */
+/** Draws layers onto a visible canvas: base image, optional heatmap, then
+ *  marks, then the marks' labels, placed so that no two overlap and none
+ *  leaves the canvas. The canvas is sized to its displayed size (times the
+ *  device pixel ratio) so that marks and labels are sharp; coordinates are
+ *  CSS pixels from the canvas's top left. Returns the canvas's size and the
+ *  labels as drawn: `{ width, height, labels: [{ text, x, y, w, h, ax, ay }] }`
+ *  (each label's rectangle and the anchor it labels). */
 export function compose(canvas, n, base, heat, opacity, marks) {
   const ctx = canvas.getContext('2d');
-  const W = canvas.width, s = W / n;
+  const cssW = canvas.clientWidth, cssH = canvas.clientHeight;
+  const dpr = window.devicePixelRatio || 1;
+  if (cssW > 0 && cssH > 0) {
+    const bw = Math.round(cssW * dpr), bh = Math.round(cssH * dpr);
+    if (canvas.width !== bw || canvas.height !== bh) { canvas.width = bw; canvas.height = bh; }
+  }
+  // Drawing units: CSS pixels (or the canvas's own, while it is not shown).
+  const u = cssW > 0 ? canvas.width / cssW : 1;
+  ctx.setTransform(u, 0, 0, u, 0, 0);
+  const W = canvas.width / u, H = canvas.height / u, s = W / n;
   ctx.imageSmoothingEnabled = false;
-  ctx.clearRect(0, 0, W, W);
+  ctx.clearRect(0, 0, W, H);
   if (base) ctx.drawImage(base, 0, 0, W, W);
   if (heat) { ctx.globalAlpha = opacity; ctx.drawImage(heat, 0, 0, W, W); ctx.globalAlpha = 1; }
+  const wanted = [], keepClear = [];
   for (const m of marks) {
-    if (m.kind === 'arrow') arrow(ctx, s, m.from, m.to, m.color, m.label);
-    else if (m.kind === 'point') point(ctx, s, m.at, m.color, m.label, m.ring, m.below);
-    else if (m.kind === 'gripper') gripper(ctx, s, m);
+    if (m.kind === 'arrow') arrow(ctx, s, m, wanted, keepClear);
+    else if (m.kind === 'point') point(ctx, s, m, wanted, keepClear);
+    else if (m.kind === 'gripper') gripper(ctx, s, m, wanted, keepClear);
   }
+  const labels = drawLabels(ctx, wanted, keepClear, W, H);
+  ctx.setTransform(1, 0, 0, 1, 0, 0);
+  return { width: W, height: H, labels };
 }
 
 // The gripper's footprint at pixel m.at: two fingers m.jaw pixels apart along
 // the closing direction of yaw m.yaw (radians; pixel x and y follow world x and
 // y), each m.finger pixels long across it.
-function gripper(ctx, s, m) {
+function gripper(ctx, s, m, wanted, keepClear) {
   const [x, y] = px(s, m.at);
   const c = Math.cos(m.yaw), sn = Math.sin(m.yaw);
   const half = (m.jaw / 2) * s, len = (m.finger / 2) * s;
@@ -105,24 +124,28 @@ function gripper(ctx, s, m) {
     }
     ctx.beginPath(); ctx.moveTo(x - half * c, y - half * sn); ctx.lineTo(x + half * c, y + half * sn); ctx.stroke();
   }
-  if (m.label) tag(ctx, x + 14, y - 14, m.label, m.color);
+  const r = Math.max(half, len) + 4;
+  keepClear.push({ x: x - r, y: y - r, w: 2 * r, h: 2 * r });
+  if (m.label) wanted.push({ text: m.label, color: m.color, ax: x, ay: y, r });
 }
 
 function px(s, p) { return [(p.x + 0.5) * s, (p.y + 0.5) * s]; }
 
-function point(ctx, s, at, color, label, ring, below) {
-  const [x, y] = px(s, at);
+function point(ctx, s, m, wanted, keepClear) {
+  const [x, y] = px(s, m.at);
+  const r = m.ring ? 11 : 7;
   ctx.lineWidth = 3; ctx.strokeStyle = '#000a';
-  ctx.beginPath(); ctx.arc(x, y, ring ? 11 : 7, 0, 2 * Math.PI); ctx.stroke();
-  ctx.lineWidth = 2; ctx.strokeStyle = color;
-  ctx.beginPath(); ctx.arc(x, y, ring ? 11 : 7, 0, 2 * Math.PI); ctx.stroke();
-  if (label) tag(ctx, x + 12, below ? y + 26 : y - 10, label, color);
+  ctx.beginPath(); ctx.arc(x, y, r, 0, 2 * Math.PI); ctx.stroke();
+  ctx.lineWidth = 2; ctx.strokeStyle = m.color;
+  ctx.beginPath(); ctx.arc(x, y, r, 0, 2 * Math.PI); ctx.stroke();
+  keepClear.push({ x: x - r - 2, y: y - r - 2, w: 2 * r + 4, h: 2 * r + 4 });
+  if (m.label) wanted.push({ text: m.label, color: m.color, ax: x, ay: y, r: r + 2, below: m.below });
 }
 
-function arrow(ctx, s, from, to, color, label) {
-  const [x0, y0] = px(s, from), [x1, y1] = px(s, to);
+function arrow(ctx, s, m, wanted, keepClear) {
+  const [x0, y0] = px(s, m.from), [x1, y1] = px(s, m.to);
   const len = Math.hypot(x1 - x0, y1 - y0);
-  for (const [w, c] of [[5, '#000b'], [2.5, color]]) {
+  for (const [w, c] of [[5, '#000b'], [2.5, m.color]]) {
     ctx.lineWidth = w; ctx.strokeStyle = c; ctx.fillStyle = c;
     ctx.beginPath(); ctx.moveTo(x0, y0); ctx.lineTo(x1, y1); ctx.stroke();
     if (len > 4) {
@@ -133,15 +156,80 @@ function arrow(ctx, s, from, to, color, label) {
       ctx.closePath(); ctx.fill();
     }
   }
-  if (label) tag(ctx, (x0 + x1) / 2 + 8, (y0 + y1) / 2 - 8, label, color);
+  // The shaft, as small squares a label had better not cover.
+  const k = Math.max(1, Math.ceil(len / 12));
+  for (let i = 0; i <= k; i++) {
+    const x = x0 + ((x1 - x0) * i) / k, y = y0 + ((y1 - y0) * i) / k;
+    keepClear.push({ x: x - 4, y: y - 4, w: 8, h: 8 });
+  }
+  if (m.label) wanted.push({ text: m.label, color: m.color, ax: (x0 + x1) / 2, ay: (y0 + y1) / 2, r: 6 });
 }
 
-function tag(ctx, x, y, text, color) {
-  ctx.font = '600 12px ui-sans-serif, system-ui, sans-serif';
-  const w = ctx.measureText(text).width + 8;
-  x = Math.min(Math.max(2, x), ctx.canvas.width - w - 2); y = Math.min(Math.max(16, y), ctx.canvas.height - 4);
-  ctx.fillStyle = '#000c'; ctx.fillRect(x, y - 13, w, 17);
-  ctx.fillStyle = color; ctx.fillText(text, x + 4, y);
+function overlap(a, b) {
+  const w = Math.min(a.x + a.w, b.x + b.w) - Math.max(a.x, b.x);
+  const h = Math.min(a.y + a.h, b.y + b.h) - Math.max(a.y, b.y);
+  return w > 0 && h > 0 ? w * h : 0;
+}
+
+/** Where a w x h label of anchor (ax, ay), kept r clear of it, may go: beside
+ *  the anchor in eight directions (the preferred first), then further out. */
+function* spots(l, w, h, W, H) {
+  const dirs = l.below
+    ? [[1, 1], [-1, 1], [0, 1], [1, 0], [-1, 0], [1, -1], [-1, -1], [0, -1]]
+    : [[1, -1], [1, 1], [-1, -1], [-1, 1], [0, -1], [0, 1], [1, 0], [-1, 0]];
+  const step = h + 4;
+  for (let k = 0; k < 40; k++) {
+    const g = l.r + 3 + k * step;
+    for (const [dx, dy] of dirs) {
+      const d = dx && dy ? g * 0.75 : g;
+      const x = dx > 0 ? l.ax + d : dx < 0 ? l.ax - d - w : l.ax - w / 2;
+      const y = dy > 0 ? l.ay + d : dy < 0 ? l.ay - d - h : l.ay - h / 2;
+      yield { x: Math.min(Math.max(1, x), W - w - 1), y: Math.min(Math.max(1, y), H - h - 1), k };
+    }
+  }
+}
+
+/** Places and draws the labels, in order: each at the first spot that covers
+ *  no label placed before it (a hard rule) and, if it can, no mark. */
+function drawLabels(ctx, wanted, keepClear, W, H) {
+  const fontPx = 12, pad = 4;
+  ctx.font = `600 ${fontPx}px ui-sans-serif, system-ui, sans-serif`;
+  const h = fontPx + 6;
+  const placed = [];
+  for (const l of wanted) {
+    const w = Math.min(W - 2, Math.ceil(ctx.measureText(l.text).width + 2 * pad));
+    let best = null, bestCost = Infinity;
+    for (const c of spots(l, w, h, W, H)) {
+      const rect = { x: c.x, y: c.y, w, h };
+      if (placed.some((p) => overlap(p, rect) > 0)) continue;
+      // Covering marks costs; so does going far from the anchor.
+      const cover = keepClear.reduce((a, o) => a + overlap(o, rect), 0);
+      const cost = cover + c.k * 40;
+      if (cost < bestCost) { best = rect; bestCost = cost; }
+      if (cover === 0) break;
+    }
+    if (!best) best = { x: Math.min(Math.max(1, l.ax), W - w - 1), y: Math.min(Math.max(1, l.ay), H - h - 1), w, h };
+    placed.push({ text: l.text, ...best, ax: l.ax, ay: l.ay, color: l.color, r: l.r });
+  }
+  for (const p of placed) {
+    // A leader line when the label had to move away from its mark.
+    const nx = Math.min(Math.max(p.ax, p.x), p.x + p.w), ny = Math.min(Math.max(p.ay, p.y), p.y + p.h);
+    const far = Math.hypot(nx - p.ax, ny - p.ay);
+    if (far > p.r + 8) {
+      const ux = (nx - p.ax) / far, uy = (ny - p.ay) / far;
+      for (const [lw, col] of [[3, '#000b'], [1.25, p.color]]) {
+        ctx.lineWidth = lw; ctx.strokeStyle = col;
+        ctx.beginPath(); ctx.moveTo(p.ax + ux * p.r, p.ay + uy * p.r); ctx.lineTo(nx, ny); ctx.stroke();
+      }
+    }
+  }
+  for (const p of placed) {
+    ctx.fillStyle = '#000c'; ctx.fillRect(p.x, p.y, p.w, p.h);
+    ctx.fillStyle = p.color; ctx.textBaseline = 'middle';
+    ctx.fillText(p.text, p.x + pad, p.y + p.h / 2 + 0.5);
+  }
+  ctx.textBaseline = 'alphabetic';
+  return placed.map(({ text, x, y, w, h: hh, ax, ay }) => ({ text, x, y, w, h: hh, ax, ay }));
 }
 
 /** Canvas click -> heightmap pixel (y, x). */

@@ -8,6 +8,8 @@
 // demonstrate.png goes where page.test.js puts its screenshots.
 //
 // Server: $SEESPOT_BIN (default ../target/release/seespot).
+// SEESPOT_WEB_FROM_DISK=1 serves web/'s files from disk (the binary embeds the
+// ones it was built with; serve.js `pageFromDisk`).
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import { spawnSync } from 'node:child_process';
@@ -15,18 +17,22 @@ import { mkdtempSync, mkdirSync, rmSync, existsSync, readFileSync, readdirSync, 
 import { tmpdir } from 'node:os';
 import { join, resolve } from 'node:path';
 import { chromium } from 'playwright-core';
-import { root, BIN, CHROMIUM, FLAGS, startView, stopView } from './serve.js';
+import { root, BIN, CHROMIUM, FLAGS, startView, stopView, pageFromDisk } from './serve.js';
 
 const shots = process.env.SEESPOT_SCREENSHOTS
   ? resolve(process.env.SEESPOT_SCREENSHOTS)
   : mkdtempSync(join(tmpdir(), 'seespot-screenshots-'));
 
-let server, pageUrl, context, page, tmp, demos;
+let server, pageUrl, context, page, tmp, demos, proxy;
 const pageErrors = [];
 
 async function startServer() {
   const args = ['view', '--port', '0', '--no-viewer', '--task', 'stack', '--seed', '1', '--demos', demos];
-  ({ server, page: pageUrl } = await startView(args));
+  let served;
+  ({ server, page: served } = await startView(args));
+  // With SEESPOT_WEB_FROM_DISK=1 the page's files come from web/ (serve.js).
+  proxy = await pageFromDisk(served);
+  pageUrl = proxy.url;
 }
 
 before(async () => {
@@ -49,6 +55,7 @@ before(async () => {
 
 after(async () => {
   if (context) await context.close();
+  if (proxy) await proxy.close();
   await stopView(server);
   if (tmp) rmSync(tmp, { recursive: true, force: true });
 });
@@ -88,7 +95,12 @@ async function save() {
   const before = await page.evaluate(() => window.seespot.saved);
   await page.getByTestId('demo-save').click();
   await page.waitForFunction((b) => window.seespot.saved && window.seespot.saved !== b, before);
-  return page.evaluate(() => window.seespot.saved);
+  const dir = await page.evaluate(() => window.seespot.saved);
+  // Saving leaves Demonstrate mode; the page still says where it saved.
+  await page.waitForFunction(() => !window.seespot.state.demonstrate);
+  assert.ok(await page.getByTestId('demo-status').isVisible(), 'the saved message is shown');
+  assert.equal(await page.getByTestId('demo-status').textContent(), `saved to ${dir}`);
+  return dir;
 }
 
 function sameFiles(a, b) {
@@ -140,6 +152,11 @@ test('bad demonstrations are refused with what is wrong', async () => {
   // An action outside the workspace (sent as the page would).
   await page.evaluate(() => window.seespot.ws.send(JSON.stringify({ type: 'demo_act', action: { primitive: 'grasp', rotation: 0, y: 500, x: 3 } })));
   await page.waitForFunction(() => window.seespot.errors.some((e) => e.includes('outside the')));
+  // A grasp on the bare table (the corner) picks nothing: the page says so.
+  await page.evaluate(() => window.seespot.ws.send(JSON.stringify({ type: 'demo_act', action: { primitive: 'grasp', rotation: 0, y: 1, x: 1 } })));
+  await page.waitForFunction(() => window.seespot.state.demonstrate.actions.length === 1);
+  assert.equal((await state()).holding, null);
+  assert.match(await page.getByTestId('demo-status').textContent(), /^grasp missed: nothing was picked/);
   // A task name with a path in it.
   await page.getByTestId('demo-task').fill('custom:../escape');
   await page.getByTestId('demo-start').click();

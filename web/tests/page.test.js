@@ -9,6 +9,8 @@
 // Server: $SEESPOT_BIN (default ../target/release/seespot) run as
 // `$SEESPOT_BIN view --port 0 ...`; $SEESPOT_DECIDER and $SEESPOT_MODELS pass
 // --decider and --models; $RERUN_BIN (pip rerun-sdk==0.36.3) verifies the .rrd.
+// SEESPOT_WEB_FROM_DISK=1 serves web/'s files from disk (the binary embeds the
+// ones it was built with; serve.js `pageFromDisk`).
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import { spawnSync } from 'node:child_process';
@@ -18,7 +20,7 @@ import { join, resolve } from 'node:path';
 import net from 'node:net';
 import { chromium } from 'playwright-core';
 import { decodePng, colourStats, showsBlocks } from './png.js';
-import { root, BIN, CHROMIUM, startView, stopView } from './serve.js';
+import { root, BIN, CHROMIUM, startView, stopView, pageFromDisk } from './serve.js';
 
 // Screenshots never go into the work tree unless asked for (scripts/screenshots).
 const shots = process.env.SEESPOT_SCREENSHOTS
@@ -28,7 +30,7 @@ const RES = Number(process.env.SEESPOT_TEST_RESOLUTION || 224);
 const FLAGS = ['--headless', '--no-sandbox', '--disable-gpu', '--enable-unsafe-swiftshader', '--no-first-run',
   '--disable-background-networking', '--disable-component-update', '--disable-sync'];
 
-let server, urls = {}, context, page, profile, tmp, rrd;
+let server, urls = {}, context, page, profile, tmp, rrd, proxy;
 const pageErrors = [];
 
 async function startServer() {
@@ -37,7 +39,9 @@ async function startServer() {
   if (process.env.SEESPOT_MODELS) args.push('--models', process.env.SEESPOT_MODELS);
   const started = await startView(args, { viewer: true });
   server = started.server;
-  urls = { page: started.page, viewer: started.viewer };
+  // With SEESPOT_WEB_FROM_DISK=1 the page's files come from web/ (serve.js).
+  proxy = await pageFromDisk(started.page);
+  urls = { page: proxy.url, viewer: started.viewer };
 }
 
 before(async () => {
@@ -59,6 +63,7 @@ before(async () => {
 
 after(async () => {
   if (context) await context.close();
+  if (proxy) await proxy.close();
   await stopView(server);
   if (tmp) rmSync(tmp, { recursive: true, force: true });
 });
@@ -500,8 +505,10 @@ test('view --replay opens the trial marked as a replay, as the review\'s Replay 
   if (process.env.SEESPOT_MODELS) return; // the records were made with the shipped models
   const [rec] = committedRecords().get('ssr-ccd/unstack');
   const file = join('results', 'trials', 'ssr-ccd', 'unstack.jsonl');
-  const { server: child, page: url } = await startView(
+  const { server: child, page: served } = await startView(
     ['view', '--port', '0', '--no-viewer', '--replay', file, '--seed', String(rec.seed)]);
+  const front = await pageFromDisk(served);
+  const url = front.url;
   try {
     const p = await context.newPage();
     p.on('pageerror', (e) => pageErrors.push(String(e)));
@@ -511,6 +518,7 @@ test('view --replay opens the trial marked as a replay, as the review\'s Replay 
     assert.ok(await p.getByTestId('replay-banner').isVisible());
     await p.close();
   } finally {
+    await front.close();
     await stopView(child);
   }
 });

@@ -43,3 +43,100 @@ export async function stopView(server) {
     await exited;
   }
 }
+
+// The page's files as the server serves them (app/viz/src/server.rs ASSETS,
+// embedded in the binary when it is built): url path -> [file in web/, type].
+const ASSETS = {
+  '/': ['index.html', 'text/html; charset=utf-8'],
+  '/index.html': ['index.html', 'text/html; charset=utf-8'],
+  '/app.js': ['app.js', 'text/javascript; charset=utf-8'],
+  '/render.js': ['render.js', 'text/javascript; charset=utf-8'],
+  '/style.css': ['style.css', 'text/css; charset=utf-8'],
+  '/review': ['review.html', 'text/html; charset=utf-8'],
+  '/review.js': ['review.js', 'text/javascript; charset=utf-8'],
+  '/favicon.svg': ['favicon.svg', 'image/svg+xml'],
+};
+
+/** Whether the tests serve the page's files from web/ (SEESPOT_WEB_FROM_DISK=1). */
+export const WEB_FROM_DISK = process.env.SEESPOT_WEB_FROM_DISK === '1';
+
+/**
+ * With SEESPOT_WEB_FROM_DISK=1: a proxy on 127.0.0.1 in front of the server
+ * at `pageUrl` that answers the page's own files (index.html, app.js,
+ * render.js, style.css, review.*) from web/ on disk and passes every other
+ * request, the WebSocket included, to the server (with its `Host` and
+ * `Origin`). For trying page changes against a prebuilt server, which embeds
+ * the files it was built with. Resolves to `{ url, close() }`: `url` is
+ * `pageUrl` on the proxy; without the variable, `pageUrl` itself.
+ */
+export async function pageFromDisk(pageUrl) {
+  if (!WEB_FROM_DISK) return { url: pageUrl, close: async () => {} };
+  const http = await import('node:http');
+  const net = await import('node:net');
+  const { readFileSync } = await import('node:fs');
+  const target = new URL(pageUrl);
+  const port = Number(target.port);
+  const sockets = new Set();
+  // The request's raw headers with the server's own Host and Origin.
+  const rewrite = (raw) => {
+    const out = [];
+    for (let i = 0; i < raw.length; i += 2) {
+      const k = raw[i].toLowerCase();
+      out.push(raw[i], k === 'host' ? target.host : k === 'origin' ? target.origin : raw[i + 1]);
+    }
+    return out;
+  };
+  const proxy = http.createServer((req, res) => {
+    const asset = ASSETS[new URL(req.url, 'http://x').pathname];
+    if (asset && (req.method === 'GET' || req.method === 'HEAD')) {
+      res.writeHead(200, { 'content-type': asset[1], 'cache-control': 'no-store' });
+      res.end(req.method === 'HEAD' ? undefined : readFileSync(join(root, 'web', asset[0])));
+      return;
+    }
+    const up = http.request({ host: target.hostname, port, method: req.method, path: req.url, headers: rewrite(req.rawHeaders) }, (r) => {
+      res.writeHead(r.statusCode, r.headers);
+      r.pipe(res);
+    });
+    up.on('error', () => res.destroy());
+    req.pipe(up);
+  });
+  proxy.on('upgrade', (req, socket, head) => {
+    sockets.add(socket);
+    socket.on('close', () => sockets.delete(socket));
+    const up = net.connect(port, target.hostname, () => {
+      const raw = rewrite(req.rawHeaders);
+      let text = `${req.method} ${req.url} HTTP/1.1\r\n`;
+      for (let i = 0; i < raw.length; i += 2) text += `${raw[i]}: ${raw[i + 1]}\r\n`;
+      up.write(`${text}\r\n`);
+      if (head.length) up.write(head);
+      up.pipe(socket); socket.pipe(up);
+    });
+    sockets.add(up);
+    up.on('close', () => { sockets.delete(up); socket.destroy(); });
+    up.on('error', () => socket.destroy());
+    socket.on('error', () => up.destroy());
+  });
+  await new Promise((ok) => proxy.listen(0, '127.0.0.1', ok));
+  const url = new URL(pageUrl);
+  url.host = `127.0.0.1:${proxy.address().port}`;
+  return {
+    url: url.toString(),
+    close: () => new Promise((ok) => {
+      for (const s of sockets) s.destroy();
+      proxy.closeAllConnections();
+      proxy.close(() => ok());
+    }),
+  };
+}
+
+/** The page's files the server at `pageUrl` serves that differ from web/'s
+ *  on disk (none when they are served from disk). */
+export async function pageFilesDiffering(pageUrl) {
+  const { readFileSync } = await import('node:fs');
+  const differing = [];
+  for (const path of ['/app.js', '/render.js', '/style.css', '/index.html']) {
+    const served = await (await fetch(new URL(path, pageUrl))).text();
+    if (served !== readFileSync(join(root, 'web', ASSETS[path][0]), 'utf8')) differing.push(path);
+  }
+  return differing;
+}
