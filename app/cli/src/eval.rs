@@ -102,6 +102,12 @@ pub struct EvalArgs {
     /// Print one machine-readable summary object on stdout.
     #[arg(long)]
     json: bool,
+    /// Trials run at once, each on its own worker with its own actor (each
+    /// decision still spreads over the cores). Default: every core. The
+    /// records are the same as one at a time, line for line, apart from
+    /// `decide_ms`.
+    #[arg(long, value_parser = clap::value_parser!(u16).range(1..=256))]
+    jobs: Option<u16>,
 }
 
 fn parse_method(s: &str) -> Result<EvalMethod, String> {
@@ -132,7 +138,11 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
     };
     let name = config.spec().to_string();
     // Holds the output folder's lock until the report is written.
-    let evaluation = Evaluation::start(config, tasks)?;
+    let jobs = args.jobs.map_or_else(
+        || std::thread::available_parallelism().map_or(1, |n| n.get()),
+        usize::from,
+    );
+    let evaluation = Evaluation::start(config, tasks)?.with_jobs(jobs);
     let bar = crate::io::progress_bar(evaluation.tasks().len() as u64 * args.trials, false);
     for &task in evaluation.tasks() {
         let (mut ok, mut n) = (0, 0);

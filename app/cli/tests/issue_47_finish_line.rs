@@ -267,3 +267,40 @@ fn reports_and_curves_are_drawn_on_a_machine_without_fonts() {
     let curve = std::fs::read(run_dir.join("curve.png")).expect("learning curve");
     assert!(curve.starts_with(b"\x89PNG") && curve.len() > 1000);
 }
+
+/// `eval --json` on a custom task carries the run's summaries, as a
+/// built-in fold's does, besides the report's path.
+#[test]
+fn a_custom_tasks_eval_json_has_its_summaries() {
+    let out = tempfile::tempdir().expect("tempdir");
+    let out_s = out.path().to_str().expect("utf-8");
+    let (code, stdout, err) = run_in(
+        &root(),
+        &[
+            "eval",
+            "--method",
+            "random",
+            "--task",
+            "custom:l-shape",
+            "--trials",
+            "2",
+            "--seed",
+            "1",
+            "--json",
+            "--out",
+            out_s,
+        ],
+    );
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&stdout).expect("json");
+    let s = v["summaries"].as_array().expect("summaries");
+    assert_eq!(s.len(), 1, "{v}");
+    assert_eq!(s[0]["task"], "custom:l-shape");
+    assert_eq!(s[0]["trials"], 2);
+    assert!(
+        v["report"]
+            .as_str()
+            .is_some_and(|r| r.ends_with("custom.md")),
+        "{v}"
+    );
+}

@@ -403,6 +403,7 @@ pub fn replay_config(
 pub struct Evaluation {
     config: EvalConfig,
     tasks: Vec<TaskId>,
+    jobs: usize,
     _lock: OutputLock,
 }
 
@@ -459,8 +460,16 @@ impl Evaluation {
         Ok(Self {
             config,
             tasks,
+            jobs: 1,
             _lock: lock,
         })
+    }
+
+    /// Runs `jobs` trials at once ([`run_task_jobs`]); 1 (the default) runs
+    /// them one after another. The records are the same either way.
+    pub fn with_jobs(mut self, jobs: usize) -> Self {
+        self.jobs = jobs.max(1);
+        self
     }
 
     pub fn config(&self) -> &EvalConfig {
@@ -477,7 +486,7 @@ impl Evaluation {
         task: TaskId,
         on_trial: &mut dyn FnMut(&TrialRecord),
     ) -> Result<Vec<TrialRecord>, EvalError> {
-        run_task(&self.config, task, on_trial)
+        run_task_jobs(&self.config, task, self.jobs, on_trial)
     }
 
     /// Writes the report over every record of the output folder (the custom
@@ -532,6 +541,22 @@ impl Evaluation {
 pub fn run_task(
     config: &EvalConfig,
     task: TaskId,
+    on_trial: &mut dyn FnMut(&TrialRecord),
+) -> Result<Vec<TrialRecord>, EvalError> {
+    run_task_jobs(config, task, 1, on_trial)
+}
+
+/// [`run_task`] with up to `jobs` trials running at once, each on a worker
+/// thread with its own actor (each decision still spreads over the cores
+/// through rayon). The records are appended in seed order, as a serial run
+/// appends them, so the file is the same line for line apart from timing
+/// (`decide_ms`); a record waits in memory until the trials of the seeds
+/// before it are written, so a killed run loses at most the trials in
+/// flight and those waiting.
+pub fn run_task_jobs(
+    config: &EvalConfig,
+    task: TaskId,
+    jobs: usize,
     on_trial: &mut dyn FnMut(&TrialRecord),
 ) -> Result<Vec<TrialRecord>, EvalError> {
     let name = config.spec().to_string();
@@ -598,19 +623,87 @@ pub fn run_task(
     if done.len() as u64 >= config.seeds.count() {
         return Ok(records);
     }
-    let mut actor = make_actor(config, task)?;
-    for (index, seed) in config.seeds.iter().enumerate() {
-        if done.contains(&seed) {
-            continue;
-        }
+    let todo: Vec<(usize, u64)> = config
+        .seeds
+        .iter()
+        .enumerate()
+        .filter(|(_, seed)| !done.contains(seed))
+        .collect();
+    let run_one = |actor: &mut dyn Actor, index: usize, seed: u64| {
         let mut trial = Trial::new(config.world, task, seed);
-        let mut record =
-            seespot_sim::run_trial(&mut trial, actor.as_mut(), &name, index, &mut |_| {})
-                .map_err(EvalError::Actor)?;
+        let mut record = seespot_sim::run_trial(&mut trial, actor, &name, index, &mut |_| {})
+            .map_err(EvalError::Actor)?;
         record.provenance = Some(prov.clone());
+        Ok::<_, EvalError>(record)
+    };
+    let mut write = |record: TrialRecord| -> Result<(), EvalError> {
         append_record(&path, &record)?;
         on_trial(&record);
         records.push(record);
+        Ok(())
+    };
+    let jobs = jobs.clamp(1, todo.len().max(1));
+    if jobs == 1 {
+        let mut actor = make_actor(config, task)?;
+        for &(index, seed) in &todo {
+            write(run_one(actor.as_mut(), index, seed)?)?;
+        }
+    } else {
+        let next = std::sync::atomic::AtomicUsize::new(0);
+        let stop = std::sync::atomic::AtomicBool::new(false);
+        let (tx, rx) = std::sync::mpsc::channel::<(usize, Result<TrialRecord, EvalError>)>();
+        std::thread::scope(|scope| -> Result<(), EvalError> {
+            for _ in 0..jobs {
+                let tx = tx.clone();
+                let (next, stop, todo, run_one) = (&next, &stop, &todo, &run_one);
+                scope.spawn(move || {
+                    let mut actor = match make_actor(config, task) {
+                        Ok(a) => a,
+                        Err(e) => {
+                            let _ = tx.send((usize::MAX, Err(e)));
+                            return;
+                        }
+                    };
+                    while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                        let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        let Some(&(index, seed)) = todo.get(k) else {
+                            return;
+                        };
+                        if tx.send((k, run_one(actor.as_mut(), index, seed))).is_err() {
+                            return;
+                        }
+                    }
+                });
+            }
+            drop(tx);
+            // Write in seed order: hold a finished trial until those before it are written.
+            let mut waiting = std::collections::BTreeMap::new();
+            let mut written = 0;
+            let mut failure = None;
+            for (k, result) in rx {
+                match result {
+                    Ok(record) => {
+                        waiting.insert(k, record);
+                    }
+                    Err(e) => {
+                        stop.store(true, std::sync::atomic::Ordering::Relaxed);
+                        failure.get_or_insert(e);
+                    }
+                }
+                while failure.is_none() {
+                    let Some(record) = waiting.remove(&written) else {
+                        break;
+                    };
+                    if let Err(e) = write(record) {
+                        stop.store(true, std::sync::atomic::Ordering::Relaxed);
+                        failure = Some(e);
+                        break;
+                    }
+                    written += 1;
+                }
+            }
+            failure.map_or(Ok(()), Err)
+        })?;
     }
     records.sort_by_key(|r| r.seed);
     Ok(records)
