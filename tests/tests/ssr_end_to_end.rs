@@ -532,7 +532,8 @@ fn a_record_replays_exactly_and_is_refused_after_its_files_change() {
     let record = run_task(&config, TaskId::Unstack, &mut |_| {})
         .expect("eval")
         .remove(0);
-    let again = replay_config(&record, &Layout::new(&models, &demos)).expect("replayable");
+    let again =
+        replay_config(&record, &Layout::new(&models, &demos), &config.out_dir).expect("replayable");
     assert_eq!(again.method, EvalMethod::SsrL2cd);
     assert_eq!(again.world.grid.resolution, 112);
     let mut ssr = SsrPolicy::load(
@@ -555,7 +556,7 @@ fn a_record_replays_exactly_and_is_refused_after_its_files_change() {
     let mut text = std::fs::read_to_string(&meta).expect("meta");
     text.push('\n');
     std::fs::write(&meta, text).expect("write");
-    let err = replay_config(&record, &Layout::new(&models, &demos))
+    let err = replay_config(&record, &Layout::new(&models, &demos), &config.out_dir)
         .expect_err("changed demo")
         .to_string();
     assert!(err.contains("meta.json"), "{err}");
