@@ -79,13 +79,16 @@ struct Row {
     p_value: f64,
 }
 
+/// Two runs to compare: a label, the first run's records, the second's.
+type RunPair<'a> = (String, &'a [TrialRecord], &'a [TrialRecord]);
+
 /// The pairs of runs to compare: `--runs`, or every run both folders hold
-/// by name. Each pair: (label, first run's records, second run's records).
+/// by name.
 fn pairs<'a>(
     args: &CompareArgs,
     one: &'a BTreeMap<String, Vec<TrialRecord>>,
     two: &'a BTreeMap<String, Vec<TrialRecord>>,
-) -> anyhow::Result<Vec<(String, &'a [TrialRecord], &'a [TrialRecord])>> {
+) -> anyhow::Result<Vec<RunPair<'a>>> {
     if let Some(r) = &args.runs {
         let get = |m: &'a BTreeMap<String, Vec<TrialRecord>>, dir: &Path, run: &str| {
             m.get(run).map(Vec::as_slice).ok_or_else(|| {
@@ -133,10 +136,7 @@ fn side_text(s: &Option<seespot_eval::diverge::Side>) -> String {
     )
 }
 
-fn diverge(
-    args: &CompareArgs,
-    pairs: &[(String, &[TrialRecord], &[TrialRecord])],
-) -> anyhow::Result<()> {
+fn diverge(args: &CompareArgs, pairs: &[RunPair<'_>]) -> anyhow::Result<()> {
     let (n1, n2) = (&args.names[0], &args.names[1]);
     let all: Vec<_> = pairs
         .iter()

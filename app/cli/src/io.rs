@@ -43,7 +43,7 @@ pub fn progress_bar(n: u64, quiet: bool) -> indicatif::ProgressBar {
 /// unless `allowed` (`--training-seeds`): every command that runs trials says
 /// it in these words, so a result never comes from those starts by mistake.
 pub fn check_trial_seed(seed: u64, allowed: bool) -> anyhow::Result<()> {
-    if seed % 2 == 0 && !allowed {
+    if seed.is_multiple_of(2) && !allowed {
         anyhow::bail!(
             "--seed {seed}: an even seed starts the training and demonstration seeds; \
              run on odd seeds (1: test, 10001: validation), or pass --training-seeds"

@@ -205,13 +205,12 @@ pub fn prepare_models(
     for base in bases(config, fold) {
         let path = finetuned_model_path(&config.out_dir, fold, base, config.finetune_steps);
         let want = inputs(config, fold, base)?;
-        if path.is_file() {
-            if let Ok(policy) = PolicyNet::load(&path) {
-                if policy.meta.extra.get(INPUTS_KEY) == Some(&want) {
-                    out.push((base, policy));
-                    continue;
-                }
-            }
+        if path.is_file()
+            && let Ok(policy) = PolicyNet::load(&path)
+            && policy.meta.extra.get(INPUTS_KEY) == Some(&want)
+        {
+            out.push((base, policy));
+            continue;
         }
         on_model(base);
         let policy = PolicyNet::load(&config.layout.model(base))?;

@@ -72,7 +72,7 @@ pub struct Summary {
     /// Training steps on the test task (0 for SSR).
     pub train_steps: u64,
     /// Annotated (demonstrated) actions the method used (see
-    /// [`annotated_actions`]; 0 for methods that see no demonstration).
+    /// [`demo_actions`]; 0 for methods that see no demonstration).
     pub annotated_actions: usize,
     /// Compute efficiency (paper Sec. 5.1): trial success rate / (train steps
     /// + 1). SSR CCD in Table 1: 36% / (0 + 1) = 36%.
@@ -84,7 +84,7 @@ pub struct Summary {
 
 /// Summarizes the trials of one (method, task). `ideal_actions` is the task's
 /// ideal trial length, `train_steps` the training on the test task (0 for SSR),
-/// `annotated_actions` see [`annotated_actions`]. `method` and `task` come from the
+/// `annotated_actions` see [`demo_actions`]. `method` and `task` come from the
 /// records (`task = None` if they mix tasks; empty `method` with no records).
 pub fn summarize(
     records: &[TrialRecord],

@@ -365,21 +365,7 @@ impl World {
         let (u, v) = ((yaw.cos(), yaw.sin()), (-yaw.sin(), yaw.cos()));
         let grip_z = z - GRIP_DEPTH;
         let poses = self.block_poses();
-        let target = (0..NUM_BLOCKS)
-            .filter(|i| {
-                let p = &poses[*i];
-                let (dx, dy) = (p.position[0] - x, p.position[1] - y);
-                let along = dx * u.0 + dy * u.1;
-                let across = dx * v.0 + dy * v.1;
-                let rel = p.yaw() - yaw;
-                let half_extent = BLOCK_SIZE / 2.0 * (rel.cos().abs() + rel.sin().abs());
-                across.abs() <= MAX_GRASP_OFFSET
-                    && along.abs() + half_extent <= JAW_OPENING / 2.0
-                    && p.top() >= grip_z
-                    && p.top() - BLOCK_SIZE * 1.2 < grip_z
-            })
-            .max_by(|a, b| poses[*a].top().total_cmp(&poses[*b].top()))
-            .ok_or(ActionFailure::EmptyPixel)?;
+        let target = jaw_target(&poses, x, y, z, yaw).ok_or(ActionFailure::EmptyPixel)?;
         if poses[target].tilt() > MAX_GRASP_TILT {
             return Err(ActionFailure::TiltedBlock);
         }
@@ -552,4 +538,36 @@ fn height_at(blocks: &[(usize, BlockPose)], x: f32, y: f32) -> Option<(f32, usiz
         }
     }
     best
+}
+
+/// The block a grasp at world `(x, y)`, height `z` (the action height) and
+/// jaw angle `yaw` closes on, among `poses`: the highest block whose centre
+/// lies within [`MAX_GRASP_OFFSET`] across the jaws, that fits between them
+/// along their closing line, and whose top is between the fingers' grip
+/// height and a block and a fifth above it; `None` when no block is there.
+/// The world's grasp uses it; so does the oracle, to predict a grasp from
+/// the poses alone.
+pub fn jaw_target(
+    poses: &[BlockPose; NUM_BLOCKS],
+    x: f32,
+    y: f32,
+    z: f32,
+    yaw: f32,
+) -> Option<usize> {
+    let (u, v) = ((yaw.cos(), yaw.sin()), (-yaw.sin(), yaw.cos()));
+    let grip_z = z - GRIP_DEPTH;
+    (0..NUM_BLOCKS)
+        .filter(|i| {
+            let p = &poses[*i];
+            let (dx, dy) = (p.position[0] - x, p.position[1] - y);
+            let along = dx * u.0 + dy * u.1;
+            let across = dx * v.0 + dy * v.1;
+            let rel = p.yaw() - yaw;
+            let half_extent = BLOCK_SIZE / 2.0 * (rel.cos().abs() + rel.sin().abs());
+            across.abs() <= MAX_GRASP_OFFSET
+                && along.abs() + half_extent <= JAW_OPENING / 2.0
+                && p.top() >= grip_z
+                && p.top() - BLOCK_SIZE * 1.2 < grip_z
+        })
+        .max_by(|a, b| poses[*a].top().total_cmp(&poses[*b].top()))
 }

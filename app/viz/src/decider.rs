@@ -43,64 +43,37 @@ pub trait Decider: Actor + Send {
     }
 }
 
-/// The scripted oracle: no explanation, but the page and the recording still work.
-impl Decider for Oracle {
-    fn demos(&self) -> &[Demo] {
-        &[]
-    }
+// An actor that decides without demonstrations, policies or an
+// explanation the page can show (the oracle, a SPOT-Q policy acting greedily
+// on its own Q maps, random actions): the debugger runs it and shows the
+// scene and the action; the page and the recording still work.
+macro_rules! plain_decider {
+    ($($t:ty),+) => {$(
+        impl Decider for $t {
+            fn demos(&self) -> &[Demo] {
+                &[]
+            }
 
-    fn policies(&self) -> Vec<TaskId> {
-        Vec::new()
-    }
+            fn policies(&self) -> Vec<TaskId> {
+                Vec::new()
+            }
 
-    fn decision(&self) -> Option<&Decision> {
-        None
-    }
+            fn decision(&self) -> Option<&Decision> {
+                None
+            }
 
-    fn query(&mut self, _: &Heightmaps, _: DemoQuery) -> anyhow::Result<Option<Vec<f32>>> {
-        Ok(None)
-    }
+            fn query(&mut self, _: &Heightmaps, _: DemoQuery) -> anyhow::Result<Option<Vec<f32>>> {
+                Ok(None)
+            }
+        }
+    )+};
 }
 
-/// A SPOT-Q policy acting greedily on its own Q maps (the `spot-q` and
-/// "Good Robot" finetuned rows): no demonstrations, no explanation.
-impl Decider for seespot_policy::PolicyNet {
-    fn demos(&self) -> &[Demo] {
-        &[]
-    }
-
-    fn policies(&self) -> Vec<TaskId> {
-        Vec::new()
-    }
-
-    fn decision(&self) -> Option<&Decision> {
-        None
-    }
-
-    fn query(&mut self, _: &Heightmaps, _: DemoQuery) -> anyhow::Result<Option<Vec<f32>>> {
-        Ok(None)
-    }
-}
-
-/// Uniformly random actions (the `random` row), reseeded from each trial's
-/// seed: no demonstrations, no explanation.
-impl Decider for seespot_policy::RandomActor {
-    fn demos(&self) -> &[Demo] {
-        &[]
-    }
-
-    fn policies(&self) -> Vec<TaskId> {
-        Vec::new()
-    }
-
-    fn decision(&self) -> Option<&Decision> {
-        None
-    }
-
-    fn query(&mut self, _: &Heightmaps, _: DemoQuery) -> anyhow::Result<Option<Vec<f32>>> {
-        Ok(None)
-    }
-}
+plain_decider!(
+    Oracle,
+    seespot_policy::PolicyNet,
+    seespot_policy::RandomActor
+);
 
 /// See-SPOT-Run with the shipped policies and demonstrations.
 impl Decider for SsrPolicy {

@@ -100,7 +100,6 @@ pub async fn serve_view(
     let world = WorldConfig {
         grid: Grid::new(opts.resolution),
         noise: opts.noise,
-        ..WorldConfig::default()
     };
     let mut viewer_server = None;
     let (recorder, grpc_url) = if opts.no_viewer {

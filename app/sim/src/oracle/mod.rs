@@ -24,9 +24,7 @@ use crate::heightmap::Heightmaps;
 use crate::progress::{self, is_on};
 use crate::task::{MAX_PROGRESS, TaskId};
 use crate::workspace::{Grid, WORKSPACE_SIZE};
-use crate::world::{
-    BlockPose, FINGER_HALF_WIDTH, GRIP_DEPTH, JAW_OPENING, MAX_GRASP_OFFSET, MAX_GRASP_TILT, World,
-};
+use crate::world::{BlockPose, FINGER_HALF_WIDTH, GRIP_DEPTH, JAW_OPENING, MAX_GRASP_TILT, World};
 
 mod geometry;
 mod search;
@@ -97,11 +95,11 @@ impl Oracle {
     ///
     /// With a block in hand: the place the grasp was chosen for. With an
     /// empty hand: the grasp of the task's plan (a block and where it goes,
-    /// [`Self::plan`]) when the poses predict that the pair raises progress
+    /// `plan`) when the poses predict that the pair raises progress
     /// (a pair whose place comes close to a block standing above where it
     /// lands is first played in a copy of the world made from the block
     /// poses, and so is every pair once the trial is back where it was).
-    /// Otherwise [`Self::search`]: the first other pair that raises progress
+    /// Otherwise `search`: the first other pair that raises progress
     /// in a copy of the world, else a pair that leaves a better start for the
     /// next (a block freed, a tilted block knocked flat, a tower re-seated).
     /// A pair already chosen at the same layout is not chosen again.

@@ -570,20 +570,7 @@ pub(super) fn grasp_catches(
     let yaw = crate::action::rotation_angle(rot);
     let (u, v) = ((yaw.cos(), yaw.sin()), (-yaw.sin(), yaw.cos()));
     let grip_z = z - GRIP_DEPTH;
-    let target = (0..NUM_BLOCKS)
-        .filter(|k| {
-            let p = &poses[*k];
-            let (dx, dy) = (p.position[0] - x, p.position[1] - y);
-            let along = dx * u.0 + dy * u.1;
-            let across = dx * v.0 + dy * v.1;
-            let rel = p.yaw() - yaw;
-            let half_extent = BLOCK_SIZE / 2.0 * (rel.cos().abs() + rel.sin().abs());
-            across.abs() <= MAX_GRASP_OFFSET
-                && along.abs() + half_extent <= JAW_OPENING / 2.0
-                && p.top() >= grip_z
-                && p.top() - BLOCK_SIZE * 1.2 < grip_z
-        })
-        .max_by(|a, b| poses[*a].top().total_cmp(&poses[*b].top()));
+    let target = crate::world::jaw_target(poses, x, y, z, yaw);
     if target != Some(i) || poses[i].tilt() > MAX_GRASP_TILT {
         return false;
     }
