@@ -23,8 +23,8 @@ use seespot_policy::optim::SgdConfig;
 use seespot_sim::{Demo, TaskId};
 use seespot_ssr::layout::finetuned_model_path;
 
+use crate::config::{EvalConfig, EvalError, sha256_file};
 use crate::run::EvalMethod;
-use crate::runner::{EvalConfig, EvalError, sha256_file};
 
 /// Metadata key of a finetuned model file holding its inputs (JSON).
 pub const INPUTS_KEY: &str = "finetune_inputs";

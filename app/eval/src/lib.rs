@@ -16,6 +16,7 @@
 //! - [`lock`]: one run per output folder;
 //! - [`review`]: why the failed trials failed.
 
+pub mod config;
 pub mod diverge;
 pub mod finetuned;
 pub mod lock;

@@ -18,97 +18,15 @@ use seespot_sim::{
 use seespot_ssr::correspond::{
     CorrespondOptions, Correspondence, DemoFeatures, Rematch, Smoothing,
 };
-use seespot_ssr::explain::Method;
 use seespot_ssr::layout::{Layout, records_path};
-use seespot_ssr::policy::{SsrConfig, SsrError, SsrPolicy};
+use seespot_ssr::policy::SsrPolicy;
 
+pub use crate::config::{EvalConfig, EvalError, sha256_file};
 use crate::finetuned::{self, FinetuneSettings, read_demos};
-use crate::lock::{LockError, OutputLock};
-use crate::records::{RecordError, append_record, read_records};
-use crate::report::{Report, ReportError, custom_markdown, write_report};
+use crate::lock::OutputLock;
+use crate::records::{append_record, read_records};
+use crate::report::{Report, custom_markdown, write_report};
 use crate::run::{EvalMethod, RunSpec};
-
-/// What to evaluate.
-#[derive(Clone, Debug)]
-pub struct EvalConfig {
-    pub method: EvalMethod,
-    /// The trials' seeds (test seeds for the reported table, validation seeds
-    /// for choosing settings; see [`seespot_sim::seeds`]).
-    pub seeds: Seeds,
-    pub out_dir: PathBuf,
-    /// The policies, TransporterNets and demonstrations it reads.
-    pub layout: Layout,
-    pub world: WorldConfig,
-    pub correspond: CorrespondOptions,
-    /// Finetuning steps per policy on the two demonstrations before the trials
-    /// (0 = none). With SSR each of the three policies gets this many (333 each
-    /// is the paper's 1k in all); with `spot-q` it gives the "Good Robot
-    /// finetuned" row: one other-task policy finetuned as many steps (the Adam
-    /// variant: 3x as many).
-    pub finetune_steps: usize,
-    /// How the SPOT-Q policies are finetuned ([`crate::finetuned`]).
-    pub finetune_procedure: FinetuneProcedure,
-}
-
-impl EvalConfig {
-    /// The run this configuration makes: its record name and meaning.
-    pub fn spec(&self) -> RunSpec {
-        RunSpec::of_parts(
-            self.method,
-            &self.correspond,
-            self.finetune_steps,
-            self.finetune_procedure,
-            !self.world.noise.is_none(),
-        )
-    }
-
-    /// How See-SPOT-Run runs for this configuration's method: CCD (also for
-    /// the loop-breaking extension) or L2CD, the correspondence, and whether
-    /// loops are broken.
-    pub fn ssr_config(&self) -> SsrConfig {
-        SsrConfig {
-            method: if self.method == EvalMethod::SsrL2cd {
-                Method::SsrL2cd
-            } else {
-                Method::SsrCcd
-            },
-            correspond: self.correspond,
-            loop_break: self.method == EvalMethod::SsrCcdLoopBreak,
-        }
-    }
-}
-
-/// Why an evaluation stopped.
-#[derive(Debug, thiserror::Error)]
-pub enum EvalError {
-    #[error(transparent)]
-    Ssr(#[from] SsrError),
-    #[error(transparent)]
-    Records(#[from] RecordError),
-    #[error(transparent)]
-    Policy(#[from] seespot_policy::PolicyError),
-    #[error(transparent)]
-    Demo(#[from] seespot_sim::DemoError),
-    #[error("{0}")]
-    Invalid(String),
-    #[error(transparent)]
-    Lock(#[from] LockError),
-    #[error(transparent)]
-    Report(#[from] ReportError),
-    #[error("{0}")]
-    Actor(seespot_sim::ActorError),
-}
-
-/// sha256 (hex) of a file's bytes.
-pub fn sha256_file(path: &Path) -> Result<String, EvalError> {
-    use sha2::{Digest, Sha256};
-    let bytes = seespot_sim::bounds::read_file(path, seespot_sim::bounds::files::CHECKSUMMED)
-        .map_err(|e| EvalError::Invalid(format!("{}: cannot read: {e}", path.display())))?;
-    Ok(Sha256::digest(&bytes)
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect())
-}
 
 /// A run's settings as its records' provenance holds them (a JSON object),
 /// so that runs with different settings are never mixed in one file. The
