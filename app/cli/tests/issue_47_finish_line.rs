@@ -7,6 +7,13 @@
 mod common;
 use common::{root, run, run_in};
 
+/// The words of a command line, `OUT` standing for `out`.
+fn words<'a>(line: &'a str, out: &'a str) -> Vec<&'a str> {
+    line.split(' ')
+        .map(|w| if w == "OUT" { out } else { w })
+        .collect()
+}
+
 /// Each subcommand that can reach the scripted oracle, with a custom task:
 /// a refusal that names the oracle and what works instead, never a panic.
 #[test]
@@ -48,10 +55,7 @@ fn every_oracle_path_refuses_a_custom_task_by_name() {
         ),
     ];
     for (line, want) in cases {
-        let args: Vec<&str> = line
-            .split(' ')
-            .map(|w| if w == "OUT" { out_s } else { w })
-            .collect();
+        let args = words(line, out_s);
         let (code, err) = run(&args);
         assert_ne!(code, 0, "{args:?} was accepted");
         assert_ne!(code, 101, "{args:?} panicked: {err}");
@@ -128,10 +132,7 @@ fn training_seeds_are_refused_the_same_way_everywhere() {
         "record --task stack --decider oracle --seed 0 --out OUT",
         "view --task stack --decider oracle --seed 0 --port 0 --no-viewer",
     ] {
-        let args: Vec<&str> = line
-            .split(' ')
-            .map(|w| if w == "OUT" { out_s } else { w })
-            .collect();
+        let args = words(line, out_s);
         let (code, err) = run(&args);
         assert_ne!(code, 0, "{args:?} was accepted");
         assert!(
