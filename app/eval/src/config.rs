@@ -87,6 +87,21 @@ pub enum EvalError {
     Actor(seespot_sim::ActorError),
 }
 
+/// The files of a demonstration's folder, sorted (the ones whose checksums
+/// the records and the finetuned models name).
+pub fn demo_dir_files(dir: &Path) -> Result<Vec<PathBuf>, EvalError> {
+    let io = |e: std::io::Error| EvalError::Invalid(format!("{}: {e}", dir.display()));
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).map_err(io)? {
+        let p = e.map_err(io)?.path();
+        if p.is_file() {
+            out.push(p);
+        }
+    }
+    out.sort();
+    Ok(out)
+}
+
 /// sha256 (hex) of a file's bytes.
 pub fn sha256_file(path: &Path) -> Result<String, EvalError> {
     use sha2::{Digest, Sha256};

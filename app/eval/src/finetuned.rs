@@ -23,7 +23,7 @@ use seespot_policy::optim::SgdConfig;
 use seespot_sim::{Demo, TaskId};
 use seespot_ssr::layout::finetuned_model_path;
 
-use crate::config::{EvalConfig, EvalError, sha256_file};
+use crate::config::{EvalConfig, EvalError, demo_dir_files, sha256_file};
 use crate::run::EvalMethod;
 
 /// Metadata key of a finetuned model file holding its inputs (JSON).
@@ -170,13 +170,7 @@ fn inputs(config: &EvalConfig, fold: TaskId, base: TaskId) -> Result<String, Eva
     let base_path = config.layout.model(base);
     files.insert("base".to_owned(), sha256_file(&base_path)?);
     for (i, dir) in config.layout.demo_dirs(fold).iter().enumerate() {
-        let mut entries: Vec<PathBuf> = std::fs::read_dir(dir)
-            .map_err(|e| EvalError::Invalid(format!("{}: {e}", dir.display())))?
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.is_file())
-            .collect();
-        entries.sort();
-        for p in entries {
+        for p in demo_dir_files(dir)? {
             let name = p
                 .file_name()
                 .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
@@ -256,17 +250,22 @@ pub fn load_models(
 ) -> Result<Vec<(TaskId, PolicyNet)>, EvalError> {
     bases(config, fold)
         .into_iter()
-        .zip(model_paths(config, fold))
-        .map(|(b, p)| {
-            if !p.is_file() {
-                return Err(EvalError::Invalid(format!(
-                    "{}: the finetuned model is missing; `seespot eval` with the run's settings remakes it",
-                    p.display()
-                )));
-            }
-            Ok((b, PolicyNet::load(&p)?))
-        })
+        .zip(existing_model_paths(config, fold)?)
+        .map(|(b, p)| Ok((b, PolicyNet::load(&p)?)))
         .collect()
+}
+
+/// [`model_paths`], each of which must exist: an error names the first
+/// missing one (a replay never finetunes into a results folder).
+pub fn existing_model_paths(config: &EvalConfig, fold: TaskId) -> Result<Vec<PathBuf>, EvalError> {
+    let paths = model_paths(config, fold);
+    if let Some(p) = paths.iter().find(|p| !p.is_file()) {
+        return Err(EvalError::Invalid(format!(
+            "{}: the finetuned model is missing; `seespot eval` with the run's settings remakes it",
+            p.display()
+        )));
+    }
+    Ok(paths)
 }
 
 /// The Adam variant's models of `config` on `fold`, finetuned in memory:

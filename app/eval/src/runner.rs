@@ -21,7 +21,7 @@ use seespot_ssr::correspond::{
 use seespot_ssr::layout::{Layout, records_path};
 use seespot_ssr::policy::SsrPolicy;
 
-pub use crate::config::{EvalConfig, EvalError, sha256_file};
+pub use crate::config::{EvalConfig, EvalError, demo_dir_files, sha256_file};
 use crate::finetuned::{self, FinetuneSettings, read_demos};
 use crate::lock::OutputLock;
 use crate::records::{append_record, read_records};
@@ -154,14 +154,7 @@ pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalE
     let demos = || -> Result<Vec<PathBuf>, EvalError> {
         let mut out = Vec::new();
         for dir in config.layout.demo_dirs(task) {
-            let entries = std::fs::read_dir(&dir)
-                .map_err(|e| EvalError::Invalid(format!("{}: {e}", dir.display())))?;
-            for e in entries {
-                let e = e.map_err(|e| EvalError::Invalid(format!("{}: {e}", dir.display())))?;
-                if e.path().is_file() {
-                    out.push(e.path());
-                }
-            }
+            out.extend(demo_dir_files(&dir)?);
         }
         Ok(out)
     };
@@ -255,14 +248,7 @@ pub fn replay_config(
             .finetune_procedure()
             .unwrap_or(FinetuneProcedure::Reference),
     };
-    for p in finetuned::model_paths(&config, record.task) {
-        if !p.is_file() {
-            return Err(EvalError::Invalid(format!(
-                "{}: the finetuned model is missing; `seespot eval` with the run's settings remakes it",
-                p.display()
-            )));
-        }
-    }
+    finetuned::existing_model_paths(&config, record.task)?;
     let now = provenance(&config, record.task)?;
     if now.settings != prov.settings {
         return Err(EvalError::Invalid(format!(
@@ -484,14 +470,18 @@ pub fn run_task_jobs(
             .map_err(|e| EvalError::Invalid(format!("{}: {e}", dir.display())))?;
     }
     let mut records = read_records(&path)?;
-    let todo = config
+    // The seeds of `config.seeds` not on disk yet, with their trial index.
+    let done: std::collections::BTreeSet<u64> = records.iter().map(|r| r.seed).collect();
+    let todo: Vec<(usize, u64)> = config
         .seeds
         .iter()
-        .any(|s| !records.iter().any(|r| r.seed == s));
+        .enumerate()
+        .filter(|(_, seed)| !done.contains(seed))
+        .collect();
     // The finetuned models first: the provenance names them with their
     // checksums. Made only when there are trials to run (a finished run's
     // report and checks read the files as they are).
-    if todo {
+    if !todo.is_empty() {
         finetuned::prepare_models(config, task, &mut |base| {
             eprintln!("finetuning the {base} policy on the {task} demonstrations ...");
         })?;
@@ -537,16 +527,9 @@ pub fn run_task_jobs(
     for r in &records {
         on_trial(r);
     }
-    let done: std::collections::BTreeSet<u64> = records.iter().map(|r| r.seed).collect();
-    if done.len() as u64 >= config.seeds.count() {
+    if todo.is_empty() {
         return Ok(records);
     }
-    let todo: Vec<(usize, u64)> = config
-        .seeds
-        .iter()
-        .enumerate()
-        .filter(|(_, seed)| !done.contains(seed))
-        .collect();
     let run_one = |actor: &mut dyn Actor, index: usize, seed: u64| {
         let mut trial = Trial::new(config.world, task, seed);
         let mut record = seespot_sim::run_trial(&mut trial, actor, &name, index, &mut |_| {})
