@@ -20,7 +20,7 @@ def test_policy_q_values_and_embeddings() -> None:
 
 def test_ssr_decide_explains_every_pair() -> None:
     ssr = seespot.Ssr("stack")
-    assert ssr.policy_tasks == [t for t in seespot.TASKS if t != "stack"]
+    assert ssr.policy_names == [t for t in seespot.TASKS if t != "stack"]
     trial = seespot.Trial("stack", 1)
     color, depth = trial.observe()
     d = ssr.decide(color, depth, trial.progress, trial.next_primitive)

@@ -55,6 +55,11 @@ pub enum BenchCommand {
         resolution: usize,
         #[arg(long, default_value_t = 9, value_parser = seespot_sim::bounds::parse_bench_iterations)]
         iterations: usize,
+        /// Decide with these embedding models (a folder of `<task>.onnx`,
+        /// or files; docs/embeddings.md) in place of three untrained SPOT-Q
+        /// policies.
+        #[arg(long, num_args = 1.., value_name = "PATH")]
+        embeddings: Vec<std::path::PathBuf>,
         #[arg(long)]
         json: bool,
     },
@@ -78,8 +83,9 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
         BenchCommand::Ssr {
             resolution,
             iterations,
+            embeddings,
             json,
-        } => bench_ssr(resolution, iterations, json),
+        } => bench_ssr(resolution, iterations, &embeddings, json),
         BenchCommand::Train {
             resolution,
             actions,
@@ -158,7 +164,12 @@ fn bench_sim(actions: usize, resolution: usize, json: bool) -> anyhow::Result<()
 /// Correspond alone on random maps, then whole SSR decisions on a live scene
 /// with three (untrained, same architecture) policies and two oracle demos
 /// recorded at `resolution`.
-fn bench_ssr(resolution: usize, iterations: usize, json: bool) -> anyhow::Result<()> {
+fn bench_ssr(
+    resolution: usize,
+    iterations: usize,
+    embeddings: &[std::path::PathBuf],
+    json: bool,
+) -> anyhow::Result<()> {
     use seespot_sim::{Primitive, TaskId, Trial};
     use seespot_ssr::{SsrConfig, SsrPolicy};
     let correspond = seespot_ssr::bench_correspond(resolution, iterations);
@@ -171,11 +182,27 @@ fn bench_ssr(resolution: usize, iterations: usize, json: bool) -> anyhow::Result
         .iter()
         .map(|&s| seespot_sim::Demo::record(task, s, config))
         .collect::<Result<Vec<_>, _>>()?;
-    let policies = TaskId::ALL
-        .into_iter()
-        .filter(|t| *t != task)
-        .map(|t| Ok((t, seespot_policy::PolicyNet::new(t, resolution, 1)?)))
-        .collect::<anyhow::Result<Vec<_>>>()?;
+    let set = if embeddings.is_empty() {
+        None
+    } else {
+        Some(seespot_ssr::layout::Embeddings::from_paths(embeddings).map_err(anyhow::Error::msg)?)
+    };
+    let policies = match &set {
+        None => TaskId::ALL
+            .into_iter()
+            .filter(|t| *t != task)
+            .map(|t| {
+                let p = seespot_policy::PolicyNet::new(t, resolution, 1)?;
+                Ok((t.as_str().to_string(), p.into()))
+            })
+            .collect::<anyhow::Result<Vec<_>>>()?,
+        Some(e) => e
+            .files(task)
+            .into_iter()
+            .map(|(name, path)| Ok((name, seespot_policy::Embedder::load(&path)?)))
+            .collect::<anyhow::Result<Vec<_>>>()?,
+    };
+    let dims: Vec<usize> = policies.iter().map(|(_, e)| e.dim()).collect();
     let mut ssr = SsrPolicy::new(task, policies, demos, SsrConfig::default())?;
     let trial = Trial::new(config, task, 1);
     let hm = trial.world().render();
@@ -201,6 +228,8 @@ fn bench_ssr(resolution: usize, iterations: usize, json: bool) -> anyhow::Result
     let (decision_ms, decisions) = (median(&mut total), total.len());
     let report = serde_json::json!({
         "resolution": resolution,
+        "embeddings": set.as_ref().map_or("untrained SPOT-Q policies".to_string(), |e| e.label()),
+        "embedding_dims": dims,
         "correspond": correspond,
         "decision": {
             "decision_ms": decision_ms,

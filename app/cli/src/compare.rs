@@ -119,7 +119,7 @@ fn side_text(s: &Option<seespot_eval::diverge::Side>) -> String {
         return "(trial over)".into();
     };
     let a = s.action;
-    let pair = match (s.policy, s.demo) {
+    let pair = match (&s.policy, s.demo) {
         (Some(p), Some(d)) => format!(" from {p} demo {d}"),
         _ => String::new(),
     };

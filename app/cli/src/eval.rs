@@ -42,6 +42,13 @@ pub struct EvalArgs {
     models: PathBuf,
     #[arg(long, default_value = "demos")]
     demos: PathBuf,
+    /// SSR's embedding models in place of the SPOT-Q policies: a folder of
+    /// `<task>.onnx` files (each fold leaves its own task's out) or ONNX
+    /// files used for every fold (docs/embeddings.md). The run is named
+    /// after the set (`ssr-ccd@NAME`) and its records carry each file's
+    /// sha256.
+    #[arg(long, num_args = 1.., value_name = "PATH")]
+    embeddings: Vec<PathBuf>,
     /// Heightmap pixels per side (must match the demonstrations).
     #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = seespot_sim::DEFAULT_RESOLUTION)]
     resolution: usize,
@@ -130,12 +137,15 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         method: args.method,
         seeds,
         out_dir: args.out.clone(),
-        layout: Layout::new(&args.models, &args.demos),
+        layout: Layout::new(&args.models, &args.demos)
+            .with_embeddings(crate::io::embeddings(&args.embeddings)?),
         world,
         correspond: correspond_options(&args)?,
         finetune_steps: args.finetune_steps,
         finetune_procedure: args.finetune_procedure,
     };
+    // A bad embedding model is refused before any trial.
+    config.check_embeddings(&tasks)?;
     let name = config.spec().to_string();
     // Holds the output folder's lock until the report is written.
     let jobs = args.jobs.map_or_else(

@@ -51,3 +51,15 @@ pub fn check_trial_seed(seed: u64, allowed: bool) -> anyhow::Result<()> {
     }
     Ok(())
 }
+
+/// The embedding set `--embeddings` names (none when it is not given).
+pub fn embeddings(
+    paths: &[std::path::PathBuf],
+) -> anyhow::Result<Option<seespot_ssr::layout::Embeddings>> {
+    if paths.is_empty() {
+        return Ok(None);
+    }
+    seespot_ssr::layout::Embeddings::from_paths(paths)
+        .map(Some)
+        .map_err(|e| anyhow::anyhow!("--embeddings: {e}"))
+}

@@ -26,21 +26,33 @@ pub struct DeciderArgs {
     /// Folder of the demonstrations (`<task>/{0,2}`).
     #[arg(long, default_value = "demos")]
     pub demos: PathBuf,
+    /// SSR's embedding models in place of the SPOT-Q policies: a folder of
+    /// `<task>.onnx` files (each fold leaves its own task's out) or ONNX
+    /// files used for every fold (docs/embeddings.md).
+    #[arg(long, num_args = 1.., value_name = "PATH")]
+    pub embeddings: Vec<PathBuf>,
 }
 
 impl DeciderArgs {
-    fn layout(&self) -> Layout {
-        Layout::new(&self.models, &self.demos)
+    fn layout(&self) -> anyhow::Result<Layout> {
+        Ok(Layout::new(&self.models, &self.demos)
+            .with_embeddings(crate::io::embeddings(&self.embeddings)?))
     }
 
     fn factory(&self) -> anyhow::Result<DeciderFactory> {
-        Ok(registry::factory(self.decider, self.layout()))
+        if !self.embeddings.is_empty() && self.decider != DeciderKind::Ssr {
+            anyhow::bail!(
+                "--embeddings: the {:?} decider runs no embedding set; --decider ssr does",
+                self.decider
+            );
+        }
+        Ok(registry::factory(self.decider, self.layout()?))
     }
 
     /// Makes `task` ready to run: a custom task is defined by its
     /// demonstrations in `--demos` ([`Layout::load_task`]).
     fn load_task(&self, task: TaskId) -> anyhow::Result<()> {
-        self.layout()
+        self.layout()?
             .load_task(task)
             .with_context(|| format!("task {task}"))
     }
@@ -114,7 +126,7 @@ fn replay(
     args: &ViewArgs,
     path: &std::path::Path,
 ) -> anyhow::Result<(TaskId, usize, DeciderFactory, String, SensorNoise)> {
-    let r = seespot_viz::review::replay(path, args.seed, &args.decider.layout())?;
+    let r = seespot_viz::review::replay(path, args.seed, &args.decider.layout()?)?;
     outln!("{}: the files it was made with match today's", r.summary)?;
     Ok((r.task, r.resolution, r.factory, r.summary, r.noise))
 }
@@ -177,7 +189,7 @@ pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
         no_viewer: args.no_viewer,
         review: Some(seespot_viz::review::ReviewSource {
             dir: args.review.clone(),
-            layout: args.decider.layout(),
+            layout: args.decider.layout()?,
         }),
         replay: replay_summary,
     };

@@ -41,13 +41,54 @@ pub struct EvalConfig {
 impl EvalConfig {
     /// The run this configuration makes: its record name and meaning.
     pub fn spec(&self) -> RunSpec {
-        RunSpec::of_parts(
+        let spec = RunSpec::of_parts(
             self.method,
             &self.correspond,
             self.finetune_steps,
             self.finetune_procedure,
             !self.world.noise.is_none(),
-        )
+        );
+        // A configuration whose embeddings its method cannot take is refused
+        // by [`Self::check_embeddings`] before any trial.
+        match self.embeddings_label() {
+            Some(l) if self.method.is_ssr() => spec.with_embeddings(l).unwrap_or(spec),
+            _ => spec,
+        }
+    }
+
+    /// The name of the run's embedding set, if it has one.
+    pub fn embeddings_label(&self) -> Option<crate::run::EmbeddingLabel> {
+        let e = self.layout.embeddings.as_ref()?;
+        crate::run::EmbeddingLabel::new(&e.label()).ok()
+    }
+
+    /// Refuses an embedding set the run cannot use: with a method that does
+    /// not embed, with finetuning, or whose name is not a label; and loads
+    /// (so checks, docs/embeddings.md) every model the folds of `tasks` use,
+    /// so a bad file is refused before any trial.
+    pub fn check_embeddings(&self, tasks: &[seespot_sim::TaskId]) -> Result<(), EvalError> {
+        let Some(e) = &self.layout.embeddings else {
+            return Ok(());
+        };
+        let label = crate::run::EmbeddingLabel::new(&e.label()).map_err(EvalError::Invalid)?;
+        let spec = RunSpec::of_parts(
+            self.method,
+            &self.correspond,
+            self.finetune_steps,
+            self.finetune_procedure,
+            !self.world.noise.is_none(),
+        );
+        spec.with_embeddings(label)
+            .map_err(|e| EvalError::Invalid(format!("--embeddings: {e}")))?;
+        let mut seen = std::collections::BTreeSet::new();
+        for t in tasks {
+            for (_, path) in self.layout.policy_files(*t) {
+                if seen.insert(path.clone()) {
+                    seespot_policy::Embedder::load(&path).map_err(SsrError::from)?;
+                }
+            }
+        }
+        Ok(())
     }
 
     /// How See-SPOT-Run runs for this configuration's method: CCD (also for

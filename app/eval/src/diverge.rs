@@ -16,7 +16,7 @@ pub struct Side {
     pub action: Action,
     /// The (policy, demonstration) pair SSR acted on; `None` for methods
     /// without pairs.
-    pub policy: Option<TaskId>,
+    pub policy: Option<String>,
     pub demo: Option<usize>,
     /// L and C of the chosen pair (SSR).
     pub l: Option<f32>,
@@ -32,7 +32,7 @@ impl Side {
     fn of(a: &ActionLog, r: &TrialRecord) -> Self {
         Self {
             action: a.action,
-            policy: a.chosen_policy,
+            policy: a.chosen_policy.clone(),
             demo: a.chosen_demo,
             l: a.l,
             c: a.c,
@@ -117,7 +117,7 @@ mod tests {
             action: Action::new(Primitive::Grasp, 0, 10, x),
             progress_before: 1,
             progress_after: 1,
-            chosen_policy: Some(TaskId::Row),
+            chosen_policy: Some("row".into()),
             chosen_demo: Some(0),
             l: Some(1.0),
             c: Some(2.0),

@@ -224,7 +224,7 @@ pub(crate) mod tests {
             action: Action::new(seespot_sim::Primitive::Grasp, 3, 10, 20),
             progress_before: 1,
             progress_after: 1,
-            chosen_policy: Some(TaskId::Row),
+            chosen_policy: Some("row".into()),
             chosen_demo: Some(1),
             l: Some(0.5),
             c: Some(2.0),

@@ -1165,7 +1165,7 @@ mod tests {
             action: Action::new(Primitive::Grasp, 0, 1, 1),
             progress_before: 1,
             progress_after: 1,
-            chosen_policy: Some(TaskId::Row),
+            chosen_policy: Some("row".into()),
             chosen_demo: Some(0),
             l: Some(1.0),
             c: Some(0.0),

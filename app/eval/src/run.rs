@@ -214,6 +214,51 @@ pub struct RunSpec {
     /// TransporterNet has one finetuning, named `Reference`).
     finetuned: Option<FinetuneProcedure>,
     noisy: bool,
+    /// The embedding set SSR ran on, when not the SPOT-Q policies of
+    /// `models/` (its [`seespot_ssr::layout::Embeddings::label`]).
+    embeddings: Option<EmbeddingLabel>,
+}
+
+/// An embedding set's name in a run's name (`ssr-ccd@raw-patches`): lower
+/// case letters, digits, `-` and `+`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct EmbeddingLabel(&'static str);
+
+impl EmbeddingLabel {
+    /// The label `s`, or why it is not one.
+    pub fn new(s: &str) -> Result<Self, String> {
+        use std::collections::HashSet;
+        use std::sync::Mutex;
+        let ok = !s.is_empty()
+            && s.len() <= 120
+            && s.chars()
+                .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-' || c == '+');
+        if !ok {
+            return Err(format!(
+                "`{s}` is not an embedding set's name (1 to 120 of a-z, 0-9, `-` and `+`)"
+            ));
+        }
+        // Labels are few (one per embedding set a process meets); each is
+        // kept once for the process's life, so a spec stays `Copy`.
+        static LABELS: OnceLock<Mutex<HashSet<&'static str>>> = OnceLock::new();
+        let mut labels = LABELS
+            .get_or_init(Default::default)
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let label = match labels.get(s) {
+            Some(l) => l,
+            None => {
+                let l: &'static str = Box::leak(s.to_owned().into_boxed_str());
+                labels.insert(l);
+                l
+            }
+        };
+        Ok(Self(label))
+    }
+
+    pub fn as_str(&self) -> &'static str {
+        self.0
+    }
 }
 
 impl RunSpec {
@@ -225,7 +270,35 @@ impl RunSpec {
             correspond: CorrespondName::REFERENCE,
             finetuned: None,
             noisy: false,
+            embeddings: None,
         }
+    }
+
+    /// This run on the embedding set `label`; an error for the methods that
+    /// do not embed (only SSR does) and for finetuned runs, which finetune
+    /// seespot's own weights.
+    pub fn with_embeddings(self, label: EmbeddingLabel) -> Result<Self, String> {
+        if !self.method.is_ssr() {
+            return Err(format!(
+                "{} runs no embedding set; --embeddings applies to SSR's methods",
+                self.method.as_str()
+            ));
+        }
+        if self.is_finetuned() {
+            return Err(
+                "finetuning trains seespot's own SPOT-Q weights; an embedding set is used as it is"
+                    .to_owned(),
+            );
+        }
+        Ok(Self {
+            embeddings: Some(label),
+            ..self
+        })
+    }
+
+    /// The embedding set's name, if the run used one.
+    pub fn embeddings(&self) -> Option<EmbeddingLabel> {
+        self.embeddings
     }
 
     /// This run with SSR's correspondence `c`; for other methods, which have
@@ -302,6 +375,7 @@ impl RunSpec {
                 procedure
             }),
             noisy,
+            embeddings: None,
         }
     }
 
@@ -394,8 +468,12 @@ impl RunSpec {
             ""
         };
         let noise = if self.noisy { ", sensor noise" } else { "" };
+        let embeddings = self
+            .embeddings
+            .map(|e| format!(", embeddings: {}", e.as_str()))
+            .unwrap_or_default();
         format!(
-            "{base}{finetuned}{adam}{}{noise}",
+            "{base}{finetuned}{adam}{}{noise}{embeddings}",
             self.correspond.display_suffix()
         )
     }
@@ -440,6 +518,13 @@ impl fmt::Display for RunSpec {
         } else {
             ""
         };
+        if let Some(e) = self.embeddings {
+            let base = Self {
+                embeddings: None,
+                ..*self
+            };
+            return write!(f, "{base}@{}", e.as_str());
+        }
         match (self.method, self.is_finetuned()) {
             (EvalMethod::SpotQ, true) => write!(f, "good-robot-finetuned{adam}{noise}"),
             (EvalMethod::Transporter, true) => write!(f, "transporter-finetuned{noise}"),
@@ -460,6 +545,11 @@ impl FromStr for RunSpec {
     type Err = String;
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
+        if let Some((base, label)) = s.split_once('@') {
+            return base
+                .parse::<Self>()?
+                .with_embeddings(EmbeddingLabel::new(label)?);
+        }
         static NAMES: OnceLock<HashMap<String, RunSpec>> = OnceLock::new();
         let names = NAMES.get_or_init(|| {
             RunSpec::all()
@@ -470,7 +560,8 @@ impl FromStr for RunSpec {
         names.get(s).copied().ok_or_else(|| {
             format!(
                 "`{s}` is not a seespot run name (a method, {}, with its variants, e.g. \
-                 ssr-ccd-plain, ssr-ccd-finetuned, good-robot-finetuned, ssr-ccd-noisy)",
+                 ssr-ccd-plain, ssr-ccd-finetuned, good-robot-finetuned, ssr-ccd-noisy, \
+                 ssr-ccd@raw-patches)",
                 EvalMethod::ALL.map(|m| m.as_str()).join(", ")
             )
         })

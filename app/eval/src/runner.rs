@@ -64,6 +64,11 @@ pub struct RunSettings {
     /// in the Adam variant's, whose records state `finetune_steps` alone.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub finetune: Option<FinetuneSettings>,
+    /// The embedding set SSR ran on in place of the SPOT-Q policies
+    /// (`--embeddings`); absent for the shipped policies. Its files'
+    /// checksums are the provenance's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub embeddings: Option<seespot_ssr::layout::Embeddings>,
 }
 
 impl RunSettings {
@@ -97,6 +102,11 @@ impl RunSettings {
                 .runs_spot_q_nets()
                 .then(|| seespot_policy::infer::TRUNK_KERNELS.to_owned()),
             finetune: finetuned::settings(config, task),
+            embeddings: config
+                .method
+                .is_ssr()
+                .then(|| config.layout.embeddings.clone())
+                .flatten(),
         }
     }
 
@@ -160,8 +170,8 @@ pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalE
     };
     match (config.method, config.finetune_steps) {
         (EvalMethod::SsrCcd | EvalMethod::SsrL2cd | EvalMethod::SsrCcdLoopBreak, _) => {
-            for t in TaskId::ALL.into_iter().filter(|t| *t != task) {
-                paths.push(config.layout.model(t));
+            for (_, path) in config.layout.policy_files(task) {
+                paths.push(path);
             }
             paths.extend(demos()?);
             paths.extend(finetuned::model_paths(config, task));
@@ -237,7 +247,7 @@ pub fn replay_config(
         method,
         seeds: Seeds::new(record.seed, 1).map_err(|e| EvalError::Invalid(e.to_string()))?,
         out_dir: out_dir.to_path_buf(),
-        layout: layout.clone(),
+        layout: layout.clone().with_embeddings(settings.embeddings.clone()),
         world: WorldConfig {
             noise: settings.noise,
             ..world_config(settings.resolution)
@@ -463,6 +473,7 @@ pub fn run_task_jobs(
     jobs: usize,
     on_trial: &mut dyn FnMut(&TrialRecord),
 ) -> Result<Vec<TrialRecord>, EvalError> {
+    config.check_embeddings(&[task])?;
     let name = config.spec().to_string();
     let path = records_path(&config.out_dir, &name, task);
     if let Some(dir) = path.parent() {
@@ -618,6 +629,7 @@ pub fn make_actor(
     config: &EvalConfig,
     task: TaskId,
 ) -> Result<Box<dyn Actor + Send + Sync>, EvalError> {
+    config.check_embeddings(&[])?;
     Ok(match config.method {
         EvalMethod::SsrCcd | EvalMethod::SsrL2cd | EvalMethod::SsrCcdLoopBreak => {
             Box::new(ssr_policy(config, task)?)
@@ -637,8 +649,8 @@ pub fn ssr_policy(config: &EvalConfig, task: TaskId) -> Result<SsrPolicy, EvalEr
     if config.finetune_steps > 0 {
         let tuned = finetuned_policies(config, task)?;
         for ((t, policy), (base, tuned)) in ssr.policies_mut().iter_mut().zip(tuned) {
-            debug_assert_eq!(*t, base);
-            *policy = tuned;
+            debug_assert_eq!(t.as_str(), base.as_str());
+            *policy = seespot_policy::Embedder::Spot(tuned);
         }
     }
     Ok(ssr)

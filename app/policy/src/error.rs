@@ -26,6 +26,10 @@ pub enum PolicyError {
     /// A checkpoint or run-directory file is damaged or does not match.
     #[error("{path}: {reason}")]
     Checkpoint { path: PathBuf, reason: String },
+    /// An ONNX embedding model breaks the contract (docs/embeddings.md) or
+    /// failed to run.
+    #[error("{path}: embedding model refused: {reason}")]
+    Onnx { path: PathBuf, reason: String },
     /// A demonstration cannot be used (the message names it).
     #[error("{0}")]
     Demo(String),

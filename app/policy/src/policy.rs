@@ -17,25 +17,51 @@ use crate::net::{FEATURE_RESOLUTION, QNet, TRUNK_STRIDE, Trunk, param_shapes};
 use crate::rotation::{BackMap, rotate_input_batch, sample_back};
 use crate::tensor_file::{self, F32Tensor};
 
-/// The [`CellAse`] of `rf` (the rotated cells of `hm`: every rotation, or
-/// rotation `only`'s alone) under `hm`'s common-sense mask for `primitive`.
-fn cell_ase(
+/// The [`CellAse`] of rotated cell features (`R x cells x cells x dim`
+/// channels last, every rotation, or rotation `only`'s alone) of a model with
+/// stride `stride` run on `input` (the network input of `hm`), under `hm`'s
+/// common-sense mask for `primitive`.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn cell_ase(
+    hm: &Heightmaps,
+    primitive: Primitive,
+    features: Vec<f32>,
+    input: &NetInput,
+    cells: usize,
+    dim: usize,
+    stride: usize,
+    only: Option<usize>,
+) -> CellAse {
+    let h = hm.resolution();
+    let map = BackMap::new(input, h, stride);
+    let taps = Taps::shared(&map, cells, NUM_ROTATIONS, h);
+    CellAse::with_rotations(
+        primitive,
+        h,
+        cells,
+        dim,
+        features,
+        taps,
+        &common_sense_mask(hm, primitive),
+        only,
+    )
+}
+
+/// [`cell_ase`] of the trunk's features.
+fn trunk_cell_ase(
     hm: &Heightmaps,
     primitive: Primitive,
     rf: RotatedFeatures,
     only: Option<usize>,
 ) -> CellAse {
-    let h = hm.resolution();
-    let map = BackMap::new(&rf.input, h, TRUNK_STRIDE);
-    let taps = Taps::shared(&map, FEATURE_RESOLUTION, NUM_ROTATIONS, h);
-    CellAse::with_rotations(
+    cell_ase(
+        hm,
         primitive,
-        h,
+        rf.features,
+        &rf.input,
         FEATURE_RESOLUTION,
         EMBEDDING_DIM,
-        rf.features,
-        taps,
-        &common_sense_mask(hm, primitive),
+        TRUNK_STRIDE,
         only,
     )
 }
@@ -76,17 +102,24 @@ pub struct PolicyNet {
 /// several policies computes it once ([`PolicyNet::embed_cells_with`]).
 #[derive(Clone, Debug)]
 pub struct SceneInput {
-    input: NetInput,
+    pub(crate) input: NetInput,
     rotated: Vec<f32>,
+    /// The same rotations channels first (`R x C x N x N`), as an ONNX
+    /// embedding model reads them ([`crate::onnx`]).
+    pub(crate) rotated_chw: Vec<f32>,
 }
 
 impl SceneInput {
     pub fn new(hm: &Heightmaps) -> Self {
         let input = NetInput::from_heightmaps(hm);
         let rotations: Vec<usize> = (0..NUM_ROTATIONS).collect();
-        let rotated = rotate_input_batch(&input, &rotations);
-        let rotated = crate::infer::channels_last(&rotated, NUM_ROTATIONS, input.n);
-        Self { input, rotated }
+        let rotated_chw = rotate_input_batch(&input, &rotations);
+        let rotated = crate::infer::channels_last(&rotated_chw, NUM_ROTATIONS, input.n);
+        Self {
+            input,
+            rotated,
+            rotated_chw,
+        }
     }
 }
 
@@ -213,7 +246,7 @@ impl PolicyNet {
         primitive: Primitive,
     ) -> Result<CellAse, PolicyError> {
         let rf = self.rotated_features_with(scene, primitive)?;
-        Ok(cell_ase(hm, primitive, rf, None))
+        Ok(trunk_cell_ase(hm, primitive, rf, None))
     }
 
     /// [`Self::embed_cells`] of rotation `rotation` alone (one trunk pass
@@ -231,7 +264,7 @@ impl PolicyNet {
         let trunk = crate::infer::InferTrunk::shared(self.net(primitive))?;
         let features = trunk.forward(&x, 1, NET_RESOLUTION);
         let rf = RotatedFeatures { features, input };
-        Ok(cell_ase(hm, primitive, rf, Some(rotation)))
+        Ok(trunk_cell_ase(hm, primitive, rf, Some(rotation)))
     }
 
     /// Q-values of the low-resolution rotated cells (`R x 28 x 28`).

@@ -27,9 +27,13 @@ pub struct Evaluator {
 impl Evaluator {
     /// `method`: one of `METHODS` (ssr-ccd, ssr-l2cd, ssr-ccd-loopbreak,
     /// spot-q, oracle, random, transporter; no finetuning);
-    /// `correspond`: `reference` or `plain` (SSR only).
+    /// `correspond`: `reference` or `plain` (SSR only); `embeddings` (SSR
+    /// only): a folder of `<task>.onnx` files or a list of ONNX files
+    /// (docs/embeddings.md) in place of the SPOT-Q policies; the record name
+    /// then names the set (`ssr-ccd@raw-patches`).
     #[new]
-    #[pyo3(signature = (method, task, models_dir = "models".into(), demos_dir = "demos".into(), resolution = seespot_sim::DEFAULT_RESOLUTION as i64, correspond = "reference"))]
+    #[pyo3(signature = (method, task, models_dir = "models".into(), demos_dir = "demos".into(), resolution = seespot_sim::DEFAULT_RESOLUTION as i64, correspond = "reference", embeddings = None))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
         method: &str,
@@ -38,6 +42,7 @@ impl Evaluator {
         demos_dir: PathBuf,
         resolution: i64,
         correspond: &str,
+        embeddings: Option<Vec<PathBuf>>,
     ) -> PyResult<Self> {
         let eval_method: EvalMethod = method.parse().map_err(|e| bad("method", e))?;
         let task = arrays::task(task, &demos_dir)?;
@@ -49,12 +54,16 @@ impl Evaluator {
             method: eval_method,
             seeds: Seeds::new(1, 1).map_err(|e| bad("seeds", e))?,
             out_dir: PathBuf::new(),
-            layout: seespot_ssr::Layout::new(models_dir, demos_dir),
+            layout: seespot_ssr::Layout::new(models_dir, demos_dir)
+                .with_embeddings(embeddings_of(embeddings)?),
             world: seespot_eval::runner::world_config(resolution),
             correspond: seespot_ssr::CorrespondOptions::of_mode(mode),
             finetune_steps: 0,
             finetune_procedure: seespot_policy::finetune::FinetuneProcedure::Reference,
         };
+        config
+            .check_embeddings(&[task])
+            .map_err(|e| bad("embeddings", e))?;
         let name = config.spec().to_string();
         let (actor, provenance) = py
             .detach(|| {
@@ -101,6 +110,16 @@ impl Evaluator {
         })
         .map_err(|e| bad("seed", e))
     }
+}
+
+/// The embedding set a Python `embeddings` argument names (`None`: the
+/// SPOT-Q policies).
+pub fn embeddings_of(
+    paths: Option<Vec<PathBuf>>,
+) -> PyResult<Option<seespot_ssr::layout::Embeddings>> {
+    paths
+        .map(|p| seespot_ssr::layout::Embeddings::from_paths(&p).map_err(|e| bad("embeddings", e)))
+        .transpose()
 }
 
 /// The seeds `seespot eval --seed start --trials count` runs (validated as

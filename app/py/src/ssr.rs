@@ -48,9 +48,11 @@ pub fn ssr_config(method: &str, correspond: &str) -> PyResult<SsrConfig> {
 impl Ssr {
     /// Loads `models_dir/<other task>.safetensors` (default `models`) and the demonstrations of
     /// `task` under `demos_dir`. `method`: `ssr-ccd` (Eq. 8) or `ssr-l2cd`
-    /// (Eq. 9); `correspond`: `reference` or `plain`.
+    /// (Eq. 9); `correspond`: `reference` or `plain`. `embeddings`: a folder
+    /// of `<task>.onnx` files or a list of ONNX files (docs/embeddings.md),
+    /// used in place of the SPOT-Q policies.
     #[new]
-    #[pyo3(signature = (task, models_dir = "models".into(), demos_dir = "demos".into(), method = "ssr-ccd", correspond = "reference"))]
+    #[pyo3(signature = (task, models_dir = "models".into(), demos_dir = "demos".into(), method = "ssr-ccd", correspond = "reference", embeddings = None))]
     fn new(
         py: Python<'_>,
         task: &str,
@@ -58,25 +60,23 @@ impl Ssr {
         demos_dir: std::path::PathBuf,
         method: &str,
         correspond: &str,
+        embeddings: Option<Vec<std::path::PathBuf>>,
     ) -> PyResult<Self> {
         let task = arrays::task(task, &demos_dir)?;
         let config = ssr_config(method, correspond)?;
+        let layout = seespot_ssr::Layout::new(models_dir, demos_dir)
+            .with_embeddings(crate::eval::embeddings_of(embeddings)?);
         let ssr = py
-            .detach(|| {
-                SsrPolicy::load(
-                    task,
-                    &seespot_ssr::Layout::new(models_dir, demos_dir),
-                    config,
-                )
-            })
-            .map_err(|e| bad("models_dir/demos_dir", e))?;
+            .detach(|| SsrPolicy::load(task, &layout, config))
+            .map_err(|e| bad("models_dir/demos_dir/embeddings", e))?;
         Ok(Self { ssr })
     }
 
-    /// The tasks of the M policies, in pair order.
+    /// The names of the M embedding models (a SPOT-Q policy's task), in
+    /// pair order.
     #[getter]
-    fn policy_tasks(&self) -> Vec<&'static str> {
-        self.ssr.policy_tasks().iter().map(|t| t.as_str()).collect()
+    fn policy_names(&self) -> Vec<String> {
+        self.ssr.policy_names()
     }
 
     /// One decision in the state given by colour `uint8[H, W, 3]` and depth

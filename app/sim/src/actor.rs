@@ -28,10 +28,11 @@ use crate::world::WorldConfig;
 pub type ActorError = Box<dyn std::error::Error + Send + Sync + 'static>;
 
 /// For See-SPOT-Run: the (policy, demo) pair whose match was executed.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct ChosenPair {
-    /// The task the policy was trained on.
-    pub policy: TaskId,
+    /// The embedding model's name: the task a SPOT-Q policy was trained on,
+    /// or an ONNX model's name.
+    pub policy: String,
     /// The demonstration's index (0 or 1).
     pub demo: usize,
     /// L: the embedding distance of the match (paper Eq. 4), squared L2.
@@ -45,7 +46,7 @@ pub struct ChosenPair {
 }
 
 /// An actor's choice of the next action.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Choice {
     /// The action to execute: primitive, rotation index and pixel `(y, x)` of
     /// the live heightmaps.
@@ -104,11 +105,11 @@ pub fn act_once(trial: &mut Trial, actor: &mut dyn Actor) -> Result<ActionLog, A
         action: choice.action,
         progress_before: step.progress_before,
         progress_after: step.progress_after,
+        chosen_demo: choice.pair.as_ref().map(|p| p.demo),
+        l: choice.pair.as_ref().map(|p| p.l),
+        c: choice.pair.as_ref().map(|p| p.c),
+        other_method_action: choice.pair.as_ref().and_then(|p| p.other_method_action),
         chosen_policy: choice.pair.map(|p| p.policy),
-        chosen_demo: choice.pair.map(|p| p.demo),
-        l: choice.pair.map(|p| p.l),
-        c: choice.pair.map(|p| p.c),
-        other_method_action: choice.pair.and_then(|p| p.other_method_action),
         decide_ms,
         primitive_success: Some(step.outcome.success),
     })

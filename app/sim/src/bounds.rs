@@ -220,6 +220,8 @@ pub mod files {
     pub const TRAIN_STATE: u64 = 1 << 30;
     /// An evaluation lock file.
     pub const LOCK: u64 = 64 << 10;
+    /// An ONNX embedding model (the shipped trunk exported is 0.3 MB).
+    pub const EMBEDDING_MODEL: u64 = 256 << 20;
     /// A file whose checksum a record carries (a model or a demonstration file).
     pub const CHECKSUMMED: u64 = 256 << 20;
 }

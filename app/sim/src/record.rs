@@ -18,7 +18,7 @@ pub struct ActionLog {
     pub progress_before: u8,
     pub progress_after: u8,
     /// The (policy, demo) pair SSR acted on; `None` for methods without pairs.
-    pub chosen_policy: Option<TaskId>,
+    pub chosen_policy: Option<String>,
     pub chosen_demo: Option<usize>,
     /// L (embedding distance, Eq. 4) and C (cycle consistency distance, pixels,
     /// Eq. 7) of the chosen pair.

@@ -1,7 +1,7 @@
 //! The explanation record of one SSR decision: everything the visual debugger
 //! needs to show why the robot chose its action.
 
-use seespot_sim::{Action, Primitive, TaskId};
+use seespot_sim::{Action, Primitive};
 
 use crate::correspond::CUnit;
 use serde::{Deserialize, Serialize};
@@ -23,8 +23,9 @@ pub enum Method {
 /// One (policy m, demo n) pair's correspondence.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct PairExplanation {
-    /// The task the policy was trained on.
-    pub policy: TaskId,
+    /// The embedding model's name: the task a SPOT-Q policy was trained
+    /// on, or an ONNX model's name (docs/embeddings.md).
+    pub policy: String,
     /// Index of the demonstration (0 or 1).
     pub demo: usize,
     /// The demo step used (the step at the test progress with this primitive).
@@ -59,7 +60,7 @@ pub struct Decision {
     pub progress: u8,
     /// Heightmap resolution H = W.
     pub resolution: usize,
-    /// Every pair, in the fixed order (policy in `TaskId::ALL` order, then demo).
+    /// Every pair, in the fixed order (policy in the set's order, then demo).
     pub pairs: Vec<PairExplanation>,
     /// Index into `pairs` of the pair acted on.
     pub chosen: usize,

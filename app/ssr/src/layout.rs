@@ -32,6 +32,103 @@ pub struct Layout {
     pub models: PathBuf,
     /// Demonstrations (`<task>/<seed>/`).
     pub demos: PathBuf,
+    /// The embedding models SSR uses in place of `models`' SPOT-Q policies,
+    /// if any (`--embeddings`).
+    pub embeddings: Option<Embeddings>,
+}
+
+/// An embedding set other than the SPOT-Q policies of `models/`
+/// (`--embeddings`, docs/embeddings.md).
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Embeddings {
+    /// A folder of `<task>.onnx` files, used as `models/` is: each fold
+    /// leaves its own task's model out.
+    Folder(PathBuf),
+    /// These files, every one for every fold (M = their number).
+    Files(Vec<PathBuf>),
+}
+
+impl Embeddings {
+    /// The set `--embeddings` names: one folder, or one or more files
+    /// (whose names, their stems, must differ).
+    pub fn from_paths(paths: &[PathBuf]) -> Result<Self, String> {
+        match paths {
+            [] => Err("--embeddings names no file or folder".into()),
+            [dir] if dir.is_dir() => Ok(Self::Folder(dir.clone())),
+            files => {
+                let mut seen = std::collections::BTreeSet::new();
+                for f in files {
+                    if f.is_dir() {
+                        return Err(format!(
+                            "{}: a folder among files; --embeddings takes one folder or a list of files",
+                            f.display()
+                        ));
+                    }
+                    if !f.is_file() {
+                        return Err(format!("{}: no such embedding model file", f.display()));
+                    }
+                    if !seen.insert(model_name(f)) {
+                        return Err(format!(
+                            "{}: two embedding models named `{}`; rename one",
+                            f.display(),
+                            model_name(f)
+                        ));
+                    }
+                }
+                Ok(Self::Files(files.to_vec()))
+            }
+        }
+    }
+
+    /// The set's name in run names and report rows: the folder's name, or
+    /// the files' names joined by `+` (letters, digits and `-` kept).
+    pub fn label(&self) -> String {
+        let raw = match self {
+            Self::Folder(d) => d
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "embeddings".into()),
+            Self::Files(f) => f
+                .iter()
+                .map(|p| model_name(p))
+                .collect::<Vec<_>>()
+                .join("+"),
+        };
+        raw.chars()
+            .map(|c| {
+                if c.is_ascii_alphanumeric() || c == '+' {
+                    c.to_ascii_lowercase()
+                } else {
+                    '-'
+                }
+            })
+            .collect()
+    }
+
+    /// The (name, file) of every model fold `task` uses.
+    pub fn files(&self, task: TaskId) -> Vec<(String, PathBuf)> {
+        match self {
+            Self::Folder(d) => TaskId::ALL
+                .into_iter()
+                .filter(|t| *t != task)
+                .map(|t| {
+                    (
+                        t.as_str().to_string(),
+                        d.join(format!("{}.onnx", t.as_str())),
+                    )
+                })
+                .collect(),
+            Self::Files(f) => f.iter().map(|p| (model_name(p), p.clone())).collect(),
+        }
+    }
+}
+
+/// A model file's name: its stem.
+fn model_name(p: &Path) -> String {
+    p.file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| p.display().to_string())
 }
 
 impl Default for Layout {
@@ -46,6 +143,27 @@ impl Layout {
         Self {
             models: models.into(),
             demos: demos.into(),
+            embeddings: None,
+        }
+    }
+
+    /// This layout with SSR's embeddings from `embeddings` (`None`: the
+    /// SPOT-Q policies of `models`).
+    pub fn with_embeddings(self, embeddings: Option<Embeddings>) -> Self {
+        Self { embeddings, ..self }
+    }
+
+    /// The (name, file) of every embedding model SSR uses on fold `task`, in
+    /// pair order: the other tasks' SPOT-Q policies (in `TaskId::ALL`
+    /// order), or the embedding set's models.
+    pub fn policy_files(&self, task: TaskId) -> Vec<(String, PathBuf)> {
+        match &self.embeddings {
+            Some(e) => e.files(task),
+            None => TaskId::ALL
+                .into_iter()
+                .filter(|t| *t != task)
+                .map(|t| (t.as_str().to_string(), self.model(t)))
+                .collect(),
         }
     }
 

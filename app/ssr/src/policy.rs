@@ -33,7 +33,7 @@ use std::collections::HashMap;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use seespot_policy::{CellAse, PolicyError, PolicyNet};
+use seespot_policy::{CellAse, Embedder, PolicyError};
 use seespot_sim::actor::{Actor, ActorError, Choice, ChosenPair};
 use seespot_sim::{Action, Demo, DemoError, Heightmaps, Primitive, TaskId, Trial};
 
@@ -99,7 +99,8 @@ pub struct DemoQuery {
 pub struct SsrPolicy {
     task: TaskId,
     config: SsrConfig,
-    policies: Vec<(TaskId, PolicyNet)>,
+    /// The embedding models by name, in pair order.
+    policies: Vec<(String, Embedder)>,
     demos: Vec<Demo>,
     /// Demo ASEs by (policy, demo, step).
     demo_cache: HashMap<(usize, usize, usize), CellAse>,
@@ -117,10 +118,10 @@ impl SsrPolicy {
     /// Loads the M = 3 policies of the other tasks and the N = 2
     /// demonstrations of `task` from `layout`.
     pub fn load(task: TaskId, layout: &Layout, config: SsrConfig) -> Result<Self, SsrError> {
-        let policies = TaskId::ALL
+        let policies = layout
+            .policy_files(task)
             .into_iter()
-            .filter(|t| *t != task)
-            .map(|t| Ok((t, PolicyNet::load(&layout.model(t))?)))
+            .map(|(name, path)| Ok((name, Embedder::load(&path)?)))
             .collect::<Result<Vec<_>, SsrError>>()?;
         let mut demos = Vec::new();
         for dir in layout.demo_dirs(task) {
@@ -142,7 +143,7 @@ impl SsrPolicy {
     /// SSR over given policies and demonstrations (they must agree on resolution).
     pub fn new(
         task: TaskId,
-        policies: Vec<(TaskId, PolicyNet)>,
+        policies: Vec<(String, Embedder)>,
         demos: Vec<Demo>,
         config: SsrConfig,
     ) -> Result<Self, SsrError> {
@@ -187,17 +188,18 @@ impl SsrPolicy {
         &self.demos
     }
 
-    /// The tasks of the M policies, in pair order.
-    pub fn policy_tasks(&self) -> Vec<TaskId> {
-        self.policies.iter().map(|(t, _)| *t).collect()
+    /// The names of the M embedding models (the tasks of SPOT-Q policies),
+    /// in pair order.
+    pub fn policy_names(&self) -> Vec<String> {
+        self.policies.iter().map(|(t, _)| t.clone()).collect()
     }
 
-    pub fn policies(&self) -> &[(TaskId, PolicyNet)] {
+    pub fn policies(&self) -> &[(String, Embedder)] {
         &self.policies
     }
 
     /// Mutable access to the policies (for finetuning before a trial).
-    pub fn policies_mut(&mut self) -> &mut [(TaskId, PolicyNet)] {
+    pub fn policies_mut(&mut self) -> &mut [(String, Embedder)] {
         self.demo_cache.clear();
         self.last = None;
         &mut self.policies
@@ -431,7 +433,7 @@ impl SsrPolicy {
                     correspond::ccd(&demo_action, &rematch)
                 };
                 pairs.push(PairExplanation {
-                    policy: self.policies[m].0,
+                    policy: self.policies[m].0.clone(),
                     demo: d,
                     demo_step: steps[d],
                     demo_action,
@@ -684,7 +686,7 @@ pub fn chosen_pair(
     };
     let p = &pairs[chosen];
     ChosenPair {
-        policy: p.policy,
+        policy: p.policy.clone(),
         demo: p.demo,
         l: p.l,
         c: p.c,

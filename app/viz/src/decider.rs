@@ -20,7 +20,7 @@ pub trait Decider: Actor + Send {
     /// The demonstrations of the test task (empty for the oracle).
     fn demos(&self) -> &[Demo];
     /// The policies used, in the order of `Decision::pairs`.
-    fn policies(&self) -> Vec<TaskId>;
+    fn policies(&self) -> Vec<String>;
     /// The explanation record of the last [`Actor::act`], if the decider has one.
     fn decision(&self) -> Option<&Decision>;
     /// Click-to-query: the `H x W` distance map over the live scene `hm` of the
@@ -54,7 +54,7 @@ macro_rules! plain_decider {
                 &[]
             }
 
-            fn policies(&self) -> Vec<TaskId> {
+            fn policies(&self) -> Vec<String> {
                 Vec::new()
             }
 
@@ -81,8 +81,8 @@ impl Decider for SsrPolicy {
         SsrPolicy::demos(self)
     }
 
-    fn policies(&self) -> Vec<TaskId> {
-        self.policy_tasks()
+    fn policies(&self) -> Vec<String> {
+        self.policy_names()
     }
 
     fn decision(&self) -> Option<&Decision> {
@@ -316,7 +316,7 @@ impl Actor for FeatureDecider {
                 let match_map = correspond::distance_map(&live_ase, query, 0);
                 let rematch_map = correspond::distance_map(&demo_ase, f, 0);
                 pairs.push(PairExplanation {
-                    policy: self.policies[m],
+                    policy: self.policies[m].as_str().to_string(),
                     demo: d,
                     demo_step: step_index,
                     demo_action: a_demo,
@@ -374,8 +374,11 @@ impl Decider for FeatureDecider {
         &self.demos
     }
 
-    fn policies(&self) -> Vec<TaskId> {
-        self.policies.clone()
+    fn policies(&self) -> Vec<String> {
+        self.policies
+            .iter()
+            .map(|t| t.as_str().to_string())
+            .collect()
     }
 
     fn decision(&self) -> Option<&Decision> {

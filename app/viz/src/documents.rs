@@ -39,7 +39,7 @@ pub struct StateDoc {
     /// When this trial replays an evaluation's: what and how it ended.
     pub replay: Option<String>,
     /// The policies of the decision's pairs, in pair order.
-    pub policies: Vec<TaskId>,
+    pub policies: Vec<String>,
     /// The phase shown (embed, match, verify, act); `None` before the first.
     pub phase: Option<Phase>,
     /// Actions executed so far.
@@ -111,7 +111,7 @@ pub struct DemonstrateDoc {
 /// the Match phase, C and the rematch from Verify (`None` before).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct PairDoc {
-    pub policy: TaskId,
+    pub policy: String,
     pub demo: usize,
     pub demo_step: usize,
     pub demo_action: Action,
@@ -211,7 +211,7 @@ pub struct QueryBest {
 pub struct QueryDoc {
     pub pair: usize,
     pub policy: usize,
-    pub policy_name: Option<TaskId>,
+    pub policy_name: Option<String>,
     pub demo: usize,
     pub demo_step: usize,
     pub y: usize,
@@ -230,7 +230,7 @@ pub struct QueryDoc {
 pub struct EmbeddingDoc {
     pub version: u64,
     pub pair: usize,
-    pub policy: TaskId,
+    pub policy: String,
     pub rotation: usize,
     pub demo: usize,
     pub demo_step: usize,

@@ -16,8 +16,6 @@
 //! | `metrics/...` | progress and running trial metrics |
 //! | `status` | a markdown note: phase, action, chosen pair |
 
-use seespot_sim::TaskId;
-
 /// Timeline: index of the trial within a recording (sequence).
 pub const TIMELINE_TRIAL: &str = "trial";
 /// Timeline: index of the action within the trial (sequence).
@@ -66,45 +64,45 @@ pub fn demo_action(n: usize) -> String {
 }
 
 /// `corr/{policy}/{n}`.
-pub fn corr(policy: TaskId, n: usize) -> String {
-    format!("corr/{}/{n}", policy.as_str())
+pub fn corr(policy: &str, n: usize) -> String {
+    format!("corr/{policy}/{n}")
 }
 
 /// `corr/{policy}/{n}/match`.
-pub fn corr_match(policy: TaskId, n: usize) -> String {
+pub fn corr_match(policy: &str, n: usize) -> String {
     format!("{}/match", corr(policy, n))
 }
 
 /// `corr/{policy}/{n}/rematch`.
-pub fn corr_rematch(policy: TaskId, n: usize) -> String {
+pub fn corr_rematch(policy: &str, n: usize) -> String {
     format!("{}/rematch", corr(policy, n))
 }
 
 /// `corr/{policy}/{n}/arrows`.
-pub fn corr_arrows(policy: TaskId, n: usize) -> String {
+pub fn corr_arrows(policy: &str, n: usize) -> String {
     format!("{}/arrows", corr(policy, n))
 }
 
 /// `corr/{policy}/{n}/pca_live`: the policy's live embeddings at the
 /// matched rotation, as RGB of their first three principal components
 /// (computed jointly with [`corr_pca_demo`]).
-pub fn corr_pca_live(policy: TaskId, n: usize) -> String {
+pub fn corr_pca_live(policy: &str, n: usize) -> String {
     format!("{}/pca_live", corr(policy, n))
 }
 
 /// `corr/{policy}/{n}/pca_demo`: the policy's embeddings of demo `n`'s step
 /// at the demonstrated rotation, in the same colours as [`corr_pca_live`].
-pub fn corr_pca_demo(policy: TaskId, n: usize) -> String {
+pub fn corr_pca_demo(policy: &str, n: usize) -> String {
     format!("{}/pca_demo", corr(policy, n))
 }
 
 /// `corr/{policy}/{n}/l`.
-pub fn corr_l(policy: TaskId, n: usize) -> String {
+pub fn corr_l(policy: &str, n: usize) -> String {
     format!("{}/l", corr(policy, n))
 }
 
 /// `corr/{policy}/{n}/c`.
-pub fn corr_c(policy: TaskId, n: usize) -> String {
+pub fn corr_c(policy: &str, n: usize) -> String {
     format!("{}/c", corr(policy, n))
 }
 
@@ -115,7 +113,7 @@ mod tests {
     #[test]
     fn paths_are_hierarchical() {
         assert_eq!(
-            corr_match(TaskId::VerticalSquare, 1),
+            corr_match("vertical-square", 1),
             "corr/vertical-square/1/match"
         );
         assert_eq!(demo_color(0), "demo/0/color");

@@ -56,23 +56,22 @@ impl std::fmt::Debug for Recorder {
 
 /// The default layout: the 3-D scene and status on the left, the live and demo
 /// heightmaps on top, one tab per (policy, demo) pair, and the scalars.
-pub fn blueprint(task: TaskId) -> Blueprint {
-    let policies: Vec<TaskId> = TaskId::ALL.into_iter().filter(|t| *t != task).collect();
+pub fn blueprint(policies: &[String]) -> Blueprint {
     let mut tabs: Vec<ContainerLike> = Vec::new();
-    for p in &policies {
+    for p in policies {
         for n in 0..2 {
             let matched =
                 Spatial2DView::new(format!("match over live · {} / demo {n}", p.as_str()))
                     .with_origin("/")
                     .with_contents([
-                        format!("+ /{}", paths::corr_match(*p, n)),
-                        format!("+ /{}", paths::corr_arrows(*p, n)),
+                        format!("+ /{}", paths::corr_match(p, n)),
+                        format!("+ /{}", paths::corr_arrows(p, n)),
                     ]);
             let rematch = Spatial2DView::new(format!("rematch over demo {n} · {}", p.as_str()))
                 .with_origin("/")
                 .with_contents([
-                    format!("+ /{}", paths::corr_rematch(*p, n)),
-                    format!("+ /{}", paths::corr_arrows(*p, n)),
+                    format!("+ /{}", paths::corr_rematch(p, n)),
+                    format!("+ /{}", paths::corr_arrows(p, n)),
                 ]);
             let sees = |name: String, path: String| {
                 Spatial2DView::new(name)
@@ -82,12 +81,12 @@ pub fn blueprint(task: TaskId) -> Blueprint {
             let pca = Vertical::new([
                 sees(
                     format!("what {} sees · live", p.as_str()),
-                    paths::corr_pca_live(*p, n),
+                    paths::corr_pca_live(p, n),
                 )
                 .into(),
                 sees(
                     format!("what {} sees · demo {n}", p.as_str()),
-                    paths::corr_pca_demo(*p, n),
+                    paths::corr_pca_demo(p, n),
                 )
                 .into(),
             ]);
@@ -152,8 +151,15 @@ pub fn blueprint(task: TaskId) -> Blueprint {
         .with_time_panel(TimePanel::new().with_timeline(paths::TIMELINE_PHASE))
 }
 
+/// The stream of a recording, laid out for the shipped policies of fold
+/// `task` until [`Recorder::send_blueprint`] names others.
 fn builder(task: TaskId) -> RecordingStreamBuilder {
-    RecordingStreamBuilder::new(APPLICATION_ID).with_blueprint(blueprint(task))
+    let names: Vec<String> = TaskId::ALL
+        .into_iter()
+        .filter(|t| *t != task)
+        .map(|t| t.as_str().to_string())
+        .collect();
+    RecordingStreamBuilder::new(APPLICATION_ID).with_blueprint(blueprint(&names))
 }
 
 impl Recorder {
@@ -215,13 +221,14 @@ impl Recorder {
         recorder
     }
 
-    /// Sends `task`'s layout and makes it active (its pair tabs name the task's policies).
-    pub fn send_blueprint(&self, task: TaskId) {
+    /// Sends the layout of a decider whose embedding models are `policies`
+    /// (its pair tabs name them) and makes it active.
+    pub fn send_blueprint(&self, policies: &[String]) {
         let activation = rerun::blueprint::BlueprintActivation {
             make_active: true,
             make_default: true,
         };
-        self.warn(blueprint(task).send(&self.rec, activation));
+        self.warn(blueprint(policies).send(&self.rec, activation));
     }
 
     /// Where the recording is being written, if anywhere.
@@ -338,7 +345,7 @@ impl Recorder {
     /// components, `n x n` each (from [`crate::Decider::embedding_rgb`]).
     pub fn log_embedding_rgb(
         &self,
-        policy: TaskId,
+        policy: &str,
         demo: usize,
         live: &[u8],
         demo_rgb: &[u8],
@@ -475,7 +482,7 @@ impl Recorder {
         let n = d.resolution;
         for p in &d.pairs {
             self.warn(self.rec.log(
-                paths::corr_match(p.policy, p.demo),
+                paths::corr_match(&p.policy, p.demo),
                 &heat_image(&p.match_map, n),
             ));
             let arrows = rerun::Arrows2D::from_vectors([(
@@ -489,8 +496,8 @@ impl Recorder {
                 ARROW_MATCH[2],
             )])
             .with_labels([format!("demo -> F, L = {:.3}", p.l)]);
-            self.warn(self.rec.log(paths::corr_arrows(p.policy, p.demo), &arrows));
-            self.log_scalar(&paths::corr_l(p.policy, p.demo), f64::from(p.l));
+            self.warn(self.rec.log(paths::corr_arrows(&p.policy, p.demo), &arrows));
+            self.log_scalar(&paths::corr_l(&p.policy, p.demo), f64::from(p.l));
         }
     }
 
@@ -498,14 +505,14 @@ impl Recorder {
         let n = d.resolution;
         for p in &d.pairs {
             self.warn(self.rec.log(
-                paths::corr_rematch(p.policy, p.demo),
+                paths::corr_rematch(&p.policy, p.demo),
                 &heat_image(&p.rematch_map, n),
             ));
-            self.warn(
-                self.rec
-                    .log(paths::corr_arrows(p.policy, p.demo), &pair_arrows(p, false)),
-            );
-            self.log_scalar(&paths::corr_c(p.policy, p.demo), f64::from(p.c));
+            self.warn(self.rec.log(
+                paths::corr_arrows(&p.policy, p.demo),
+                &pair_arrows(p, false),
+            ));
+            self.log_scalar(&paths::corr_c(&p.policy, p.demo), f64::from(p.c));
         }
     }
 
@@ -513,7 +520,7 @@ impl Recorder {
         if let Some(p) = d.pairs.get(d.chosen) {
             self.warn(
                 self.rec
-                    .log(paths::corr_arrows(p.policy, p.demo), &pair_arrows(p, true)),
+                    .log(paths::corr_arrows(&p.policy, p.demo), &pair_arrows(p, true)),
             );
             let a = d.action;
             let pt = rerun::Points2D::new([(a.x as f32 + 0.5, a.y as f32 + 0.5)])

@@ -295,7 +295,7 @@ impl Session {
             self.decider = decider;
             self.decider_note = note;
             if let Some(r) = &self.recorder {
-                r.send_blueprint(task);
+                r.send_blueprint(&self.decider.policies());
             }
         }
         if let Some(r) = &mut self.recorder
@@ -342,7 +342,7 @@ impl Session {
         if r.task != self.config.task
             && let Some(rec) = &self.recorder
         {
-            rec.send_blueprint(r.task);
+            rec.send_blueprint(&self.decider.policies());
         }
         // The decider is loaded: `reset` must not load it again.
         self.config.task = r.task;
@@ -527,13 +527,13 @@ impl Session {
                     .embedding_rgb(index, p.demo, p.demo_step, p.matched.rotation)
                     .ok()
                     .flatten()
-                    .map(|rgb| (p.policy, p.demo, rgb))
+                    .map(|rgb| (p.policy.clone(), p.demo, rgb))
             }),
             _ => None,
         };
         if let (Some(r), Some(hm)) = (&mut self.recorder, &self.decided_on) {
             if let Some((policy, demo, (live, demo_rgb))) = &seen {
-                r.log_embedding_rgb(*policy, *demo, live, demo_rgb, hm.resolution());
+                r.log_embedding_rgb(policy, *demo, live, demo_rgb, hm.resolution());
             }
             r.log_phase(
                 &self.trial,
@@ -606,7 +606,7 @@ impl Session {
         Ok(QueryDoc {
             pair,
             policy,
-            policy_name: self.decider.policies().get(policy).copied(),
+            policy_name: self.decider.policies().get(policy).cloned(),
             demo,
             demo_step,
             y,
@@ -634,7 +634,8 @@ impl Session {
             .pairs
             .get(pair)
             .with_context(|| format!("pair index {pair} is out of range 0..{}", d.pairs.len()))?;
-        let (task, demo, step, rotation) = (p.policy, p.demo, p.demo_step, p.matched.rotation);
+        let (task, demo, step, rotation) =
+            (p.policy.clone(), p.demo, p.demo_step, p.matched.rotation);
         let n = d.resolution;
         let policy = self
             .decider
@@ -694,7 +695,7 @@ impl Session {
             .iter()
             .flat_map(|d| d.pairs.iter())
             .map(|p| PairDoc {
-                policy: p.policy,
+                policy: p.policy.clone(),
                 demo: p.demo,
                 demo_step: p.demo_step,
                 demo_action: p.demo_action,

@@ -35,12 +35,7 @@ pub fn load_with(
     })?;
     let note = format!(
         "policies {} from {}, demos from {}",
-        policy
-            .policy_tasks()
-            .iter()
-            .map(|t| t.as_str())
-            .collect::<Vec<_>>()
-            .join(", "),
+        policy.policy_names().join(", "),
         layout.models.display(),
         layout.task_demos(task).display()
     );

@@ -110,7 +110,7 @@ impl TransporterDecider {
             progress,
             resolution: h,
             pairs: vec![PairExplanation {
-                policy: self.task,
+                policy: self.task.to_string(),
                 demo,
                 demo_step: step,
                 demo_action: self.demos[demo].steps[step].meta.action,
@@ -158,8 +158,8 @@ impl Decider for TransporterDecider {
         &self.demos
     }
 
-    fn policies(&self) -> Vec<TaskId> {
-        vec![self.task]
+    fn policies(&self) -> Vec<String> {
+        vec![self.task.to_string()]
     }
 
     fn decision(&self) -> Option<&Decision> {

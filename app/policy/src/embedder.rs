@@ -1,0 +1,129 @@
+//! [`Embedder`]: one embedding function E_m of an SSR policy set, seespot's
+//! SPOT-Q trunk or a user's ONNX model ([`crate::onnx`]). Both give the
+//! same [`CellAse`]: rotated feature cells, rotated back and sampled at every
+//! action, masked by the common-sense mask.
+
+use std::path::Path;
+
+use seespot_sim::{Heightmaps, Primitive};
+
+use crate::cells::CellAse;
+use crate::error::PolicyError;
+use crate::input::{NET_RESOLUTION, NetInput};
+use crate::onnx::OnnxEmbedder;
+use crate::policy::{PolicyNet, SceneInput, cell_ase};
+use crate::rotation::rotate_input_batch;
+
+/// An embedding model.
+#[derive(Clone, Debug)]
+pub enum Embedder {
+    /// A seespot SPOT-Q policy (`.safetensors`).
+    Spot(PolicyNet),
+    /// An ONNX file that follows the embedding contract.
+    Onnx(OnnxEmbedder),
+}
+
+impl From<PolicyNet> for Embedder {
+    fn from(p: PolicyNet) -> Self {
+        Self::Spot(p)
+    }
+}
+
+impl Embedder {
+    /// Loads `path`: an `.onnx` file as an ONNX model, anything else as a
+    /// seespot policy file.
+    pub fn load(path: &Path) -> Result<Self, PolicyError> {
+        if path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("onnx"))
+        {
+            OnnxEmbedder::load(path).map(Self::Onnx)
+        } else {
+            PolicyNet::load(path).map(Self::Spot)
+        }
+    }
+
+    /// The feature depth D.
+    pub fn dim(&self) -> usize {
+        match self {
+            Self::Spot(p) => p.meta.embedding_dim,
+            Self::Onnx(o) => o.dim,
+        }
+    }
+
+    /// The seespot policy, if this is one (finetuning and SPOT-Q need its
+    /// weights).
+    pub fn spot(&self) -> Option<&PolicyNet> {
+        match self {
+            Self::Spot(p) => Some(p),
+            Self::Onnx(_) => None,
+        }
+    }
+
+    pub fn spot_mut(&mut self) -> Option<&mut PolicyNet> {
+        match self {
+            Self::Spot(p) => Some(p),
+            Self::Onnx(_) => None,
+        }
+    }
+
+    /// Every rotation's ASEs of `primitive` in `hm` (whose rotated input
+    /// `scene` is computed once for several models).
+    pub fn embed_cells_with(
+        &self,
+        hm: &Heightmaps,
+        scene: &SceneInput,
+        primitive: Primitive,
+    ) -> Result<CellAse, PolicyError> {
+        match self {
+            Self::Spot(p) => p.embed_cells_with(hm, scene, primitive),
+            Self::Onnx(o) => {
+                let rotations = seespot_sim::NUM_ROTATIONS;
+                let f = o.features(&scene.rotated_chw, rotations, primitive)?;
+                Ok(onnx_cells(o, hm, primitive, f, &scene.input, None))
+            }
+        }
+    }
+
+    /// [`Self::embed_cells_with`] of a scene not yet rotated.
+    pub fn embed_cells(
+        &self,
+        hm: &Heightmaps,
+        primitive: Primitive,
+    ) -> Result<CellAse, PolicyError> {
+        self.embed_cells_with(hm, &SceneInput::new(hm), primitive)
+    }
+
+    /// Rotation `rotation`'s ASEs alone (what a demonstration step needs;
+    /// the other rotations are masked).
+    pub fn embed_cells_rotation(
+        &self,
+        hm: &Heightmaps,
+        primitive: Primitive,
+        rotation: usize,
+    ) -> Result<CellAse, PolicyError> {
+        match self {
+            Self::Spot(p) => p.embed_cells_rotation(hm, primitive, rotation),
+            Self::Onnx(o) => {
+                let input = NetInput::from_heightmaps(hm);
+                debug_assert_eq!(input.n, NET_RESOLUTION);
+                let x = rotate_input_batch(&input, &[rotation]);
+                let f = o.features(&x, 1, primitive)?;
+                Ok(onnx_cells(o, hm, primitive, f, &input, Some(rotation)))
+            }
+        }
+    }
+}
+
+fn onnx_cells(
+    o: &OnnxEmbedder,
+    hm: &Heightmaps,
+    primitive: Primitive,
+    features: Vec<f32>,
+    input: &NetInput,
+    only: Option<usize>,
+) -> CellAse {
+    cell_ase(
+        hm, primitive, features, input, o.cells, o.dim, o.stride, only,
+    )
+}

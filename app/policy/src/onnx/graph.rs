@@ -1,0 +1,330 @@
+//! The contract's checks on an ONNX file (module docs of [`super`]): each
+//! returns what is wrong in words, and [`super::OnnxEmbedder`] puts the file
+//! in front.
+
+use std::sync::Arc;
+
+use prost::Message;
+use tract_onnx::pb;
+use tract_onnx::pb::tensor_shape_proto::dimension::Value as Dim;
+use tract_onnx::prelude::*;
+
+use super::{GRASP, GRASP_Q, MAX_DIM, PLACE, PLACE_Q, Plan};
+use crate::input::{INPUT_CHANNELS, NET_RESOLUTION};
+
+/// ONNX's element type number of `float32`.
+const FLOAT: i32 = pb::tensor_proto::DataType::Float as i32;
+
+/// A file that passed the checks that need no engine.
+pub(super) struct Checked {
+    proto: pb::ModelProto,
+    /// Whether the input's batch is a named dimension (else it is 16).
+    pub batch_named: bool,
+    /// The outputs' names, in the file's order.
+    pub outputs: Vec<String>,
+}
+
+/// Decodes `bytes` and checks the graph's input and outputs as declared, and
+/// that every operator is one the engine has.
+pub(super) fn check(bytes: &[u8]) -> Result<Checked, String> {
+    let proto = pb::ModelProto::decode(bytes)
+        .map_err(|e| format!("not an ONNX model (the protobuf does not decode: {e})"))?;
+    let graph = proto
+        .graph
+        .as_ref()
+        .ok_or("not an ONNX model: it holds no graph")?;
+    if graph.node.is_empty() {
+        return Err("not an ONNX model: its graph has no nodes".into());
+    }
+    let external = pb::tensor_proto::DataLocation::External as i32;
+    if let Some(t) = graph
+        .initializer
+        .iter()
+        .find(|t| t.data_location == Some(external))
+    {
+        return Err(format!(
+            "initializer `{}` is stored in an external file; save the model with every tensor inside it",
+            t.name
+        ));
+    }
+    let register = tract_onnx::onnx().op_register;
+    for n in &graph.node {
+        let standard = n.domain.is_empty() || n.domain == "ai.onnx";
+        if !standard || !register.0.contains_key(&n.op_type) {
+            let op = if standard {
+                n.op_type.clone()
+            } else {
+                format!("{}.{}", n.domain, n.op_type)
+            };
+            return Err(format!(
+                "operator `{op}` (node `{}`) is not one the ONNX engine (tract) runs",
+                n.name,
+            ));
+        }
+    }
+    let initialised: std::collections::HashSet<&str> =
+        graph.initializer.iter().map(|t| t.name.as_str()).collect();
+    let inputs: Vec<&pb::ValueInfoProto> = graph
+        .input
+        .iter()
+        .filter(|i| !initialised.contains(i.name.as_str()))
+        .collect();
+    let [input] = inputs.as_slice() else {
+        return Err(format!(
+            "the graph has {} inputs ({}); an embedding model has one, the rotated scene [R, 4, 112, 112]",
+            inputs.len(),
+            names(inputs.iter().map(|i| i.name.as_str()))
+        ));
+    };
+    let dims = tensor_dims(input, "input")?;
+    let want = [
+        None,
+        Some(INPUT_CHANNELS),
+        Some(NET_RESOLUTION),
+        Some(NET_RESOLUTION),
+    ];
+    if dims.len() != 4 {
+        return Err(format!(
+            "input `{}` has rank {}; the contract's input is [R, 4, 112, 112]",
+            input.name,
+            dims.len()
+        ));
+    }
+    let mut batch_named = false;
+    for (k, (d, w)) in dims.iter().zip(want).enumerate() {
+        match (d, w) {
+            (DimOf::Named(_), None) => batch_named = true,
+            (DimOf::Value(v), None) if *v == seespot_sim::NUM_ROTATIONS as i64 => {}
+            (DimOf::Value(v), None) => {
+                return Err(format!(
+                    "input `{}` dimension 0 is {v}; the batch of rotations is 16 or a named dimension",
+                    input.name
+                ));
+            }
+            (DimOf::Named(s), Some(w)) => {
+                return Err(format!(
+                    "input `{}` dimension {k} is the unresolved dynamic dimension `{s}`; it must be {w}",
+                    input.name
+                ));
+            }
+            (DimOf::Value(v), Some(w)) if *v != w as i64 => {
+                return Err(format!(
+                    "input `{}` dimension {k} is {v}; the contract's input is [R, 4, 112, 112]",
+                    input.name
+                ));
+            }
+            _ => {}
+        }
+    }
+    let mut outputs = Vec::new();
+    for o in &graph.output {
+        // An output's declared type, when it declares one, must be float32.
+        if let Some(pb::type_proto::Value::TensorType(t)) =
+            o.r#type.as_ref().and_then(|t| t.value.as_ref())
+            && t.elem_type != FLOAT
+        {
+            return Err(format!(
+                "output `{}` has element type {}; features are float32",
+                o.name,
+                type_name(t.elem_type)
+            ));
+        }
+        outputs.push(o.name.clone());
+    }
+    Ok(Checked {
+        proto,
+        batch_named,
+        outputs,
+    })
+}
+
+/// One declared dimension.
+enum DimOf {
+    Value(i64),
+    Named(String),
+}
+
+/// The declared dimensions of a float32 tensor value (`what` names it).
+fn tensor_dims(v: &pb::ValueInfoProto, what: &str) -> Result<Vec<DimOf>, String> {
+    let Some(pb::type_proto::Value::TensorType(t)) =
+        v.r#type.as_ref().and_then(|t| t.value.as_ref())
+    else {
+        return Err(format!("{what} `{}` is not a tensor", v.name));
+    };
+    if t.elem_type != FLOAT {
+        return Err(format!(
+            "{what} `{}` has element type {}; seespot feeds float32",
+            v.name,
+            type_name(t.elem_type)
+        ));
+    }
+    let shape = t.shape.as_ref().ok_or_else(|| {
+        format!(
+            "{what} `{}` declares no shape; it must be [R, 4, 112, 112]",
+            v.name
+        )
+    })?;
+    Ok(shape
+        .dim
+        .iter()
+        .map(|d| match &d.value {
+            Some(Dim::DimValue(v)) => DimOf::Value(*v),
+            Some(Dim::DimParam(s)) => DimOf::Named(s.clone()),
+            None => DimOf::Named("?".into()),
+        })
+        .collect())
+}
+
+fn type_name(elem_type: i32) -> String {
+    pb::tensor_proto::DataType::try_from(elem_type)
+        .map(|t| t.as_str_name().to_lowercase())
+        .unwrap_or_else(|_| format!("#{elem_type}"))
+}
+
+fn names<'a>(it: impl Iterator<Item = &'a str>) -> String {
+    let v: Vec<String> = it.map(|s| format!("`{s}`")).collect();
+    if v.is_empty() {
+        "none".into()
+    } else {
+        v.join(", ")
+    }
+}
+
+/// The engine's plan of the checked model at `batch` rotations: all its
+/// outputs, or output `only` alone (the engine then leaves out what only the
+/// others need, e.g. the other primitive's network).
+pub(super) fn plan(checked: &Checked, batch: usize, only: Option<usize>) -> Result<Plan, String> {
+    let fact = f32::fact([batch, INPUT_CHANNELS, NET_RESOLUTION, NET_RESOLUTION]);
+    let plan = tract_onnx::onnx()
+        .model_for_proto_model(&checked.proto)
+        .and_then(|m| match only {
+            None => Ok(m),
+            Some(i) => {
+                let outlet = m.output_outlets()?[i];
+                m.with_output_outlets(&[outlet])
+            }
+        })
+        .and_then(|m| m.with_input_fact(0, fact.into()))
+        .and_then(|m| m.into_optimized())
+        .and_then(|m| m.into_runnable())
+        .map_err(|e| format!("the ONNX engine cannot prepare it: {e:#}"))?;
+    Ok(Arc::clone(&plan))
+}
+
+/// Each output's concrete shape in `plan` (run at `batch` rotations).
+pub(super) fn output_shapes(plan: &Plan, batch: usize) -> Result<Vec<Vec<usize>>, String> {
+    let model = plan.model();
+    let mut out = Vec::new();
+    for (i, o) in model
+        .output_outlets()
+        .map_err(|e| e.to_string())?
+        .iter()
+        .enumerate()
+    {
+        let fact = model.outlet_fact(*o).map_err(|e| e.to_string())?;
+        if fact.datum_type != f32::datum_type() {
+            return Err(format!(
+                "output {i} has element type {:?}; features are float32",
+                fact.datum_type
+            ));
+        }
+        let shape = fact.shape.as_concrete().ok_or_else(|| {
+            format!(
+                "output {i} has the unresolved dynamic shape {:?} at batch {batch}",
+                fact.shape
+            )
+        })?;
+        out.push(shape.to_vec());
+    }
+    Ok(out)
+}
+
+/// Which output holds each primitive's features and Q map.
+pub(super) fn roles(outputs: &[String]) -> Result<([usize; 2], Option<[usize; 2]>), String> {
+    let find = |name: &str| outputs.iter().position(|o| o == name);
+    let q = match (find(GRASP_Q), find(PLACE_Q)) {
+        (Some(g), Some(p)) => Some([g, p]),
+        (None, None) => None,
+        _ => {
+            return Err(format!(
+                "outputs {}: Q maps come as a pair, `{GRASP_Q}` and `{PLACE_Q}`",
+                names(outputs.iter().map(String::as_str))
+            ));
+        }
+    };
+    let features = match (find(GRASP), find(PLACE)) {
+        (Some(g), Some(p)) => [g, p],
+        _ => {
+            let shared: Vec<usize> = (0..outputs.len())
+                .filter(|i| !q.is_some_and(|q| q.contains(i)))
+                .collect();
+            match shared.as_slice() {
+                [one] => [*one, *one],
+                _ => {
+                    return Err(format!(
+                        "outputs {}: the features are two outputs named `{GRASP}` and `{PLACE}`, or one output shared by both primitives",
+                        names(outputs.iter().map(String::as_str))
+                    ));
+                }
+            }
+        }
+    };
+    Ok((features, q))
+}
+
+/// D and S of the feature outputs, checked against the contract.
+pub(super) fn feature_shape(
+    outputs: &[String],
+    shapes: &[Vec<usize>],
+    features: [usize; 2],
+    q: Option<[usize; 2]>,
+    batch: usize,
+) -> Result<(usize, usize), String> {
+    let check = |i: usize, depth: Option<usize>| -> Result<(usize, usize), String> {
+        let s = &shapes[i];
+        let name = &outputs[i];
+        let bad = |why: &str| {
+            Err(format!(
+                "output `{name}` has shape {s:?}; {why} (the contract: [R, D, S, S] with S dividing 112)"
+            ))
+        };
+        if s.len() != 4 {
+            return bad("its rank is not 4");
+        }
+        if s[0] != batch {
+            return bad("its first dimension is not the input's batch of rotations");
+        }
+        if s[2] != s[3] || s[2] == 0 || !NET_RESOLUTION.is_multiple_of(s[2]) {
+            return bad("its maps are not square with a side dividing 112");
+        }
+        if s[1] == 0 || s[1] > MAX_DIM {
+            return bad(&format!("its depth is not 1 to {MAX_DIM}"));
+        }
+        if let Some(d) = depth
+            && s[1] != d
+        {
+            return bad(&format!("a Q map has depth {d}"));
+        }
+        Ok((s[1], s[2]))
+    };
+    let grasp = check(features[0], None)?;
+    let place = check(features[1], None)?;
+    if grasp != place {
+        return Err(format!(
+            "outputs `{GRASP}` {:?} and `{PLACE}` {:?} differ in depth or side; both primitives' features must have one shape",
+            shapes[features[0]], shapes[features[1]]
+        ));
+    }
+    if let Some(q) = q {
+        for i in q {
+            let (_, side) = check(i, Some(1))?;
+            if side != grasp.1 {
+                return Err(format!(
+                    "output `{}` is {side} x {side} but the features are {} x {}",
+                    outputs[i], grasp.1, grasp.1
+                ));
+            }
+        }
+    }
+    Ok(grasp)
+}
