@@ -517,9 +517,50 @@ pub fn planned_comparisons() -> [(RunSpec, RunSpec, &'static str); 12] {
     ]
 }
 
-/// Every comparison of [`planned_comparisons`] that the records allow.
+/// [`planned_comparisons`], then per embedding set the records hold (runs
+/// named `<run>@<set>`): SSR CCD and SSR L2CD on the set against the same
+/// method on the SPOT-Q policies, and CCD against L2CD on the set.
+pub fn report_comparisons(records: &[TrialRecord]) -> Vec<(RunSpec, RunSpec, String)> {
+    use crate::run::EvalMethod::{SsrCcd, SsrL2cd};
+    let mut out: Vec<(RunSpec, RunSpec, String)> = planned_comparisons()
+        .into_iter()
+        .map(|(a, b, why)| (a, b, why.to_owned()))
+        .collect();
+    let mut labels: Vec<crate::run::EmbeddingLabel> = records
+        .iter()
+        .filter_map(|r| r.method.parse::<RunSpec>().ok()?.embeddings())
+        .collect();
+    labels.sort();
+    labels.dedup();
+    for l in labels {
+        let on = |m| {
+            RunSpec::new(m)
+                .with_embeddings(l)
+                .expect("SSR takes embeddings")
+        };
+        let set = l.as_str();
+        out.push((
+            on(SsrCcd),
+            RunSpec::new(SsrCcd),
+            format!("embedding set {set} against the SPOT-Q policies"),
+        ));
+        out.push((
+            on(SsrL2cd),
+            RunSpec::new(SsrL2cd),
+            format!("embedding set {set} against the SPOT-Q policies"),
+        ));
+        out.push((
+            on(SsrCcd),
+            on(SsrL2cd),
+            format!("the paper's central comparison on embedding set {set}"),
+        ));
+    }
+    out
+}
+
+/// Every comparison of [`report_comparisons`] that the records allow.
 pub fn comparisons(records: &[TrialRecord]) -> Vec<Comparison> {
-    planned_comparisons()
+    report_comparisons(records)
         .iter()
         .flat_map(|(a, b, _)| compare(records, &a.to_string(), &b.to_string()))
         .collect()
@@ -617,7 +658,7 @@ pub fn c_histograms(records: &[TrialRecord], run: &RunSpec) -> CHistograms {
 /// (exact McNemar), and the chosen C's distribution per fold.
 pub fn statistics_markdown(records: &[TrialRecord]) -> String {
     let mut md = String::new();
-    for (a, b, why) in planned_comparisons() {
+    for (a, b, why) in report_comparisons(records) {
         let comps = compare(records, &a.to_string(), &b.to_string());
         if comps.is_empty() {
             continue;
@@ -1064,7 +1105,7 @@ pub struct Report {
     pub summaries: Vec<Summary>,
     /// Exact McNemar tests of SSR CCD against SSR L2CD, per fold and pooled.
     pub ccd_vs_l2cd: Vec<Comparison>,
-    /// Every pair of [`planned_comparisons`] the records allow.
+    /// Every pair of [`report_comparisons`] the records allow.
     pub comparisons: Vec<Comparison>,
     /// How often SSR CCD and SSR L2CD differ on the same state.
     pub disagreements: Vec<Disagreement>,
