@@ -5,7 +5,9 @@
 //! Targets: the scene parser (`Scene::parse`, TOML text), the demonstration
 //! reader (`Demo::read`: `meta.json` and the PNGs of a 32 px demo in a temp
 //! folder), the weights reader (`PolicyNet::load`: a safetensors file with
-//! checksums) and the WebSocket message decoder (`ClientMessage::parse`).
+//! checksums), the ONNX embedding-model loader (`OnnxEmbedder::from_bytes`:
+//! the raw-patch control's file and an exported policy's) and the WebSocket
+//! message decoder (`ClientMessage::parse`).
 //! Mutations: byte edits (set, insert, delete, truncate), numbers swapped for
 //! extreme ones, and, for JSON, any node of the document replaced by an
 //! extreme value.
@@ -23,6 +25,7 @@ use std::path::{Path, PathBuf};
 
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
+use prost::Message;
 use seespot_policy::PolicyNet;
 use seespot_sim::{Demo, Grid, Scene, TaskId, WorldConfig};
 use seespot_viz::protocol::ClientMessage;
@@ -605,5 +608,68 @@ fn fuzz_custom_task_goals() {
         .1;
         std::fs::write(path, original).expect("restore");
         peak
+    });
+}
+
+/// The valid ONNX files the loader fuzz mutates: the raw-patch control and
+/// a freshly initialised policy exported.
+fn onnx_files() -> Vec<Vec<u8>> {
+    use seespot_policy::onnx::export;
+    let policy = PolicyNet::new(TaskId::Stack, 112, 1).expect("policy");
+    let files = vec![
+        export::raw_patches_model().encode_to_vec(),
+        export::policy_model(&policy)
+            .expect("export")
+            .encode_to_vec(),
+    ];
+    for f in &files {
+        seespot_policy::OnnxEmbedder::from_bytes(Path::new("valid.onnx"), f)
+            .expect("the valid files load");
+    }
+    files
+}
+
+#[test]
+fn fuzz_onnx_loader() {
+    let valid = onnx_files();
+    let strategy = (
+        0usize..2,
+        edits(),
+        0u8..6,
+        proptest::collection::vec(any::<u8>(), 0..512),
+    );
+    fuzz("onnx", strategy, |(which, e, how, arbitrary)| {
+        let bytes = match how {
+            0 => arbitrary,
+            _ => {
+                let mut b = valid[which].clone();
+                apply(&mut b, &e);
+                b
+            }
+        };
+        measured(|| {
+            let _ = seespot_policy::OnnxEmbedder::from_bytes(Path::new("fuzz.onnx"), &bytes);
+            // A file that decodes is also handed to the loader re-encoded
+            // after a field-level mutation: a dimension or an attribute
+            // value set to an extreme.
+            if let Ok(mut m) = seespot_policy::onnx::ModelProto::decode(bytes.as_slice())
+                && let Some(g) = m.graph.as_mut()
+            {
+                let k = e.len();
+                let nodes = g.node.len().max(1);
+                if let Some(n) = g.node.get_mut(k % nodes)
+                    && let attributes = n.attribute.len().max(1)
+                    && let Some(a) = n.attribute.get_mut(k % attributes)
+                    && let Some(v) = a.ints.first_mut()
+                {
+                    *v = [i64::MAX, -1, 0, 1 << 40][k % 4];
+                }
+                let _ = seespot_policy::OnnxEmbedder::from_bytes(
+                    Path::new("fuzz.onnx"),
+                    &m.encode_to_vec(),
+                );
+            }
+        })
+        .1
     });
 }

@@ -196,6 +196,18 @@ fn bad_models_are_refused_naming_the_file_and_the_fault() {
         }
     }
     assert!(refused(&m).contains("side dividing 112"), "{}", refused(&m));
+    // A window beyond the input (the engine's planning would not end).
+    let mut m = good.clone();
+    for a in &mut graph(&mut m).node[1].attribute {
+        if a.name == "pads" {
+            a.ints[0] = 1 << 40;
+        }
+    }
+    assert!(
+        refused(&m).contains("has pads 1099511627776"),
+        "{}",
+        refused(&m)
+    );
     // Only one of the two Q maps.
     let mut m = good.clone();
     graph(&mut m).output[0].name = "grasp_q".into();

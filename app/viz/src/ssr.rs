@@ -33,10 +33,23 @@ pub fn load_with(
             layout.demos.display()
         )
     })?;
+    let source = match &layout.embeddings {
+        None => layout.models.display().to_string(),
+        Some(seespot_ssr::layout::Embeddings::Folder(d)) => d.display().to_string(),
+        Some(seespot_ssr::layout::Embeddings::Files(f)) => f
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", "),
+    };
+    let what = if layout.embeddings.is_some() {
+        "embedding models"
+    } else {
+        "policies"
+    };
     let note = format!(
-        "policies {} from {}, demos from {}",
+        "{what} {} from {source}, demos from {}",
         policy.policy_names().join(", "),
-        layout.models.display(),
         layout.task_demos(task).display()
     );
     prepared(policy, world, note)

@@ -47,6 +47,19 @@ pub(super) fn check(bytes: &[u8]) -> Result<Checked, String> {
             t.name
         ));
     }
+    for t in &graph.initializer {
+        check_tensor(t, &format!("initializer `{}`", t.name))?;
+    }
+    for n in &graph.node {
+        for a in &n.attribute {
+            if let Some(t) = &a.t {
+                check_tensor(t, &format!("node `{}` attribute `{}`", n.name, a.name))?;
+            }
+        }
+    }
+    for n in &graph.node {
+        check_window(n)?;
+    }
     let register = tract_onnx::onnx().op_register;
     for n in &graph.node {
         let standard = n.domain.is_empty() || n.domain == "ai.onnx";
@@ -136,6 +149,104 @@ pub(super) fn check(bytes: &[u8]) -> Result<Checked, String> {
         batch_named,
         outputs,
     })
+}
+
+/// The most elements one tensor of a model may hold (2^25, 128 MiB of
+/// float32), constants and every intermediate map at 16 rotations alike.
+pub(super) const MAX_ELEMENTS: u64 = 1 << 25;
+
+/// A constant tensor's dimensions are sane and its data is as long as they
+/// say (checked before the engine reads it).
+fn check_tensor(t: &pb::TensorProto, what: &str) -> Result<(), String> {
+    let mut n: u64 = 1;
+    for &d in &t.dims {
+        let d = u64::try_from(d).map_err(|_| format!("{what} has the negative dimension {d}"))?;
+        n = n.saturating_mul(d);
+    }
+    if n > MAX_ELEMENTS {
+        return Err(format!(
+            "{what} holds {n} elements; seespot loads at most {MAX_ELEMENTS} in one tensor"
+        ));
+    }
+    use pb::tensor_proto::DataType as T;
+    let width: Option<u64> = match T::try_from(t.data_type) {
+        Ok(T::Float | T::Int32 | T::Uint32) => Some(4),
+        Ok(T::Double | T::Int64 | T::Uint64) => Some(8),
+        Ok(T::Float16 | T::Bfloat16 | T::Int16 | T::Uint16) => Some(2),
+        Ok(T::Int8 | T::Uint8 | T::Bool) => Some(1),
+        _ => None,
+    };
+    let typed = (t.float_data.len()
+        + t.int32_data.len()
+        + t.int64_data.len()
+        + t.double_data.len()
+        + t.uint64_data.len()
+        + t.string_data.len()) as u64;
+    let ok = match (t.raw_data.is_empty(), width) {
+        (false, Some(w)) => t.raw_data.len() as u64 == n.saturating_mul(w),
+        (false, None) => true,
+        (true, _) => typed == n || (typed == 0 && n == 0),
+    };
+    if !ok {
+        return Err(format!(
+            "{what}: its data does not hold the {n} elements its dimensions {:?} declare",
+            t.dims
+        ));
+    }
+    Ok(())
+}
+
+/// A convolution's or pool's window fits the input: kernel, stride and
+/// dilation 1 to 112, pads 0 to 112 (larger values describe no network for
+/// a 112-pixel input, and make the engine's planning run for ever).
+fn check_window(n: &pb::NodeProto) -> Result<(), String> {
+    const WINDOWED: [&str; 5] = ["Conv", "ConvTranspose", "AveragePool", "MaxPool", "LpPool"];
+    if !WINDOWED.contains(&n.op_type.as_str()) {
+        return Ok(());
+    }
+    let side = NET_RESOLUTION as i64;
+    for a in &n.attribute {
+        let range = match a.name.as_str() {
+            "kernel_shape" | "strides" | "dilations" => 1..=side,
+            "pads" | "output_padding" => 0..=side,
+            _ => continue,
+        };
+        if let Some(v) = a.ints.iter().find(|v| !range.contains(v)) {
+            return Err(format!(
+                "node `{}` ({}) has {} {v}; seespot takes {} to {} for a 112-pixel input",
+                n.name,
+                n.op_type,
+                a.name,
+                range.start(),
+                range.end()
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Every tensor `plan` computes has a known shape of at most
+/// [`MAX_ELEMENTS`] elements.
+pub(super) fn check_sizes(plan: &Plan) -> Result<(), String> {
+    let model = plan.model();
+    for node in model.nodes() {
+        for (i, o) in node.outputs.iter().enumerate() {
+            let Some(shape) = o.fact.shape.as_concrete() else {
+                return Err(format!(
+                    "node `{}` output {i} has the unresolved dynamic shape {:?}",
+                    node.name, o.fact.shape
+                ));
+            };
+            let n = shape.iter().fold(1u64, |a, &d| a.saturating_mul(d as u64));
+            if n > MAX_ELEMENTS {
+                return Err(format!(
+                    "node `{}` computes {shape:?} ({n} elements) at 16 rotations; seespot allows at most {MAX_ELEMENTS} in one tensor",
+                    node.name
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// One declared dimension.

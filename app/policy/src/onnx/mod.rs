@@ -24,6 +24,10 @@
 pub mod export;
 mod graph;
 
+/// The ONNX file's message type (its protobuf schema), for tools that
+/// build or edit models.
+pub use tract_onnx::pb::ModelProto;
+
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -101,6 +105,7 @@ impl OnnxEmbedder {
         let checked = graph::check(bytes).map_err(refuse)?;
         // Every output's shape, from the whole model at 16 rotations.
         let whole = graph::plan(&checked, NUM_ROTATIONS, None).map_err(refuse)?;
+        graph::check_sizes(&whole).map_err(refuse)?;
         let shapes = graph::output_shapes(&whole, NUM_ROTATIONS).map_err(refuse)?;
         drop(whole);
         let (features, q) = graph::roles(&checked.outputs).map_err(refuse)?;
