@@ -92,11 +92,14 @@ def run_trial(
     demos_dir: str = "demos",
     resolution: int = DEFAULT_RESOLUTION,
     correspond: str = "reference",
+    embeddings: list[str] | None = None,
 ) -> dict[str, Any]:
     """Runs one trial of ``method`` on ``task`` from ``seed`` and returns its
     record: the object ``seespot eval`` writes as one JSONL line (``index`` is
-    the trial's number in the run, ``trial`` in the record)."""
-    ev = Evaluator(method, task, models_dir, demos_dir, resolution, correspond)
+    the trial's number in the run, ``trial`` in the record). ``embeddings``
+    (SSR only): a folder of ``<task>.onnx`` files or a list of ONNX files
+    used in place of the SPOT-Q policies (docs/embeddings.md)."""
+    ev = Evaluator(method, task, models_dir, demos_dir, resolution, correspond, embeddings)
     record: dict[str, Any] = json.loads(ev.run(seed, index))
     return record
 

@@ -2,6 +2,7 @@
 
 import os
 import pathlib
+from collections.abc import Sequence
 from typing import Any, TypeAlias, final
 
 import numpy as np
@@ -115,9 +116,10 @@ class Ssr:
         demos_dir: str | os.PathLike[str] = ...,
         method: str = "ssr-ccd",
         correspond: str = "reference",
+        embeddings: Sequence[str | os.PathLike[str]] | None = None,
     ) -> Ssr: ...
     @property
-    def policy_tasks(self) -> list[str]: ...
+    def policy_names(self) -> list[str]: ...
     def decide(
         self, color: npt.ArrayLike, depth: npt.ArrayLike, progress: int, primitive: str
     ) -> dict[str, Any]: ...
@@ -132,6 +134,7 @@ class Evaluator:
         demos_dir: str | os.PathLike[str] = ...,
         resolution: int = ...,
         correspond: str = "reference",
+        embeddings: Sequence[str | os.PathLike[str]] | None = None,
     ) -> Evaluator: ...
     @property
     def record_name(self) -> str: ...
