@@ -213,6 +213,25 @@ pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalE
     })
 }
 
+/// A recorded embedding set with each relative path that is not found from
+/// here looked for under the folder above `layout`'s models folder (the
+/// repository root, from which evaluations run): a record made with
+/// `models/embeddings/x.onnx` replays from another working directory.
+fn rebase(e: seespot_ssr::layout::Embeddings, layout: &Layout) -> seespot_ssr::layout::Embeddings {
+    use seespot_ssr::layout::Embeddings;
+    let root = layout.models.parent().map(Path::to_path_buf);
+    let fix = |p: PathBuf| -> PathBuf {
+        match &root {
+            Some(r) if p.is_relative() && !p.exists() && r.join(&p).exists() => r.join(p),
+            _ => p,
+        }
+    };
+    match e {
+        Embeddings::Folder(d) => Embeddings::Folder(fix(d)),
+        Embeddings::Files(f) => Embeddings::Files(f.into_iter().map(fix).collect()),
+    }
+}
+
 /// The evaluation settings a record was made with, read back from its
 /// provenance (for replaying it): the method, the correspondence, the
 /// resolution, the finetuning (its models read from `out_dir`, the records'
@@ -247,7 +266,9 @@ pub fn replay_config(
         method,
         seeds: Seeds::new(record.seed, 1).map_err(|e| EvalError::Invalid(e.to_string()))?,
         out_dir: out_dir.to_path_buf(),
-        layout: layout.clone().with_embeddings(settings.embeddings.clone()),
+        layout: layout
+            .clone()
+            .with_embeddings(settings.embeddings.clone().map(|e| rebase(e, layout))),
         world: WorldConfig {
             noise: settings.noise,
             ..world_config(settings.resolution)
@@ -259,7 +280,15 @@ pub fn replay_config(
             .unwrap_or(FinetuneProcedure::Reference),
     };
     finetuned::existing_model_paths(&config, record.task)?;
-    let now = provenance(&config, record.task)?;
+    let mut now = provenance(&config, record.task)?;
+    // The embedding files are named as the evaluation named them; a rebased
+    // path ([`rebase`]) is the same file when its checksum below agrees.
+    if let (Some(o), Some(n)) = (
+        prov.settings.get("embeddings"),
+        now.settings.get_mut("embeddings"),
+    ) {
+        *n = o.clone();
+    }
     if now.settings != prov.settings {
         return Err(EvalError::Invalid(format!(
             "the record was made with settings `{}`; a replay would run `{}`",

@@ -122,7 +122,11 @@ fn replay_factory(
             config.method.as_str()
         )
     })?;
-    Ok(factory_with(kind, layout.clone(), config.ssr_config()))
+    // The record's embedding set (rebased by `replay_config`), if any.
+    let layout = layout
+        .clone()
+        .with_embeddings(config.layout.embeddings.clone());
+    Ok(factory_with(kind, layout, config.ssr_config()))
 }
 
 /// Whether the trials of each records file among `trials` replay in the
