@@ -137,6 +137,37 @@ pub fn bench_trunk(iters: usize) -> Result<serde_json::Value, PolicyError> {
         iters.max(10),
     )?;
     timed["input"] = serde_json::json!([2, rotations.len(), crate::input::INPUT_CHANNELS, n, n]);
+    // The engines an ONNX embedding model could run on, on the same trunk
+    // and input (docs/embeddings.md, "The engine"): candle's conv2d (what
+    // candle-onnx runs for each Conv node) and tract on the exported file.
+    let batch = candle_core::Tensor::from_vec(
+        x.clone(),
+        (rotations.len(), crate::input::INPUT_CHANNELS, n, n),
+        &candle_core::Device::Cpu,
+    )?;
+    timed["candle_conv2d"] = time_ms(
+        || {
+            for p in Primitive::ALL {
+                std::hint::black_box(policy.net(p).trunk(&batch)?);
+            }
+            Ok(())
+        },
+        iters.max(10),
+    )?;
+    let exported = crate::onnx::export::policy_model(&policy)?;
+    let tract = crate::onnx::OnnxEmbedder::from_bytes(
+        std::path::Path::new("stack.onnx"),
+        &prost::Message::encode_to_vec(&exported),
+    )?;
+    timed["tract_onnx"] = time_ms(
+        || {
+            for p in Primitive::ALL {
+                std::hint::black_box(tract.features(&x, rotations.len(), p)?);
+            }
+            Ok(())
+        },
+        iters.max(10),
+    )?;
     // Where the time goes: the median per stage (both primitives summed).
     let mut stages: Vec<(&'static str, Vec<f64>)> = Vec::new();
     for _ in 0..iters.max(10) {
