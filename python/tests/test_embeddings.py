@@ -50,4 +50,4 @@ def test_a_bad_file_is_refused_naming_it(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="broken.onnx"):
         seespot.Evaluator("ssr-ccd", "row", str(ROOT / "models"), str(ROOT / "demos"), embeddings=[str(bad)])
     with pytest.raises(ValueError, match="runs no embedding set"):
-        seespot.Evaluator("spot-q", "row", str(ROOT / "models"), str(ROOT / "demos"), embeddings=[str(_build(tmp_path))])
+        seespot.Evaluator("random", "row", str(ROOT / "models"), str(ROOT / "demos"), embeddings=[str(_build(tmp_path))])

@@ -51,8 +51,8 @@ impl EvalConfig {
         // A configuration whose embeddings its method cannot take is refused
         // by [`Self::check_embeddings`] before any trial.
         match self.embeddings_label() {
-            Some(l) if self.method.is_ssr() => spec.with_embeddings(l).unwrap_or(spec),
-            _ => spec,
+            Some(l) => spec.with_embeddings(l).unwrap_or(spec),
+            None => spec,
         }
     }
 
@@ -80,6 +80,28 @@ impl EvalConfig {
         );
         spec.with_embeddings(label)
             .map_err(|e| EvalError::Invalid(format!("--embeddings: {e}")))?;
+        if self.method == crate::run::EvalMethod::SpotQ {
+            // Each task's own file acts; it must have Q outputs.
+            for t in tasks {
+                let path = self.layout.own_policy_file(*t).ok_or_else(|| {
+                    EvalError::Invalid(
+                        "--embeddings: SPOT-Q acts with each task's own model, so it takes a \
+                         folder of <task>.onnx files, not a list of files"
+                            .into(),
+                    )
+                })?;
+                let model = seespot_policy::Embedder::load(&path).map_err(SsrError::from)?;
+                if let seespot_policy::Embedder::Onnx(o) = &model
+                    && !o.has_q()
+                {
+                    return Err(EvalError::Invalid(format!(
+                        "{}: SPOT-Q acts on the Q outputs `grasp_q` and `place_q`, which this model lacks",
+                        path.display()
+                    )));
+                }
+            }
+            return Ok(());
+        }
         let mut seen = std::collections::BTreeSet::new();
         for t in tasks {
             for (_, path) in self.layout.policy_files(*t) {

@@ -275,12 +275,14 @@ impl RunSpec {
     }
 
     /// This run on the embedding set `label`; an error for the methods that
-    /// do not embed (only SSR does) and for finetuned runs, which finetune
-    /// seespot's own weights.
+    /// run no network of the set (SSR embeds with it, SPOT-Q acts on the Q
+    /// outputs of its own task's file) and for finetuned runs, which
+    /// finetune seespot's own weights.
     pub fn with_embeddings(self, label: EmbeddingLabel) -> Result<Self, String> {
-        if !self.method.is_ssr() {
+        if !self.method.is_ssr() && self.method != EvalMethod::SpotQ {
             return Err(format!(
-                "{} runs no embedding set; --embeddings applies to SSR's methods",
+                "{} runs no embedding set; --embeddings applies to SSR's methods and to SPOT-Q \
+                 (a folder of <task>.onnx files with Q outputs)",
                 self.method.as_str()
             ));
         }

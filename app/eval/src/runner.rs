@@ -102,9 +102,7 @@ impl RunSettings {
                 .runs_spot_q_nets()
                 .then(|| seespot_policy::infer::TRUNK_KERNELS.to_owned()),
             finetune: finetuned::settings(config, task),
-            embeddings: config
-                .method
-                .is_ssr()
+            embeddings: (config.method.is_ssr() || config.method == EvalMethod::SpotQ)
                 .then(|| config.layout.embeddings.clone())
                 .flatten(),
         }
@@ -176,7 +174,7 @@ pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalE
             paths.extend(demos()?);
             paths.extend(finetuned::model_paths(config, task));
         }
-        (EvalMethod::SpotQ, 0) => paths.push(config.layout.model(task)),
+        (EvalMethod::SpotQ, 0) => paths.extend(config.layout.own_policy_file(task)),
         (EvalMethod::SpotQ, _) => {
             for base in finetuned::bases(config, task) {
                 paths.push(config.layout.model(base));
@@ -663,7 +661,7 @@ pub fn make_actor(
         EvalMethod::SsrCcd | EvalMethod::SsrL2cd | EvalMethod::SsrCcdLoopBreak => {
             Box::new(ssr_policy(config, task)?)
         }
-        EvalMethod::SpotQ => Box::new(spot_q_policy(config, task)?),
+        EvalMethod::SpotQ => Box::new(spot_q_actor(config, task)?),
         EvalMethod::Transporter => Box::new(TransporterActor::new(transporter_net(config, task)?)),
         EvalMethod::Oracle => Box::new(Oracle::new(task)),
         EvalMethod::Random => Box::new(RandomActor::default()),
@@ -683,6 +681,25 @@ pub fn ssr_policy(config: &EvalConfig, task: TaskId) -> Result<SsrPolicy, EvalEr
         }
     }
     Ok(ssr)
+}
+
+/// The model `config`'s SPOT-Q row acts with greedily on `task`: the
+/// [`spot_q_policy`], or with an embedding folder the task's own ONNX file
+/// (its Q outputs).
+pub fn spot_q_actor(
+    config: &EvalConfig,
+    task: TaskId,
+) -> Result<seespot_policy::Embedder, EvalError> {
+    match (
+        &config.layout.embeddings,
+        config.layout.own_policy_file(task),
+    ) {
+        (Some(_), Some(path)) => {
+            Ok(seespot_policy::Embedder::load(&path)
+                .map_err(seespot_ssr::policy::SsrError::from)?)
+        }
+        _ => Ok(seespot_policy::Embedder::Spot(spot_q_policy(config, task)?)),
+    }
 }
 
 /// The SPOT-Q policy `config` runs greedily on `task`: the task's own, or

@@ -183,13 +183,21 @@ fn a_bad_model_is_refused_before_any_trial() {
         .expect_err("refused")
         .to_string();
     assert!(e.contains("stack.onnx"), "{e}");
-    // Methods that embed nothing, and finetuning, refuse a set.
-    let mut spot = config(
+    // Methods that run no network of the set, SPOT-Q with a list of files
+    // (no task's own), and finetuning refuse a set.
+    let mut random = config(
         out.path(),
         Some(Embeddings::Folder(folder.path().to_path_buf())),
     );
+    random.method = EvalMethod::Random;
+    assert!(random.check_embeddings(&[]).is_err());
+    let mut spot = config(out.path(), Some(Embeddings::Files(vec![bad.clone()])));
     spot.method = EvalMethod::SpotQ;
-    assert!(spot.check_embeddings(&[]).is_err());
+    let e = spot
+        .check_embeddings(&[TaskId::Row])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("folder"), "{e}");
     let mut tuned = config(
         out.path(),
         Some(Embeddings::Folder(folder.path().to_path_buf())),
@@ -202,4 +210,45 @@ fn a_bad_model_is_refused_before_any_trial() {
             .to_string()
             .contains("finetuning")
     );
+}
+
+#[test]
+fn exported_policies_act_as_spot_q_through_their_q_outputs() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    export_shipped(dir.path());
+    let (native_out, onnx_out) = (
+        tempfile::tempdir().expect("tmp"),
+        tempfile::tempdir().expect("tmp"),
+    );
+    for task in [TaskId::Stack, TaskId::Row] {
+        let mut native = config(native_out.path(), None);
+        native.method = EvalMethod::SpotQ;
+        let mut onnx = config(
+            onnx_out.path(),
+            Some(Embeddings::Folder(dir.path().to_path_buf())),
+        );
+        onnx.method = EvalMethod::SpotQ;
+        onnx.check_embeddings(&[task])
+            .expect("the exported files have Q outputs");
+        assert_eq!(
+            onnx.spec().to_string(),
+            format!(
+                "spot-q@{}",
+                dir.path()
+                    .file_name()
+                    .unwrap()
+                    .to_string_lossy()
+                    .to_lowercase()
+                    .replace(|c: char| !c.is_ascii_alphanumeric() && c != '+', "-")
+            )
+        );
+        let a = run_task(&native, task, &mut |_| {}).expect("native");
+        let b = run_task(&onnx, task, &mut |_| {}).expect("onnx");
+        for (ra, rb) in a.iter().zip(&b) {
+            let acts = |r: &seespot_sim::TrialRecord| {
+                r.actions_log.iter().map(|l| l.action).collect::<Vec<_>>()
+            };
+            assert_eq!(acts(ra), acts(rb), "{task} seed {}", ra.seed);
+        }
+    }
 }

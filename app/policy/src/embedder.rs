@@ -8,11 +8,13 @@ use std::path::Path;
 use seespot_sim::{Heightmaps, Primitive};
 
 use crate::cells::CellAse;
+use crate::embedding::QMap;
 use crate::error::PolicyError;
 use crate::input::{NET_RESOLUTION, NetInput};
+use crate::mask::common_sense_mask;
 use crate::onnx::OnnxEmbedder;
 use crate::policy::{PolicyNet, SceneInput, cell_ase};
-use crate::rotation::rotate_input_batch;
+use crate::rotation::{BackMap, rotate_input_batch, sample_back};
 
 /// An embedding model.
 #[derive(Clone, Debug)]
@@ -112,6 +114,74 @@ impl Embedder {
                 Ok(onnx_cells(o, hm, primitive, f, &input, Some(rotation)))
             }
         }
+    }
+}
+
+impl Embedder {
+    /// Q-values `R x H x W` of `primitive` in `hm`: a SPOT-Q policy's, or an
+    /// ONNX model's `grasp_q` / `place_q` rotated back and sampled at every
+    /// action as the features are; `None` for a model without Q maps.
+    pub fn q_values(
+        &self,
+        hm: &Heightmaps,
+        primitive: Primitive,
+    ) -> Result<Option<QMap>, PolicyError> {
+        match self {
+            Self::Spot(p) => p.q_values(hm, primitive).map(Some),
+            Self::Onnx(o) => {
+                let scene = SceneInput::new(hm);
+                let rotations = seespot_sim::NUM_ROTATIONS;
+                let Some(low) = o.q_map(&scene.rotated_chw, rotations, primitive)? else {
+                    return Ok(None);
+                };
+                let h = hm.resolution();
+                let map = BackMap::new(&scene.input, h, o.stride);
+                let all: Vec<usize> = (0..rotations).collect();
+                let q = sample_back(&low, o.cells, 1, &all, &map, h);
+                Ok(Some(QMap {
+                    primitive,
+                    resolution: h,
+                    rotations,
+                    q,
+                }))
+            }
+        }
+    }
+
+    /// A name for the debugger and errors: the policy's task, or the file.
+    pub fn name(&self) -> String {
+        match self {
+            Self::Spot(p) => p.meta.task.clone(),
+            Self::Onnx(o) => o.path().display().to_string(),
+        }
+    }
+}
+
+/// An embedding model with Q-values acts as a SPOT-Q policy: greedy, the
+/// argmax of Q under the common-sense mask.
+impl seespot_sim::Actor for Embedder {
+    fn name(&self) -> String {
+        format!("SPOT-Q ({}, greedy)", Embedder::name(self))
+    }
+
+    fn act(
+        &mut self,
+        trial: &seespot_sim::Trial,
+        hm: &Heightmaps,
+    ) -> Result<seespot_sim::actor::Choice, seespot_sim::ActorError> {
+        let primitive = trial.world().next_primitive();
+        let q = self
+            .q_values(hm, primitive)?
+            .ok_or_else(|| PolicyError::Onnx {
+                path: match self {
+                    Self::Onnx(o) => o.path().to_path_buf(),
+                    Self::Spot(_) => std::path::PathBuf::new(),
+                },
+                reason: "the model has no Q outputs (`grasp_q`, `place_q`) to act on".into(),
+            })?;
+        let mask = common_sense_mask(hm, primitive);
+        let i = crate::policy::masked_argmax(&q.q, &mask);
+        Ok(seespot_sim::Action::from_flat_index(primitive, i, hm.resolution()).into())
     }
 }
 

@@ -153,6 +153,17 @@ impl Layout {
         Self { embeddings, ..self }
     }
 
+    /// `task`'s own model, which SPOT-Q acts with: its `.safetensors`
+    /// policy, or `<task>.onnx` of an embedding folder; `None` for a list of
+    /// files, which names no task's own.
+    pub fn own_policy_file(&self, task: TaskId) -> Option<PathBuf> {
+        match &self.embeddings {
+            None => Some(self.model(task)),
+            Some(Embeddings::Folder(d)) => Some(d.join(format!("{}.onnx", task.as_str()))),
+            Some(Embeddings::Files(_)) => None,
+        }
+    }
+
     /// The (name, file) of every embedding model SSR uses on fold `task`, in
     /// pair order: the other tasks' SPOT-Q policies (in `TaskId::ALL`
     /// order), or the embedding set's models.

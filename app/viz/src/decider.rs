@@ -72,6 +72,7 @@ macro_rules! plain_decider {
 plain_decider!(
     Oracle,
     seespot_policy::PolicyNet,
+    seespot_policy::Embedder,
     seespot_policy::RandomActor
 );
 

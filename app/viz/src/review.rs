@@ -92,8 +92,8 @@ fn replay_factory(
     }
     if config.method == EvalMethod::SpotQ {
         return Ok(Box::new(move |task: TaskId, _world| {
-            let policy = seespot_eval::runner::spot_q_policy(&config, task)?;
-            let note = format!("SPOT-Q policy {} (greedy)", policy.meta.task);
+            let policy = seespot_eval::runner::spot_q_actor(&config, task)?;
+            let note = format!("SPOT-Q policy {} (greedy)", policy.name());
             Ok((Box::new(policy) as Box<dyn crate::decider::Decider>, note))
         }));
     }
