@@ -79,8 +79,10 @@ class TrialRunner:
     """A Ray actor's state: one :class:`seespot.Evaluator` (policy set) per
     (method, task), loaded on first use."""
 
-    def __init__(self, models_dir: str, demos_dir: str, resolution: int, correspond: str):
-        self.args = (models_dir, demos_dir, resolution, correspond)
+    def __init__(
+        self, models_dir: str, demos_dir: str, resolution: int, correspond: str, embeddings: list[str] | None = None
+    ):
+        self.args = (models_dir, demos_dir, resolution, correspond, embeddings)
         self.evaluators: dict[tuple[str, str], Evaluator] = {}
 
     def run(self, method: str, task: str, seed: int, index: int) -> tuple[str, str, int, str]:
@@ -119,6 +121,7 @@ def evaluate(
     num_workers: int = 2,
     threads_per_worker: int | None = None,
     address: str | None = None,
+    embeddings: list[str] | None = None,
 ) -> dict[tuple[str, str], list[dict[str, Any]]]:
     """Runs (or resumes) the evaluation of ``methods`` on ``tasks`` over the
     seeds ``seed, seed + 2, ...`` (``trials`` of them) with ``num_workers`` Ray
@@ -126,7 +129,9 @@ def evaluate(
 
     It holds ``seespot eval``'s lock on ``out_dir`` throughout: while another
     evaluation writes there (either kind), it raises ``BlockingIOError``
-    naming the holder, before starting Ray."""
+    naming the holder, before starting Ray. ``embeddings`` (SSR and SPOT-Q):
+    an embedding set in place of the SPOT-Q policies (docs/embeddings.md),
+    checked here before any trial; the runs are named after it."""
     ray = _import_ray()
 
     tasks = list(tasks)
@@ -137,10 +142,21 @@ def evaluate(
     if num_workers < 1:
         raise ValueError(f"num_workers: {num_workers} is not positive")
     threads = threads_per_worker or max(1, (os.cpu_count() or 1) // num_workers)
+    # Each run's records name: with an embedding set, the Evaluator's (which
+    # also loads and checks every model before any trial).
+    names = {
+        (m, t): (
+            Evaluator(m, t, models_dir, demos_dir, resolution, correspond, embeddings).record_name
+            if embeddings
+            else record_name(m, correspond)
+        )
+        for m in methods
+        for t in tasks
+    }
     with OutputLock(out_dir):
         return _evaluate_locked(
             ray, methods, tasks, seeds, out_dir, models_dir, demos_dir, resolution,
-            correspond, num_workers, threads, address,
+            correspond, num_workers, threads, address, embeddings, names,
         )
 
 
@@ -157,6 +173,8 @@ def _evaluate_locked(
     num_workers: int,
     threads: int,
     address: str | None,
+    embeddings: list[str] | None,
+    names: dict[tuple[str, str], str],
 ) -> dict[tuple[str, str], list[dict[str, Any]]]:
     """:func:`evaluate` once the output folder is locked."""
     started = False
@@ -172,7 +190,7 @@ def _evaluate_locked(
     try:
         runner = ray.remote(num_cpus=1)(TrialRunner)
         actors = [
-            runner.remote(models_dir, demos_dir, resolution, correspond)  # type: ignore[attr-defined]
+            runner.remote(models_dir, demos_dir, resolution, correspond, embeddings)  # type: ignore[attr-defined]
             for _ in range(num_workers)
         ]
         paths: dict[tuple[str, str], Path] = {}
@@ -180,9 +198,8 @@ def _evaluate_locked(
         pending = []
         k = 0
         for m in methods:
-            name = record_name(m, correspond)
             for t in tasks:
-                path = Path(records_path(Path(out_dir), name, t))
+                path = Path(records_path(Path(out_dir), names[(m, t)], t))
                 paths[(m, t)] = path
                 done[(m, t)] = recorded(path)
                 for index, s in enumerate(seeds):
@@ -216,6 +233,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     p.add_argument("--correspond", default="reference")
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--address", default=None, help="a Ray cluster's address (default: local)")
+    p.add_argument("--embeddings", nargs="+", default=None, help="an embedding set: a folder of <task>.onnx or ONNX files")
     a = p.parse_args(argv)
     try:
         _import_ray()
@@ -234,6 +252,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         correspond=a.correspond,
         num_workers=a.workers,
         address=a.address,
+        embeddings=a.embeddings,
     )
     for (m, t), recs in result.items():
         ok = sum(r["success"] for r in recs)

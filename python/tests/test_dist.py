@@ -97,3 +97,21 @@ def test_a_seed_recorded_twice_is_refused(tmp_path: Path) -> None:
     assert list(dist.recorded(path)) == [1]
     dist.append(path, seespot.Evaluator("oracle", "stack").run(3, 1))
     assert [json.loads(x)["seed"] for x in path.read_text().splitlines()] == [1, 3]
+
+
+def test_ray_runs_an_embedding_set_into_its_named_records(tmp_path: Path) -> None:
+    patches = str(Path(__file__).resolve().parents[2] / "models" / "embeddings" / "raw-patches.onnx")
+    dist.init_local_ray(num_workers=2, threads_per_worker=1)
+    try:
+        result = dist.evaluate(
+            ["ssr-ccd"], ["unstack"], seed=1, trials=2, out_dir=tmp_path, num_workers=2, embeddings=[patches]
+        )
+    finally:
+        ray.shutdown()
+    path = Path(seespot.records_path(tmp_path, "ssr-ccd@raw-patches", "unstack"))
+    on_disk = [json.loads(x) for x in path.read_text().splitlines()]
+    assert {r["method"] for r in on_disk} == {"ssr-ccd@raw-patches"}
+    serial = seespot.Evaluator("ssr-ccd", "unstack", embeddings=[patches])
+    want = [without_timing(json.loads(serial.run(s, i))) for i, s in enumerate(seespot.test_seeds(1, 2))]
+    assert [without_timing(r) for r in sorted(on_disk, key=lambda r: r["seed"])] == want
+    assert [without_timing(r) for r in result[("ssr-ccd", "unstack")]] == want

@@ -78,12 +78,15 @@ fn row_demos_recorded_from_other_starts_keep_their_places_inside_the_mask() {
     }
 }
 
-fn untrained_policies(task: TaskId) -> Vec<(TaskId, PolicyNet)> {
+fn untrained_policies(task: TaskId) -> Vec<(String, seespot_policy::Embedder)> {
     TaskId::ALL
         .into_iter()
         .filter(|t| *t != task)
         .enumerate()
-        .map(|(i, t)| (t, PolicyNet::new(t, 112, 10 + i as u64).expect("net")))
+        .map(|(i, t)| {
+            let net = PolicyNet::new(t, 112, 10 + i as u64).expect("net");
+            (t.as_str().to_string(), net.into())
+        })
         .collect()
 }
 
@@ -231,7 +234,7 @@ fn ties_are_broken_in_the_documented_order() {
     use seespot_sim::Action;
     use seespot_ssr::PairExplanation;
     let pair = |l: f32, c: f32| PairExplanation {
-        policy: TaskId::Row,
+        policy: TaskId::Row.as_str().to_string(),
         demo: 0,
         demo_step: 0,
         demo_action: Action::new(Primitive::Grasp, 0, 0, 0),

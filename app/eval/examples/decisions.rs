@@ -46,12 +46,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let mut d = ssr.last_decision().ok_or("no decision")?.clone();
             if runner_grasps
                 && d.primitive == seespot_sim::Primitive::Grasp
-                && d.pairs[d.chosen].policy == TaskId::Unstack
+                && d.pairs[d.chosen].policy == TaskId::Unstack.as_str()
             {
                 let others: Vec<_> = d
                     .pairs
                     .iter()
-                    .filter(|p| p.policy != TaskId::Unstack)
+                    .filter(|p| p.policy != TaskId::Unstack.as_str())
                     .cloned()
                     .collect();
                 let best = seespot_ssr::policy::choose(

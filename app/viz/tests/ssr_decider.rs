@@ -47,6 +47,6 @@ fn ssr_decider_explains_and_answers_queries() {
             x: a.x,
         })
         .expect("query");
-    assert_eq!(q.policy_name, Some(d.pairs[4].policy));
+    assert_eq!(q.policy_name, Some(d.pairs[4].policy.clone()));
     std::fs::remove_dir_all(&models).ok();
 }
