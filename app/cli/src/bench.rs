@@ -60,6 +60,11 @@ pub enum BenchCommand {
         /// policies.
         #[arg(long, num_args = 1.., value_name = "PATH")]
         embeddings: Vec<std::path::PathBuf>,
+        /// How a decision's cost grows: one whole decision for M = 1, 2, 4
+        /// and 8 untrained policies and N = 1, 2 and 4 demonstrations, with
+        /// the process's resident memory after each.
+        #[arg(long, conflicts_with = "embeddings")]
+        sweep: bool,
         #[arg(long)]
         json: bool,
     },
@@ -84,8 +89,15 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
             resolution,
             iterations,
             embeddings,
+            sweep,
             json,
-        } => bench_ssr(resolution, iterations, &embeddings, json),
+        } => {
+            if sweep {
+                bench_ssr_sweep(resolution, iterations, json)
+            } else {
+                bench_ssr(resolution, iterations, &embeddings, json)
+            }
+        }
         BenchCommand::Train {
             resolution,
             actions,
@@ -158,6 +170,103 @@ fn bench_sim(actions: usize, resolution: usize, json: bool) -> anyhow::Result<()
         report["physics_steps_per_action"].as_f64().unwrap_or(0.0),
         report["render_ms"].as_f64().unwrap_or(0.0),
     )?;
+    Ok(())
+}
+
+/// The process's resident memory now, MB (Linux's `/proc/self/status`;
+/// `None` elsewhere).
+fn resident_mb() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmRSS:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb / 1024.0)
+}
+
+/// `bench ssr --sweep`: the median whole decision (embed the live scene with
+/// M policies, correspond M x N pairs) as M and N grow, at 16 rotations
+/// (seespot's fixed R), on stack from seed 1 with oracle demonstrations from
+/// the even seeds; resident memory after each configuration's decisions.
+fn bench_ssr_sweep(resolution: usize, iterations: usize, json: bool) -> anyhow::Result<()> {
+    use seespot_sim::{Primitive, TaskId, Trial};
+    use seespot_ssr::{SsrConfig, SsrPolicy};
+    let task = TaskId::Stack;
+    let config = WorldConfig {
+        grid: Grid::new(resolution),
+        ..Default::default()
+    };
+    let all_demos = [0u64, 2, 4, 6]
+        .iter()
+        .map(|&s| seespot_sim::Demo::record(task, s, config))
+        .collect::<Result<Vec<_>, _>>()?;
+    let trial = Trial::new(config, task, 1);
+    let hm = trial.world().render();
+    let mut rows = Vec::new();
+    for m in [1usize, 2, 4, 8] {
+        for n in [1usize, 2, 4] {
+            let policies = (0..m)
+                .map(|i| {
+                    let p = seespot_policy::PolicyNet::new(task, resolution, 100 + i as u64)?;
+                    Ok((format!("m{i}"), p.into()))
+                })
+                .collect::<anyhow::Result<Vec<_>>>()?;
+            let mut ssr = SsrPolicy::new(
+                task,
+                policies,
+                all_demos[..n].to_vec(),
+                SsrConfig::default(),
+            )?;
+            ssr.decide(&hm, trial.progress(), Primitive::Grasp)?;
+            let mut total = Vec::new();
+            let (mut embed, mut corr) = (Vec::new(), Vec::new());
+            for _ in 0..iterations.max(1) {
+                ssr.forget_last_decision();
+                let t = Instant::now();
+                let d = ssr.decide(&hm, trial.progress(), Primitive::Grasp)?;
+                total.push(t.elapsed().as_secs_f64() * 1e3);
+                embed.push(d.embed_ms);
+                corr.push(d.correspond_ms);
+            }
+            let median = |v: &mut Vec<f64>| {
+                v.sort_by(f64::total_cmp);
+                v[v.len() / 2]
+            };
+            let row = serde_json::json!({
+                "policies": m,
+                "demos": n,
+                "rotations": seespot_sim::NUM_ROTATIONS,
+                "decision_ms": median(&mut total),
+                "embed_live_ms": median(&mut embed),
+                "correspond_ms": median(&mut corr),
+                "resident_mb": resident_mb(),
+            });
+            drop(ssr);
+            rows.push(row);
+        }
+    }
+    let report = serde_json::json!({
+        "resolution": resolution,
+        "threads": std::thread::available_parallelism().map_or(1, |n| n.get()),
+        "iterations": iterations,
+        "sweep": rows,
+    });
+    if json {
+        return crate::io::print_json(&report);
+    }
+    outln!(
+        "| M policies | N demos | decision ms | embed ms | correspond ms | resident MB |\n|---|---|---|---|---|---|"
+    )?;
+    for r in &rows {
+        let f = |k: &str| r[k].as_f64().map_or("-".to_owned(), |v| format!("{v:.1}"));
+        outln!(
+            "| {} | {} | {} | {} | {} | {} |",
+            r["policies"],
+            r["demos"],
+            f("decision_ms"),
+            f("embed_live_ms"),
+            f("correspond_ms"),
+            f("resident_mb")
+        )?;
+    }
     Ok(())
 }
 
