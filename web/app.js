@@ -249,6 +249,11 @@ function renderPairs(s) {
     : s.method === 'transporter'
       ? 'TransporterNet: the match map is its score map for this primitive (best score minus score: 0 at the action, larger is worse); no rematch.'
       : `On this state SSR CCD would take ${pick(s.ccd_choice)}; SSR L2CD would take ${pick(s.l2cd_choice)}.`;
+  // Where an extension of SSR departed from SSR CCD: the actions it masked, and why.
+  const skipped = s.skipped || [];
+  $('departures').hidden = !skipped.length;
+  $('departures').textContent = skipped.map((k) => `Extension: ${act(k.action)} and the `
+    + `${Math.round(k.radius_m * 100)} cm around it skipped: ${k.why}.`).join(' ');
   if (!s.pairs.length) {
     const tr = document.createElement('tr');
     tr.innerHTML = `<td colspan="7" class="pending">${s.phase ? 'this decider gives no explanation' : 'step to the embed phase'}</td>`;

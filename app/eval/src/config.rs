@@ -124,7 +124,11 @@ impl EvalConfig {
                 Method::SsrCcd
             },
             correspond: self.correspond,
-            loop_break: self.method == EvalMethod::SsrCcdLoopBreak,
+            loop_break: matches!(
+                self.method,
+                EvalMethod::SsrCcdLoopBreak | EvalMethod::SsrCcdNoLoops
+            ),
+            put_back_break: self.method == EvalMethod::SsrCcdNoLoops,
         }
     }
 }

@@ -31,6 +31,11 @@ pub enum EvalMethod {
     /// seespot's extension, not the paper's: SSR CCD that does not repeat an
     /// action which left the scene unchanged ([`seespot_ssr::policy::LOOP_BREAK_RADIUS`]).
     SsrCcdLoopBreak,
+    /// seespot's extension, not the paper's: loop breaking, and a grasp whose
+    /// block was put back where it was (the scene changed by less than one
+    /// block's footprint since that grasp, progress unchanged) is not taken
+    /// again while progress stays ([`seespot_ssr::policy::PutBack`]).
+    SsrCcdNoLoops,
     /// The test task's own SPOT-Q policy, greedy: the ceiling row.
     SpotQ,
     /// The scripted oracle.
@@ -44,10 +49,11 @@ pub enum EvalMethod {
 }
 
 impl EvalMethod {
-    pub const ALL: [EvalMethod; 7] = [
+    pub const ALL: [EvalMethod; 8] = [
         Self::SsrCcd,
         Self::SsrL2cd,
         Self::SsrCcdLoopBreak,
+        Self::SsrCcdNoLoops,
         Self::SpotQ,
         Self::Oracle,
         Self::Random,
@@ -59,6 +65,7 @@ impl EvalMethod {
             Self::SsrCcd => "ssr-ccd",
             Self::SsrL2cd => "ssr-l2cd",
             Self::SsrCcdLoopBreak => "ssr-ccd-loopbreak",
+            Self::SsrCcdNoLoops => "ssr-ccd-noloops",
             Self::SpotQ => "spot-q",
             Self::Oracle => "oracle",
             Self::Random => "random",
@@ -72,7 +79,10 @@ impl EvalMethod {
 
     /// Whether the method is See-SPOT-Run (faithful or extended).
     pub fn is_ssr(self) -> bool {
-        matches!(self, Self::SsrCcd | Self::SsrL2cd | Self::SsrCcdLoopBreak)
+        matches!(
+            self,
+            Self::SsrCcd | Self::SsrL2cd | Self::SsrCcdLoopBreak | Self::SsrCcdNoLoops
+        )
     }
 
     /// Whether the method runs SPOT-Q policies' networks (SSR embeds with
@@ -452,6 +462,7 @@ impl RunSpec {
             (EvalMethod::SsrCcd, _) => "SSR CCD",
             (EvalMethod::SsrL2cd, _) => "SSR L2CD",
             (EvalMethod::SsrCcdLoopBreak, _) => "Extension: SSR CCD + loop breaking",
+            (EvalMethod::SsrCcdNoLoops, _) => "Extension: SSR CCD + loop and put-back breaking",
             (EvalMethod::SpotQ, false) => "SPOT-Q",
             (EvalMethod::SpotQ, true) => "Good Robot finetuned",
             (EvalMethod::Transporter, false) => "TransporterNet",

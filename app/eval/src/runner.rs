@@ -167,7 +167,13 @@ pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalE
         Ok(out)
     };
     match (config.method, config.finetune_steps) {
-        (EvalMethod::SsrCcd | EvalMethod::SsrL2cd | EvalMethod::SsrCcdLoopBreak, _) => {
+        (
+            EvalMethod::SsrCcd
+            | EvalMethod::SsrL2cd
+            | EvalMethod::SsrCcdLoopBreak
+            | EvalMethod::SsrCcdNoLoops,
+            _,
+        ) => {
             for (_, path) in config.layout.policy_files(task) {
                 paths.push(path);
             }
@@ -658,7 +664,10 @@ pub fn make_actor(
 ) -> Result<Box<dyn Actor + Send + Sync>, EvalError> {
     config.check_embeddings(&[])?;
     Ok(match config.method {
-        EvalMethod::SsrCcd | EvalMethod::SsrL2cd | EvalMethod::SsrCcdLoopBreak => {
+        EvalMethod::SsrCcd
+        | EvalMethod::SsrL2cd
+        | EvalMethod::SsrCcdLoopBreak
+        | EvalMethod::SsrCcdNoLoops => {
             Box::new(ssr_policy(config, task)?)
         }
         EvalMethod::SpotQ => Box::new(spot_q_actor(config, task)?),

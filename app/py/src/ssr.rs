@@ -25,14 +25,15 @@ pub struct Ssr {
 
 /// An [`SsrConfig`] from the method and correspondence names.
 pub fn ssr_config(method: &str, correspond: &str) -> PyResult<SsrConfig> {
-    let (method, loop_break) = match method {
-        "ssr-ccd" => (Method::SsrCcd, false),
-        "ssr-l2cd" => (Method::SsrL2cd, false),
-        "ssr-ccd-loopbreak" => (Method::SsrCcd, true),
+    let (method, loop_break, put_back_break) = match method {
+        "ssr-ccd" => (Method::SsrCcd, false, false),
+        "ssr-l2cd" => (Method::SsrL2cd, false, false),
+        "ssr-ccd-loopbreak" => (Method::SsrCcd, true, false),
+        "ssr-ccd-noloops" => (Method::SsrCcd, true, true),
         _ => {
             return Err(bad(
                 "method",
-                format!("'{method}' is not ssr-ccd, ssr-l2cd or ssr-ccd-loopbreak"),
+                format!("'{method}' is not ssr-ccd, ssr-l2cd, ssr-ccd-loopbreak or ssr-ccd-noloops"),
             ));
         }
     };
@@ -41,6 +42,7 @@ pub fn ssr_config(method: &str, correspond: &str) -> PyResult<SsrConfig> {
         method,
         correspond: CorrespondOptions::of_mode(mode),
         loop_break,
+        put_back_break,
     })
 }
 

@@ -80,4 +80,9 @@ pub struct Decision {
     /// method.
     #[serde(default)]
     pub excluded: Vec<Action>,
+    /// Put-back breaking (seespot's extension): grasps whose neighbourhood
+    /// was masked because their block was put back where it was; empty for
+    /// the paper's method and absent from older records.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub put_back: Vec<Action>,
 }

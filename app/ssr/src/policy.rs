@@ -56,6 +56,62 @@ pub struct SsrConfig {
     /// seespot's loop-breaking extension (module docs); off for the paper's
     /// method.
     pub loop_break: bool,
+    /// seespot's put-back-breaking extension ([`PutBack`]), on top of loop
+    /// breaking; off for the paper's method.
+    pub put_back_break: bool,
+}
+
+/// **Put-back breaking (seespot's extension, not the paper's):** a grasp
+/// whose block came back where it was is not taken again. At each grasp
+/// decision, when progress is what it was at the last grasp and the scene
+/// differs from the scene of that grasp by less than one block's footprint
+/// (pixels whose height changed by more than half a block,
+/// [`PutBack::changed_area`]), the last grasp picked a block and put it
+/// back; it joins the put-back grasps, whose neighbourhood
+/// ([`LOOP_BREAK_RADIUS`]) is masked at every grasp decision until progress
+/// changes. The thresholds are the block's geometry, fixed before any run.
+#[derive(Clone, Debug, Default)]
+pub struct PutBack {
+    /// The depth heightmap, action and progress of the last grasp.
+    last_grasp: Option<(Vec<f32>, Action, u8)>,
+    /// The grasps whose blocks were put back, at the current progress.
+    grasps: Vec<Action>,
+}
+
+impl PutBack {
+    /// Metres squared of the scene whose height changed by more than half a
+    /// block between depth maps `a` and `b` (of pixel side `pixel`).
+    pub fn changed_area(a: &[f32], b: &[f32], pixel: f32) -> f32 {
+        let half = seespot_sim::blocks::BLOCK_SIZE / 2.0;
+        let n = a.iter().zip(b).filter(|(x, y)| (*x - *y).abs() > half).count();
+        n as f32 * pixel * pixel
+    }
+
+    /// Called at each decision before it is made: updates the put-back grasps.
+    fn observe(&mut self, hm: &Heightmaps, progress: u8, primitive: Primitive) {
+        if primitive != Primitive::Grasp {
+            return;
+        }
+        match &self.last_grasp {
+            Some((depth, grasp, p)) if *p == progress => {
+                let footprint = seespot_sim::blocks::BLOCK_SIZE * seespot_sim::blocks::BLOCK_SIZE;
+                if Self::changed_area(depth, &hm.depth, hm.grid.pixel_size()) < footprint
+                    && !self.grasps.contains(grasp)
+                {
+                    self.grasps.push(*grasp);
+                }
+            }
+            Some(_) => self.grasps.clear(),
+            None => {}
+        }
+    }
+
+    /// Called after a decision: remembers a grasp and its scene.
+    fn chose(&mut self, hm: &Heightmaps, progress: u8, action: Action) {
+        if action.primitive == Primitive::Grasp {
+            self.last_grasp = Some((hm.depth.clone(), action, progress));
+        }
+    }
 }
 
 impl Default for SsrConfig {
@@ -64,6 +120,7 @@ impl Default for SsrConfig {
             method: Method::SsrCcd,
             correspond: CorrespondOptions::default(),
             loop_break: false,
+            put_back_break: false,
         }
     }
 }
@@ -112,6 +169,8 @@ pub struct SsrPolicy {
     last: Option<(Heightmaps, u8, Primitive, Decision)>,
     /// Loop breaking: the actions that left the current scene unchanged.
     excluded: Vec<Action>,
+    /// Put-back breaking: the grasps whose blocks were put back.
+    put_back: PutBack,
 }
 
 impl SsrPolicy {
@@ -169,6 +228,7 @@ impl SsrPolicy {
             live: Vec::new(),
             last: None,
             excluded: Vec::new(),
+            put_back: PutBack::default(),
         })
     }
 
@@ -352,7 +412,7 @@ impl SsrPolicy {
                 live.set_pixel_mask(&mask);
             }
         }
-        let excluded = self.exclude_repeats(primitive, n, hm.grid.pixel_size());
+        let (excluded, put_back) = self.exclude_repeats(primitive, n, hm.grid.pixel_size());
         let embed_ms = t.elapsed().as_secs_f64() * 1e3;
         let steps: Vec<usize> = (0..self.demos.len())
             .map(|d| {
@@ -481,25 +541,38 @@ impl SsrPolicy {
             ccd_choice,
             l2cd_choice,
             excluded,
+            put_back,
         })
     }
 
-    /// Loop breaking: masks the neighbourhood of every excluded action of
-    /// `primitive` in the live maps, unless that would leave no action
-    /// allowed. Returns the actions whose neighbourhood was masked.
-    fn exclude_repeats(&mut self, primitive: Primitive, n: usize, pixel: f32) -> Vec<Action> {
+    /// Loop and put-back breaking: masks the neighbourhood of every excluded
+    /// action of `primitive` (and of every put-back grasp) in the live maps,
+    /// unless that would leave no action allowed. Returns the actions whose
+    /// neighbourhood was masked: the repeats, and the put-back grasps.
+    fn exclude_repeats(
+        &mut self,
+        primitive: Primitive,
+        n: usize,
+        pixel: f32,
+    ) -> (Vec<Action>, Vec<Action>) {
         let excluded: Vec<Action> = self
             .excluded
             .iter()
             .copied()
             .filter(|a| a.primitive == primitive)
             .collect();
-        if excluded.is_empty() {
-            return excluded;
+        let put_back: Vec<Action> = if self.config.put_back_break {
+            let g = &self.put_back.grasps;
+            g.iter().copied().filter(|a| a.primitive == primitive).collect()
+        } else {
+            Vec::new()
+        };
+        if excluded.is_empty() && put_back.is_empty() {
+            return (excluded, put_back);
         }
         let r = (LOOP_BREAK_RADIUS / pixel).round() as usize;
         let mut forbid = vec![false; n * n];
-        for a in &excluded {
+        for a in excluded.iter().chain(&put_back) {
             for y in a.y.saturating_sub(r)..=(a.y + r).min(n - 1) {
                 for x in a.x.saturating_sub(r)..=(a.x + r).min(n - 1) {
                     forbid[y * n + x] = true;
@@ -513,12 +586,12 @@ impl SsrPolicy {
                 .any(|(i, &ok)| ok && !forbid[i % (n * n)])
         });
         if !leaves_some {
-            return Vec::new();
+            return (Vec::new(), Vec::new());
         }
         for live in &mut self.live {
             live.forbid_pixels(&forbid);
         }
-        excluded
+        (excluded, put_back)
     }
 
     /// Click-to-query: the ASE of the demo pixel `q` names (at the demo step's
@@ -624,6 +697,9 @@ pub fn demo_step(demo: &Demo, progress: u8, primitive: Primitive) -> Option<usiz
 impl Actor for SsrPolicy {
     fn name(&self) -> String {
         match self.config.method {
+            Method::SsrCcd if self.config.put_back_break => {
+                "See-SPOT-Run CCD + loop and put-back breaking (seespot's extension)".to_owned()
+            }
             Method::SsrCcd if self.config.loop_break => {
                 "See-SPOT-Run CCD + loop breaking (seespot's extension)".to_owned()
             }
@@ -635,6 +711,7 @@ impl Actor for SsrPolicy {
 
     fn begin_trial(&mut self, _trial: &Trial) {
         self.excluded.clear();
+        self.put_back = PutBack::default();
     }
 
     fn act(&mut self, trial: &Trial, hm: &Heightmaps) -> Result<Choice, ActorError> {
@@ -652,7 +729,13 @@ impl Actor for SsrPolicy {
                 Some(a) => self.excluded.push(a),
                 None => self.excluded.clear(),
             }
+            if self.config.put_back_break {
+                self.put_back.observe(hm, progress, primitive);
+            }
             let d = self.decide_fresh(hm, progress, primitive, repeat.is_some())?;
+            if self.config.put_back_break {
+                self.put_back.chose(hm, progress, d.action);
+            }
             self.last = Some((hm.clone(), progress, primitive, d.clone()));
             d
         } else {

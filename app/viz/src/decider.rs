@@ -365,6 +365,7 @@ impl Actor for FeatureDecider {
             ccd_choice,
             l2cd_choice,
             excluded: Vec::new(),
+            put_back: Vec::new(),
         });
         Ok(choice)
     }

@@ -73,6 +73,10 @@ pub struct StateDoc {
     pub ccd_choice: Option<usize>,
     /// The action decided, once a phase is shown.
     pub action: Option<Action>,
+    /// Where an extension departed from SSR CCD in this decision: the
+    /// actions whose neighbourhood it masked, and why (empty for the
+    /// paper's methods).
+    pub skipped: Vec<SkipDoc>,
     pub timing_ms: Option<TimingDoc>,
     /// Every executed action of the trial.
     pub steps: Vec<StepDoc>,
@@ -105,6 +109,15 @@ pub struct DemonstrateDoc {
     pub progress: Option<u8>,
     /// Where the last demonstration of this session was saved.
     pub saved: Option<String>,
+}
+
+/// An action an extension of SSR masked (with the pixels within
+/// `radius_m` of it), and why.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SkipDoc {
+    pub action: Action,
+    pub radius_m: f32,
+    pub why: &'static str,
 }
 
 /// One (policy, demo) pair's row of the L / C table: L and the match from

@@ -20,7 +20,7 @@ use crate::b64;
 use crate::decider::Decider;
 use crate::documents::{
     DemoFrameDoc, DemonstrateDoc, EmbeddingDoc, FrameDoc, HeightmapDoc, HistoryDoc, HistoryEntry,
-    PairDoc, QueryBest, QueryDoc, StateDoc, StepDoc, TimingDoc,
+    PairDoc, QueryBest, QueryDoc, SkipDoc, StateDoc, StepDoc, TimingDoc,
 };
 use crate::recording::Recorder;
 use crate::registry::{DeciderFactory, Replay};
@@ -753,6 +753,24 @@ impl Session {
                 .filter(|_| shown(Phase::Verify))
                 .map(|d| d.ccd_choice),
             action: if phase.is_some() { self.action } else { None },
+            skipped: decision
+                .map(|d| {
+                    let skip = |why| {
+                        move |a: &Action| SkipDoc {
+                            action: *a,
+                            radius_m: seespot_ssr::policy::LOOP_BREAK_RADIUS,
+                            why,
+                        }
+                    };
+                    d.excluded
+                        .iter()
+                        .map(skip("it left the scene unchanged"))
+                        .chain(d.put_back.iter().map(skip(
+                            "its block was put back where it was, progress unchanged",
+                        )))
+                        .collect()
+                })
+                .unwrap_or_default(),
             timing_ms: decision.map(|d| TimingDoc {
                 embed: d.embed_ms,
                 correspond: d.correspond_ms,

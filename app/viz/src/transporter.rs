@@ -130,6 +130,7 @@ impl TransporterDecider {
             ccd_choice: 0,
             l2cd_choice: 0,
             excluded: Vec::new(),
+            put_back: Vec::new(),
         })
     }
 }

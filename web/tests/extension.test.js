@@ -1,0 +1,76 @@
+// An extension of See-SPOT-Run on the page, in headless Chromium: the
+// committed test trial of `ssr-ccd-noloops@raw-patches` on stack from seed 9
+// (seespot's loop and put-back breaking on the raw-patch control), replayed
+// with `view --replay`. Its first grasp fails and leaves the scene as it
+// was; SSR CCD would take the same grasp again, the extension masks it and
+// its 2 cm, and the page says so beside the pairs table.
+//
+// Server: $SEESPOT_BIN (default ../target/release/seespot).
+import { test, before, after } from 'node:test';
+import assert from 'node:assert/strict';
+import { mkdtempSync, rmSync, existsSync, readFileSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { join } from 'node:path';
+import { chromium } from 'playwright-core';
+import { root, BIN, CHROMIUM, FLAGS, startView, stopView, pageFromDisk } from './serve.js';
+
+const RECORDS = join('results', 'trials', 'ssr-ccd-noloops@raw-patches', 'stack.jsonl');
+const SEED = 9;
+
+let server, pageUrl, context, page, tmp, proxy, record;
+const pageErrors = [];
+
+before(async () => {
+  assert.ok(existsSync(BIN), `no server binary at ${BIN}; build it with cargo build --release`);
+  record = readFileSync(join(root, RECORDS), 'utf8').split('\n').filter(Boolean)
+    .map((l) => JSON.parse(l)).find((r) => r.seed === SEED);
+  assert.ok(record, `${RECORDS} has no trial of seed ${SEED}`);
+  tmp = mkdtempSync(join(tmpdir(), 'seespot-extension-'));
+  let served;
+  ({ server, page: served } = await startView(['view', '--port', '0', '--no-viewer', '--replay', RECORDS, '--seed', String(SEED)]));
+  proxy = await pageFromDisk(served);
+  pageUrl = proxy.url;
+  context = await chromium.launchPersistentContext(join(tmp, 'profile'), {
+    executablePath: CHROMIUM, headless: true, args: FLAGS, viewport: { width: 1500, height: 1150 },
+  });
+  page = await context.newPage();
+  page.on('pageerror', (e) => pageErrors.push(String(e)));
+  await page.goto(pageUrl);
+  await page.waitForFunction(() => window.seespot && window.seespot.state && window.seespot.frameVersion >= 0);
+});
+
+after(async () => {
+  if (context) await context.close();
+  if (proxy) await proxy.close();
+  await stopView(server);
+  if (tmp) rmSync(tmp, { recursive: true, force: true });
+});
+
+async function stepAndWait(testid) {
+  const v0 = await page.evaluate(() => window.seespot.state.version);
+  await page.getByTestId(testid).click();
+  await page.waitForFunction((v) => window.seespot.state.version > v && window.seespot.frameVersion === window.seespot.state.version, v0, { timeout: 120_000 });
+}
+
+test('the extension\'s departure from SSR CCD is explained beside the pairs', async () => {
+  const first = record.actions_log[0];
+  assert.equal(first.primitive_success, false, 'the trial must start with a failed grasp');
+  // Action 1: four phases; no departure yet.
+  for (let i = 0; i < 4; i++) await stepAndWait('next-phase');
+  assert.equal(await page.getByTestId('departures').isVisible(), false);
+  // Action 2, embed: the same scene as action 1's, so the failed grasp is skipped.
+  await stepAndWait('next-phase');
+  const note = page.getByTestId('departures');
+  await note.waitFor({ state: 'visible' });
+  const text = await note.textContent();
+  const a = first.action;
+  assert.match(text, /^Extension: /);
+  assert.ok(text.includes(`grasp r${a.rotation} (${a.y}, ${a.x}) and the 2 cm around it skipped: it left the scene unchanged`), text);
+  // The decision acts elsewhere, as the record does.
+  for (let i = 0; i < 3; i++) await stepAndWait('next-phase');
+  const s = await page.evaluate(() => window.seespot.state);
+  const b = record.actions_log[1].action;
+  assert.deepEqual([s.action.rotation, s.action.y, s.action.x], [b.rotation, b.y, b.x]);
+  assert.notDeepEqual([b.rotation, b.y, b.x], [a.rotation, a.y, a.x]);
+  assert.deepEqual(pageErrors, []);
+});
