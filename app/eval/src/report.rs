@@ -447,8 +447,10 @@ pub fn ssr_runs(records: &[TrialRecord]) -> Vec<RunSpec> {
 /// what each comparison asks; pairs without shared seeds are skipped. Runs
 /// are [`RunSpec`] values, so a comparison cannot name a run that
 /// does not exist.
-pub fn planned_comparisons() -> [(RunSpec, RunSpec, &'static str); 12] {
-    use crate::run::EvalMethod::{Random, SpotQ, SsrCcd, SsrCcdLoopBreak, SsrL2cd, Transporter};
+pub fn planned_comparisons() -> [(RunSpec, RunSpec, &'static str); 15] {
+    use crate::run::EvalMethod::{
+        Random, SpotQ, SsrCcd, SsrCcdLoopBreak, SsrCcdNoLoops, SsrL2cd, Transporter,
+    };
     use RunSpec;
     let run = RunSpec::new;
     // Both methods have a policy to finetune.
@@ -467,6 +469,21 @@ pub fn planned_comparisons() -> [(RunSpec, RunSpec, &'static str); 12] {
             run(SsrCcdLoopBreak),
             run(SsrCcd),
             "seespot's extension against the faithful method",
+        ),
+        (
+            run(SsrCcdNoLoops),
+            run(SsrCcd),
+            "seespot's loop and put-back breaking against the faithful method",
+        ),
+        (
+            run(SsrCcdNoLoops),
+            run(SsrCcdLoopBreak),
+            "what put-back breaking adds to loop breaking",
+        ),
+        (
+            run(SsrCcdNoLoops),
+            run(Transporter),
+            "seespot's extension against the few-shot baseline trained on the test task's demonstrations",
         ),
         (
             run(SsrCcd).noisy(),
@@ -521,7 +538,7 @@ pub fn planned_comparisons() -> [(RunSpec, RunSpec, &'static str); 12] {
 /// named `<run>@<set>`): SSR CCD and SSR L2CD on the set against the same
 /// method on the SPOT-Q policies, and CCD against L2CD on the set.
 pub fn report_comparisons(records: &[TrialRecord]) -> Vec<(RunSpec, RunSpec, String)> {
-    use crate::run::EvalMethod::{SsrCcd, SsrL2cd};
+    use crate::run::EvalMethod::{SsrCcd, SsrCcdLoopBreak, SsrCcdNoLoops, SsrL2cd};
     let mut out: Vec<(RunSpec, RunSpec, String)> = planned_comparisons()
         .into_iter()
         .map(|(a, b, why)| (a, b, why.to_owned()))
@@ -553,6 +570,21 @@ pub fn report_comparisons(records: &[TrialRecord]) -> Vec<(RunSpec, RunSpec, Str
             on(SsrCcd),
             on(SsrL2cd),
             format!("the paper's central comparison on embedding set {set}"),
+        ));
+        out.push((
+            on(SsrCcdLoopBreak),
+            on(SsrCcd),
+            format!("loop breaking against the faithful method on embedding set {set}"),
+        ));
+        out.push((
+            on(SsrCcdNoLoops),
+            on(SsrCcdLoopBreak),
+            format!("what put-back breaking adds to loop breaking on embedding set {set}"),
+        ));
+        out.push((
+            on(SsrCcdNoLoops),
+            RunSpec::new(SsrCcdNoLoops),
+            format!("embedding set {set} against the SPOT-Q policies, with both extensions"),
         ));
     }
     out
@@ -1304,6 +1336,9 @@ mod tests {
         let want = [
             ("ssr-ccd", "ssr-l2cd"),
             ("ssr-ccd-loopbreak", "ssr-ccd"),
+            ("ssr-ccd-noloops", "ssr-ccd"),
+            ("ssr-ccd-noloops", "ssr-ccd-loopbreak"),
+            ("ssr-ccd-noloops", "transporter"),
             ("ssr-ccd-noisy", "ssr-ccd"),
             ("spot-q-noisy", "spot-q"),
             ("ssr-ccd-finetuned", "ssr-ccd"),

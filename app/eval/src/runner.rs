@@ -667,9 +667,7 @@ pub fn make_actor(
         EvalMethod::SsrCcd
         | EvalMethod::SsrL2cd
         | EvalMethod::SsrCcdLoopBreak
-        | EvalMethod::SsrCcdNoLoops => {
-            Box::new(ssr_policy(config, task)?)
-        }
+        | EvalMethod::SsrCcdNoLoops => Box::new(ssr_policy(config, task)?),
         EvalMethod::SpotQ => Box::new(spot_q_actor(config, task)?),
         EvalMethod::Transporter => Box::new(TransporterActor::new(transporter_net(config, task)?)),
         EvalMethod::Oracle => Box::new(Oracle::new(task)),

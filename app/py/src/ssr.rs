@@ -33,7 +33,9 @@ pub fn ssr_config(method: &str, correspond: &str) -> PyResult<SsrConfig> {
         _ => {
             return Err(bad(
                 "method",
-                format!("'{method}' is not ssr-ccd, ssr-l2cd, ssr-ccd-loopbreak or ssr-ccd-noloops"),
+                format!(
+                    "'{method}' is not ssr-ccd, ssr-l2cd, ssr-ccd-loopbreak or ssr-ccd-noloops"
+                ),
             ));
         }
     };

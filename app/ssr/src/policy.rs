@@ -83,7 +83,11 @@ impl PutBack {
     /// block between depth maps `a` and `b` (of pixel side `pixel`).
     pub fn changed_area(a: &[f32], b: &[f32], pixel: f32) -> f32 {
         let half = seespot_sim::blocks::BLOCK_SIZE / 2.0;
-        let n = a.iter().zip(b).filter(|(x, y)| (*x - *y).abs() > half).count();
+        let n = a
+            .iter()
+            .zip(b)
+            .filter(|(x, y)| (*x - *y).abs() > half)
+            .count();
         n as f32 * pixel * pixel
     }
 
@@ -563,7 +567,10 @@ impl SsrPolicy {
             .collect();
         let put_back: Vec<Action> = if self.config.put_back_break {
             let g = &self.put_back.grasps;
-            g.iter().copied().filter(|a| a.primitive == primitive).collect()
+            g.iter()
+                .copied()
+                .filter(|a| a.primitive == primitive)
+                .collect()
         } else {
             Vec::new()
         };
