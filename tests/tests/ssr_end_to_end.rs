@@ -99,6 +99,7 @@ fn live_scene_identical_to_the_demo_scene_reproduces_the_demo_action() {
             method,
             correspond: CorrespondOptions::default(),
             loop_break: false,
+            put_back_break: false,
         };
         let mut ssr =
             SsrPolicy::new(task, untrained_policies(task), demos.clone(), config).expect("ssr");
@@ -143,6 +144,7 @@ fn global_rematch_measures_c_from_the_live_match() {
             rematch: Rematch::Global,
         },
         loop_break: false,
+        put_back_break: false,
     };
     let mut ssr =
         SsrPolicy::new(task, untrained_policies(task), demos.clone(), config).expect("ssr");
@@ -287,6 +289,7 @@ fn loop_breaking_never_repeats_an_action_that_changed_nothing() {
     let models = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../models/oracle-guided");
     let config = SsrConfig {
         loop_break: true,
+        put_back_break: false,
         ..SsrConfig::default()
     };
     let mut ssr =

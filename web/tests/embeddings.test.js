@@ -13,11 +13,10 @@
 // ones it was built with; serve.js `pageFromDisk`).
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
-import { mkdtempSync, mkdirSync, rmSync, existsSync, readFileSync } from 'node:fs';
+import { mkdtempSync, mkdirSync, existsSync, readFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join, resolve } from 'node:path';
-import { chromium } from 'playwright-core';
-import { root, BIN, CHROMIUM, FLAGS, startView, stopView, pageFromDisk } from './serve.js';
+import { root, BIN, openView } from './serve.js';
 
 const shots = process.env.SEESPOT_SCREENSHOTS
   ? resolve(process.env.SEESPOT_SCREENSHOTS)
@@ -26,44 +25,21 @@ const RES = Number(process.env.SEESPOT_TEST_RESOLUTION || 224);
 const MODEL = join('models', 'embeddings', 'raw-patches.onnx');
 const NAME = 'raw-patches';
 
-let server, pageUrl, context, page, tmp, proxy;
-const pageErrors = [];
+let view, page, pageUrl, stepAndWait;
 
 before(async () => {
   assert.ok(existsSync(BIN), `no server binary at ${BIN}; build it with cargo build --release`);
   mkdirSync(shots, { recursive: true });
-  tmp = mkdtempSync(join(tmpdir(), 'seespot-embeddings-'));
-  const args = ['view', '--port', '0', '--no-viewer', '--task', 'stack', '--seed', '1',
-    '--resolution', String(RES), '--embeddings', MODEL];
-  let served;
-  ({ server, page: served } = await startView(args));
-  // With SEESPOT_WEB_FROM_DISK=1 the page's files come from web/ (serve.js).
-  proxy = await pageFromDisk(served);
-  pageUrl = proxy.url;
-  context = await chromium.launchPersistentContext(join(tmp, 'profile'), {
-    executablePath: CHROMIUM, headless: true, args: FLAGS, viewport: { width: 1500, height: 1150 },
-  });
-  page = await context.newPage();
-  page.on('pageerror', (e) => pageErrors.push(String(e)));
-  await page.goto(pageUrl);
-  await page.waitForFunction(() => window.seespot && window.seespot.state && window.seespot.frameVersion >= 0);
+  view = await openView(['view', '--port', '0', '--no-viewer', '--task', 'stack', '--seed', '1',
+    '--resolution', String(RES), '--embeddings', MODEL]);
+  ({ page, pageUrl, stepAndWait } = view);
 });
 
 after(async () => {
-  if (context) await context.close();
-  if (proxy) await proxy.close();
-  await stopView(server);
-  if (tmp) rmSync(tmp, { recursive: true, force: true });
+  if (view) await view.close();
 });
 
 const api = async (path) => (await fetch(new URL(path, pageUrl))).json();
-
-/** Clicks a control and waits until the page has drawn the resulting state. */
-async function stepAndWait(testid) {
-  const v0 = await page.evaluate(() => window.seespot.state.version);
-  await page.getByTestId(testid).click();
-  await page.waitForFunction((v) => window.seespot.state.version > v && window.seespot.frameVersion === window.seespot.state.version, v0, { timeout: 120_000 });
-}
 
 /** The pairs table's rows that show a (policy, demo) pair (not its placeholder row). */
 const pairRows = () => page.$$eval('[data-testid=pairs] tbody tr[data-pair]', (trs) => trs.map((tr) => ({
@@ -170,7 +146,7 @@ test('a decision on the ONNX model shows its 2 pairs, each naming the model', as
   assert.deepEqual(s.steps[0].action, d.action);
   assert.equal(await page.evaluate(() => window.seespot.frame.pair), d.chosen);
   assert.match(await page.getByTestId('demo-title').textContent(), new RegExp(`· policy ${NAME}$`));
-  assert.deepEqual(pageErrors, []);
+  assert.deepEqual(view.errors, []);
   assert.deepEqual(await page.evaluate(() => window.seespot.errors), []);
 });
 
@@ -243,7 +219,7 @@ test('the embedding colours of the chosen pair show what the model (D = 100) see
     return colours.size;
   });
   assert.ok(shown > 16, `the demo canvas shows ${shown} colours`);
-  assert.deepEqual(pageErrors, []);
+  assert.deepEqual(view.errors, []);
   assert.deepEqual(await page.evaluate(() => window.seespot.errors), []);
 });
 
@@ -253,5 +229,5 @@ test('screenshot: embeddings.png', async () => {
 });
 
 test('the page raised no script errors', () => {
-  assert.deepEqual(pageErrors, []);
+  assert.deepEqual(view.errors, []);
 });

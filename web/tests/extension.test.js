@@ -8,49 +8,27 @@
 // Server: $SEESPOT_BIN (default ../target/release/seespot).
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
-import { mkdtempSync, rmSync, existsSync, readFileSync } from 'node:fs';
-import { tmpdir } from 'node:os';
+import { existsSync, readFileSync } from 'node:fs';
 import { join } from 'node:path';
-import { chromium } from 'playwright-core';
-import { root, BIN, CHROMIUM, FLAGS, startView, stopView, pageFromDisk } from './serve.js';
+import { root, BIN, openView } from './serve.js';
 
 const RECORDS = join('results', 'trials', 'ssr-ccd-noloops@raw-patches', 'stack.jsonl');
 const SEED = 9;
 
-let server, pageUrl, context, page, tmp, proxy, record;
-const pageErrors = [];
+let view, page, stepAndWait, record;
 
 before(async () => {
   assert.ok(existsSync(BIN), `no server binary at ${BIN}; build it with cargo build --release`);
   record = readFileSync(join(root, RECORDS), 'utf8').split('\n').filter(Boolean)
     .map((l) => JSON.parse(l)).find((r) => r.seed === SEED);
   assert.ok(record, `${RECORDS} has no trial of seed ${SEED}`);
-  tmp = mkdtempSync(join(tmpdir(), 'seespot-extension-'));
-  let served;
-  ({ server, page: served } = await startView(['view', '--port', '0', '--no-viewer', '--replay', RECORDS, '--seed', String(SEED)]));
-  proxy = await pageFromDisk(served);
-  pageUrl = proxy.url;
-  context = await chromium.launchPersistentContext(join(tmp, 'profile'), {
-    executablePath: CHROMIUM, headless: true, args: FLAGS, viewport: { width: 1500, height: 1150 },
-  });
-  page = await context.newPage();
-  page.on('pageerror', (e) => pageErrors.push(String(e)));
-  await page.goto(pageUrl);
-  await page.waitForFunction(() => window.seespot && window.seespot.state && window.seespot.frameVersion >= 0);
+  view = await openView(['view', '--port', '0', '--no-viewer', '--replay', RECORDS, '--seed', String(SEED)]);
+  ({ page, stepAndWait } = view);
 });
 
 after(async () => {
-  if (context) await context.close();
-  if (proxy) await proxy.close();
-  await stopView(server);
-  if (tmp) rmSync(tmp, { recursive: true, force: true });
+  if (view) await view.close();
 });
-
-async function stepAndWait(testid) {
-  const v0 = await page.evaluate(() => window.seespot.state.version);
-  await page.getByTestId(testid).click();
-  await page.waitForFunction((v) => window.seespot.state.version > v && window.seespot.frameVersion === window.seespot.state.version, v0, { timeout: 120_000 });
-}
 
 test('the extension\'s departure from SSR CCD is explained beside the pairs', async () => {
   const first = record.actions_log[0];
@@ -72,5 +50,5 @@ test('the extension\'s departure from SSR CCD is explained beside the pairs', as
   const b = record.actions_log[1].action;
   assert.deepEqual([s.action.rotation, s.action.y, s.action.x], [b.rotation, b.y, b.x]);
   assert.notDeepEqual([b.rotation, b.y, b.x], [a.rotation, a.y, a.x]);
-  assert.deepEqual(pageErrors, []);
+  assert.deepEqual(view.errors, []);
 });

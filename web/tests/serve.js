@@ -140,3 +140,42 @@ export async function pageFilesDiffering(pageUrl) {
   }
   return differing;
 }
+
+/**
+ * Starts `$SEESPOT_BIN ARGS` (a `view`) and opens its page in headless
+ * Chromium (1500 x 1150, a fresh profile in a temporary folder, the page's
+ * files from disk with SEESPOT_WEB_FROM_DISK=1), once the page has its
+ * first state. Resolves to `{ server, pageUrl, page, errors, stepAndWait,
+ * close() }`: `errors` collects the page's script errors; `stepAndWait(id)`
+ * clicks the control with that test id and waits until the page has drawn
+ * the state it leads to.
+ */
+export async function openView(args) {
+  const { chromium } = await import('playwright-core');
+  const { mkdtempSync, rmSync } = await import('node:fs');
+  const { tmpdir } = await import('node:os');
+  const tmp = mkdtempSync(join(tmpdir(), 'seespot-view-'));
+  const { server, page: served } = await startView(args);
+  const proxy = await pageFromDisk(served);
+  const context = await chromium.launchPersistentContext(join(tmp, 'profile'), {
+    executablePath: CHROMIUM, headless: true, args: FLAGS, viewport: { width: 1500, height: 1150 },
+  });
+  const page = await context.newPage();
+  const errors = [];
+  page.on('pageerror', (e) => errors.push(String(e)));
+  await page.goto(proxy.url);
+  await page.waitForFunction(() => window.seespot && window.seespot.state && window.seespot.frameVersion >= 0);
+  const stepAndWait = async (testid) => {
+    const v0 = await page.evaluate(() => window.seespot.state.version);
+    await page.getByTestId(testid).click();
+    await page.waitForFunction((v) => window.seespot.state.version > v
+      && window.seespot.frameVersion === window.seespot.state.version, v0, { timeout: 120_000 });
+  };
+  const close = async () => {
+    await context.close();
+    await proxy.close();
+    await stopView(server);
+    rmSync(tmp, { recursive: true, force: true });
+  };
+  return { server, pageUrl: proxy.url, page, errors, stepAndWait, close };
+}

@@ -173,6 +173,45 @@ fn bench_sim(actions: usize, resolution: usize, json: bool) -> anyhow::Result<()
     Ok(())
 }
 
+/// The times of `iterations` (at least one) whole grasp decisions made
+/// afresh in one scene, ms: in all, Embed and Correspond.
+struct DecisionTimes {
+    total: Vec<f64>,
+    embed: Vec<f64>,
+    correspond: Vec<f64>,
+}
+
+impl DecisionTimes {
+    fn measure(
+        ssr: &mut seespot_ssr::SsrPolicy,
+        hm: &seespot_sim::Heightmaps,
+        progress: u8,
+        iterations: usize,
+    ) -> anyhow::Result<Self> {
+        let mut t = Self {
+            total: Vec::new(),
+            embed: Vec::new(),
+            correspond: Vec::new(),
+        };
+        for _ in 0..iterations.max(1) {
+            ssr.forget_last_decision();
+            let start = Instant::now();
+            let d = ssr.decide(hm, progress, seespot_sim::Primitive::Grasp)?;
+            t.total.push(start.elapsed().as_secs_f64() * 1e3);
+            t.embed.push(d.embed_ms);
+            t.correspond.push(d.correspond_ms);
+        }
+        Ok(t)
+    }
+}
+
+/// The median of `v` (not empty).
+fn median(v: &[f64]) -> f64 {
+    let mut v = v.to_vec();
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
 /// The process's resident memory now, MB (Linux's `/proc/self/status`;
 /// `None` elsewhere).
 fn resident_mb() -> Option<f64> {
@@ -216,27 +255,14 @@ fn bench_ssr_sweep(resolution: usize, iterations: usize, json: bool) -> anyhow::
                 SsrConfig::default(),
             )?;
             ssr.decide(&hm, trial.progress(), Primitive::Grasp)?;
-            let mut total = Vec::new();
-            let (mut embed, mut corr) = (Vec::new(), Vec::new());
-            for _ in 0..iterations.max(1) {
-                ssr.forget_last_decision();
-                let t = Instant::now();
-                let d = ssr.decide(&hm, trial.progress(), Primitive::Grasp)?;
-                total.push(t.elapsed().as_secs_f64() * 1e3);
-                embed.push(d.embed_ms);
-                corr.push(d.correspond_ms);
-            }
-            let median = |v: &mut Vec<f64>| {
-                v.sort_by(f64::total_cmp);
-                v[v.len() / 2]
-            };
+            let times = DecisionTimes::measure(&mut ssr, &hm, trial.progress(), iterations)?;
             let row = serde_json::json!({
                 "policies": m,
                 "demos": n,
                 "rotations": seespot_sim::NUM_ROTATIONS,
-                "decision_ms": median(&mut total),
-                "embed_live_ms": median(&mut embed),
-                "correspond_ms": median(&mut corr),
+                "decision_ms": median(&times.total),
+                "embed_live_ms": median(&times.embed),
+                "correspond_ms": median(&times.correspond),
                 "resident_mb": resident_mb(),
             });
             drop(ssr);
@@ -319,22 +345,9 @@ fn bench_ssr(
     let t = Instant::now();
     ssr.decide(&hm, trial.progress(), Primitive::Grasp)?;
     let first_ms = t.elapsed().as_secs_f64() * 1e3;
-    let mut total = Vec::new();
-    let mut embed = Vec::new();
-    let mut corr = Vec::new();
-    for _ in 0..iterations.max(1) {
-        ssr.forget_last_decision();
-        let t = Instant::now();
-        let d = ssr.decide(&hm, trial.progress(), Primitive::Grasp)?;
-        total.push(t.elapsed().as_secs_f64() * 1e3);
-        embed.push(d.embed_ms);
-        corr.push(d.correspond_ms);
-    }
-    let median = |v: &mut Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
-    };
-    let (decision_ms, decisions) = (median(&mut total), total.len());
+    let times = DecisionTimes::measure(&mut ssr, &hm, trial.progress(), iterations)?;
+    let total = &times.total;
+    let (decision_ms, decisions) = (median(total), total.len());
     let report = serde_json::json!({
         "resolution": resolution,
         "embeddings": set.as_ref().map_or("untrained SPOT-Q policies".to_string(), |e| e.label()),
@@ -344,8 +357,8 @@ fn bench_ssr(
             "decision_ms": decision_ms,
             "decision_ms_min": total.iter().copied().fold(f64::INFINITY, f64::min),
             "decisions": decisions,
-            "embed_live_ms": median(&mut embed),
-            "correspond_ms": median(&mut corr),
+            "embed_live_ms": median(&times.embed),
+            "correspond_ms": median(&times.correspond),
             "first_decision_ms_with_demo_embedding": first_ms,
             "target_ms_at_224_px": 150.0,
         },

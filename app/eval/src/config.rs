@@ -41,19 +41,24 @@ pub struct EvalConfig {
 impl EvalConfig {
     /// The run this configuration makes: its record name and meaning.
     pub fn spec(&self) -> RunSpec {
-        let spec = RunSpec::of_parts(
-            self.method,
-            &self.correspond,
-            self.finetune_steps,
-            self.finetune_procedure,
-            !self.world.noise.is_none(),
-        );
+        let spec = self.spec_without_embeddings();
         // A configuration whose embeddings its method cannot take is refused
         // by [`Self::check_embeddings`] before any trial.
         match self.embeddings_label() {
             Some(l) => spec.with_embeddings(l).unwrap_or(spec),
             None => spec,
         }
+    }
+
+    /// The run's method, correspondence, finetuning and noise.
+    fn spec_without_embeddings(&self) -> RunSpec {
+        RunSpec::of_parts(
+            self.method,
+            &self.correspond,
+            self.finetune_steps,
+            self.finetune_procedure,
+            !self.world.noise.is_none(),
+        )
     }
 
     /// The name of the run's embedding set, if it has one.
@@ -71,14 +76,8 @@ impl EvalConfig {
             return Ok(());
         };
         let label = crate::run::EmbeddingLabel::new(&e.label()).map_err(EvalError::Invalid)?;
-        let spec = RunSpec::of_parts(
-            self.method,
-            &self.correspond,
-            self.finetune_steps,
-            self.finetune_procedure,
-            !self.world.noise.is_none(),
-        );
-        spec.with_embeddings(label)
+        self.spec_without_embeddings()
+            .with_embeddings(label)
             .map_err(|e| EvalError::Invalid(format!("--embeddings: {e}")))?;
         if self.method == crate::run::EvalMethod::SpotQ {
             // Each task's own file acts; it must have Q outputs.

@@ -806,3 +806,47 @@ pub fn choose(pairs: &[PairExplanation], method: Method, mode: Correspondence) -
     }
     best
 }
+
+#[cfg(test)]
+mod put_back_tests {
+    use super::*;
+    use seespot_sim::{Trial, WorldConfig};
+
+    #[test]
+    fn a_grasp_whose_scene_comes_back_is_a_put_back_until_progress_changes() {
+        let trial = Trial::new(WorldConfig::default(), TaskId::Stack, 1);
+        let hm = trial.world().render();
+        let grasp = Action::new(Primitive::Grasp, 3, 40, 50);
+        let mut pb = PutBack::default();
+        pb.observe(&hm, 1, Primitive::Grasp);
+        assert!(pb.grasps.is_empty(), "no grasp yet");
+        pb.chose(&hm, 1, grasp);
+        // A place decision does not judge.
+        pb.observe(&hm, 1, Primitive::Place);
+        assert!(pb.grasps.is_empty());
+        // The next grasp decision sees the scene of the grasp again.
+        pb.observe(&hm, 1, Primitive::Grasp);
+        assert_eq!(pb.grasps, vec![grasp]);
+        // A scene changed over more than a block's footprint is no put-back.
+        let mut moved = hm.clone();
+        let side = (seespot_sim::BLOCK_SIZE / hm.grid.pixel_size()).ceil() as usize + 2;
+        for y in 0..side {
+            for x in 0..side {
+                moved.depth[y * hm.resolution() + x] += seespot_sim::BLOCK_SIZE;
+            }
+        }
+        let area = PutBack::changed_area(&hm.depth, &moved.depth, hm.grid.pixel_size());
+        assert!(
+            area > seespot_sim::BLOCK_SIZE * seespot_sim::BLOCK_SIZE,
+            "{area}"
+        );
+        let other = Action::new(Primitive::Grasp, 0, 10, 10);
+        pb.chose(&hm, 1, other);
+        pb.observe(&moved, 1, Primitive::Grasp);
+        assert_eq!(pb.grasps, vec![grasp]);
+        // Progress changed: the put-back grasps are forgotten.
+        pb.chose(&moved, 1, other);
+        pb.observe(&moved, 2, Primitive::Grasp);
+        assert!(pb.grasps.is_empty());
+    }
+}
