@@ -3,6 +3,8 @@
 //! an embedding set is named after it, carries its files' checksums, and
 //! refuses a bad model before any trial.
 
+#![allow(clippy::unwrap_used)]
+
 use std::path::{Path, PathBuf};
 
 use seespot_eval::runner::{run_task, world_config};

@@ -144,7 +144,7 @@ pub enum SsrError {
 
 /// What click-to-query asks about: pixel `(y, x)` of demonstration `demo`'s
 /// step `step`, embedded by the policy of index `policy` (in
-/// [`SsrPolicy::policy_tasks`] order). Named fields, so a call cannot swap
+/// [`SsrPolicy::policy_names`] order). Named fields, so a call cannot swap
 /// two of them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct DemoQuery {
