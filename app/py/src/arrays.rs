@@ -127,3 +127,13 @@ pub fn action_indices(a: [i64; 3], n: usize) -> Result<[usize; 3], (&'static str
     }
     Ok(out)
 }
+
+/// The embedding set a Python `embeddings` argument names (`None`: the
+/// SPOT-Q policies).
+pub fn embeddings(
+    paths: Option<Vec<std::path::PathBuf>>,
+) -> PyResult<Option<seespot_ssr::layout::Embeddings>> {
+    paths
+        .map(|p| seespot_ssr::layout::Embeddings::from_paths(&p).map_err(|e| bad("embeddings", e)))
+        .transpose()
+}

@@ -55,7 +55,7 @@ impl Evaluator {
             seeds: Seeds::new(1, 1).map_err(|e| bad("seeds", e))?,
             out_dir: PathBuf::new(),
             layout: seespot_ssr::Layout::new(models_dir, demos_dir)
-                .with_embeddings(embeddings_of(embeddings)?),
+                .with_embeddings(arrays::embeddings(embeddings)?),
             world: seespot_eval::runner::world_config(resolution),
             correspond: seespot_ssr::CorrespondOptions::of_mode(mode),
             finetune_steps: 0,
@@ -110,16 +110,6 @@ impl Evaluator {
         })
         .map_err(|e| bad("seed", e))
     }
-}
-
-/// The embedding set a Python `embeddings` argument names (`None`: the
-/// SPOT-Q policies).
-pub fn embeddings_of(
-    paths: Option<Vec<PathBuf>>,
-) -> PyResult<Option<seespot_ssr::layout::Embeddings>> {
-    paths
-        .map(|p| seespot_ssr::layout::Embeddings::from_paths(&p).map_err(|e| bad("embeddings", e)))
-        .transpose()
 }
 
 /// The seeds `seespot eval --seed start --trials count` runs (validated as

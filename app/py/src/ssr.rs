@@ -69,7 +69,7 @@ impl Ssr {
         let task = arrays::task(task, &demos_dir)?;
         let config = ssr_config(method, correspond)?;
         let layout = seespot_ssr::Layout::new(models_dir, demos_dir)
-            .with_embeddings(crate::eval::embeddings_of(embeddings)?);
+            .with_embeddings(crate::arrays::embeddings(embeddings)?);
         let ssr = py
             .detach(|| SsrPolicy::load(task, &layout, config))
             .map_err(|e| bad("models_dir/demos_dir/embeddings", e))?;
