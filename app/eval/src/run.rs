@@ -601,10 +601,10 @@ mod tests {
     #[test]
     fn every_spec_round_trips_through_its_name() {
         let all = RunSpec::all();
-        // 3 SSR methods x 9 correspondences x 3 finetunings x 2 noises,
+        // 4 SSR methods x 9 correspondences x 3 finetunings x 2 noises,
         // SPOT-Q x 3 x 2, TransporterNet x 2 x 2, oracle and random x 2
         // (noise only).
-        assert_eq!(all.len(), 3 * 9 * 6 + 6 + 4 + 2 * 2);
+        assert_eq!(all.len(), 4 * 9 * 6 + 6 + 4 + 2 * 2);
         let mut names = std::collections::HashSet::new();
         for spec in &all {
             let name = spec.to_string();
@@ -616,6 +616,13 @@ mod tests {
                 *spec
             );
         }
+        // A run on an embedding set: `<run>@<set>`, for SSR and SPOT-Q only.
+        let on_set: RunSpec = "ssr-ccd-noloops@raw-patches".parse().expect("parse");
+        assert_eq!(on_set.to_string(), "ssr-ccd-noloops@raw-patches");
+        assert_eq!(on_set.embeddings().map(|l| l.as_str()), Some("raw-patches"));
+        assert!("oracle@raw-patches".parse::<RunSpec>().is_err());
+        assert!("ssr-ccd-finetuned@raw-patches".parse::<RunSpec>().is_err());
+        assert!("ssr-ccd@Raw Patches".parse::<RunSpec>().is_err());
         assert!("ssr-ccd-plian".parse::<RunSpec>().is_err());
         assert!("oracle-finetuned".parse::<RunSpec>().is_err());
         assert!("spot-q-plain".parse::<RunSpec>().is_err());
