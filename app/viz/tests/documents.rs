@@ -68,6 +68,7 @@ fn state_and_frame_documents_keep_their_schema() {
             "replay",
             "resolution",
             "seed",
+            "skipped",
             "steps",
             "succeeded",
             "task",
