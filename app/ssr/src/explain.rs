@@ -86,3 +86,55 @@ pub struct Decision {
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub put_back: Vec<Action>,
 }
+
+/// Why an extension of SSR masked an action ([`Decision::departures`]).
+pub const LEFT_UNCHANGED: &str = "it left the scene unchanged";
+pub const PUT_BACK: &str = "its block was put back where it was, progress unchanged";
+
+impl Decision {
+    /// Where an extension departed from SSR CCD in this decision: each
+    /// action whose neighbourhood (within
+    /// [`crate::policy::LOOP_BREAK_RADIUS`]) it masked, and why; empty for
+    /// the paper's methods. The page and recordings show these words.
+    pub fn departures(&self) -> Vec<(Action, &'static str)> {
+        self.excluded
+            .iter()
+            .map(|a| (*a, LEFT_UNCHANGED))
+            .chain(self.put_back.iter().map(|a| (*a, PUT_BACK)))
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn departures_name_each_masked_action_and_why() {
+        let a = Action::new(Primitive::Grasp, 3, 40, 50);
+        let b = Action::new(Primitive::Grasp, 5, 60, 70);
+        let d = Decision {
+            method: Method::SsrCcd,
+            primitive: Primitive::Grasp,
+            progress: 1,
+            resolution: 224,
+            pairs: Vec::new(),
+            chosen: 0,
+            action: Action::new(Primitive::Grasp, 0, 1, 1),
+            embed_ms: 0.0,
+            correspond_ms: 0.0,
+            ccd_choice: 0,
+            l2cd_choice: 0,
+            excluded: vec![a],
+            put_back: vec![b],
+        };
+        assert_eq!(d.departures(), vec![(a, LEFT_UNCHANGED), (b, PUT_BACK)]);
+        // The paper's methods depart from nothing.
+        let plain = Decision {
+            excluded: Vec::new(),
+            put_back: Vec::new(),
+            ..d
+        };
+        assert!(plain.departures().is_empty());
+    }
+}

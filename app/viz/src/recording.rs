@@ -576,6 +576,13 @@ impl Recorder {
                     },
                 ));
             }
+            // Where an extension departed from SSR CCD, as the page says it.
+            for (a, why) in d.departures() {
+                s.push_str(&format!(
+                    "\nExtension: {a} and the {:.0} cm around it skipped: {why}.\n",
+                    seespot_ssr::policy::LOOP_BREAK_RADIUS * 100.0
+                ));
+            }
         }
         if let Some(end) = trial.end() {
             s.push_str(&format!(

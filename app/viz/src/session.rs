@@ -755,19 +755,13 @@ impl Session {
             action: if phase.is_some() { self.action } else { None },
             skipped: decision
                 .map(|d| {
-                    let skip = |why| {
-                        move |a: &Action| SkipDoc {
-                            action: *a,
+                    d.departures()
+                        .into_iter()
+                        .map(|(action, why)| SkipDoc {
+                            action,
                             radius_m: seespot_ssr::policy::LOOP_BREAK_RADIUS,
                             why,
-                        }
-                    };
-                    d.excluded
-                        .iter()
-                        .map(skip("it left the scene unchanged"))
-                        .chain(d.put_back.iter().map(skip(
-                            "its block was put back where it was, progress unchanged",
-                        )))
+                        })
                         .collect()
                 })
                 .unwrap_or_default(),
