@@ -135,6 +135,10 @@ class Evaluator:
         resolution: int = ...,
         correspond: str = "reference",
         embeddings: Sequence[str | os.PathLike[str]] | None = None,
+        finetune_steps: int = 0,
+        finetune_procedure: str = "reference",
+        noise: str | os.PathLike[str] | None = None,
+        out_dir: str | os.PathLike[str] = ...,
     ) -> Evaluator: ...
     @property
     def record_name(self) -> str: ...

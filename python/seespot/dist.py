@@ -32,7 +32,6 @@ from seespot._core import (
     OutputLock,
     append_record,
     read_records,
-    record_name,
     records_path,
     test_seeds,
 )
@@ -79,16 +78,15 @@ class TrialRunner:
     """A Ray actor's state: one :class:`seespot.Evaluator` (policy set) per
     (method, task), loaded on first use."""
 
-    def __init__(
-        self, models_dir: str, demos_dir: str, resolution: int, correspond: str, embeddings: list[str] | None = None
-    ):
-        self.args = (models_dir, demos_dir, resolution, correspond, embeddings)
+    def __init__(self, models_dir: str, demos_dir: str, resolution: int, correspond: str, options: dict[str, Any]):
+        self.args = (models_dir, demos_dir, resolution, correspond)
+        self.options = options
         self.evaluators: dict[tuple[str, str], Evaluator] = {}
 
     def run(self, method: str, task: str, seed: int, index: int) -> tuple[str, str, int, str]:
         key = (method, task)
         if key not in self.evaluators:
-            self.evaluators[key] = Evaluator(method, task, *self.args)
+            self.evaluators[key] = Evaluator(method, task, *self.args, **self.options)
         return method, task, seed, self.evaluators[key].run(seed, index)
 
 
@@ -122,6 +120,9 @@ def evaluate(
     threads_per_worker: int | None = None,
     address: str | None = None,
     embeddings: list[str] | None = None,
+    finetune_steps: int = 0,
+    finetune_procedure: str = "reference",
+    noise: str | None = None,
 ) -> dict[tuple[str, str], list[dict[str, Any]]]:
     """Runs (or resumes) the evaluation of ``methods`` on ``tasks`` over the
     seeds ``seed, seed + 2, ...`` (``trials`` of them) with ``num_workers`` Ray
@@ -131,7 +132,13 @@ def evaluate(
     evaluation writes there (either kind), it raises ``BlockingIOError``
     naming the holder, before starting Ray. ``embeddings`` (SSR and SPOT-Q):
     an embedding set in place of the SPOT-Q policies (docs/embeddings.md),
-    checked here before any trial; the runs are named after it."""
+    checked here before any trial; the runs are named after it.
+    ``finetune_steps`` and ``finetune_procedure``: the finetuned rows, their
+    models made once here (in ``out_dir/finetuned/``) before any trial;
+    ``noise``: a scene file with a ``[noise]`` table (``seespot eval
+    --noise``). Custom tasks (``custom:NAME``) and the TransporterNet run as
+    the other rows do: every row of the table, into the folders ``seespot
+    eval`` writes."""
     ray = _import_ray()
 
     tasks = list(tasks)
@@ -142,21 +149,25 @@ def evaluate(
     if num_workers < 1:
         raise ValueError(f"num_workers: {num_workers} is not positive")
     threads = threads_per_worker or max(1, (os.cpu_count() or 1) // num_workers)
-    # Each run's records name: with an embedding set, the Evaluator's (which
-    # also loads and checks every model before any trial).
-    names = {
-        (m, t): (
-            Evaluator(m, t, models_dir, demos_dir, resolution, correspond, embeddings).record_name
-            if embeddings
-            else record_name(m, correspond)
-        )
-        for m in methods
-        for t in tasks
+    options: dict[str, Any] = {
+        "embeddings": embeddings,
+        "finetune_steps": finetune_steps,
+        "finetune_procedure": finetune_procedure,
+        "noise": noise,
+        "out_dir": str(out_dir),
     }
     with OutputLock(out_dir):
+        # Each run's records name is the Evaluator's: made here, it also
+        # loads and checks every model, and makes the finetuned models once,
+        # before any trial and before the workers read them.
+        names = {
+            (m, t): Evaluator(m, t, models_dir, demos_dir, resolution, correspond, **options).record_name
+            for m in methods
+            for t in tasks
+        }
         return _evaluate_locked(
             ray, methods, tasks, seeds, out_dir, models_dir, demos_dir, resolution,
-            correspond, num_workers, threads, address, embeddings, names,
+            correspond, num_workers, threads, address, options, names,
         )
 
 
@@ -173,7 +184,7 @@ def _evaluate_locked(
     num_workers: int,
     threads: int,
     address: str | None,
-    embeddings: list[str] | None,
+    options: dict[str, Any],
     names: dict[tuple[str, str], str],
 ) -> dict[tuple[str, str], list[dict[str, Any]]]:
     """:func:`evaluate` once the output folder is locked."""
@@ -190,7 +201,7 @@ def _evaluate_locked(
     try:
         runner = ray.remote(num_cpus=1)(TrialRunner)
         actors = [
-            runner.remote(models_dir, demos_dir, resolution, correspond, embeddings)  # type: ignore[attr-defined]
+            runner.remote(models_dir, demos_dir, resolution, correspond, options)  # type: ignore[attr-defined]
             for _ in range(num_workers)
         ]
         paths: dict[tuple[str, str], Path] = {}
@@ -234,6 +245,9 @@ def main(argv: Sequence[str] | None = None) -> None:
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--address", default=None, help="a Ray cluster's address (default: local)")
     p.add_argument("--embeddings", nargs="+", default=None, help="an embedding set: a folder of <task>.onnx or ONNX files")
+    p.add_argument("--finetune-steps", type=int, default=0)
+    p.add_argument("--finetune-procedure", default="reference")
+    p.add_argument("--noise", default=None, help="a scene file with a [noise] table")
     a = p.parse_args(argv)
     try:
         _import_ray()
@@ -253,6 +267,9 @@ def main(argv: Sequence[str] | None = None) -> None:
         num_workers=a.workers,
         address=a.address,
         embeddings=a.embeddings,
+        finetune_steps=a.finetune_steps,
+        finetune_procedure=a.finetune_procedure,
+        noise=a.noise,
     )
     for (m, t), recs in result.items():
         ok = sum(r["success"] for r in recs)

@@ -115,3 +115,30 @@ def test_ray_runs_an_embedding_set_into_its_named_records(tmp_path: Path) -> Non
     want = [without_timing(json.loads(serial.run(s, i))) for i, s in enumerate(seespot.test_seeds(1, 2))]
     assert [without_timing(r) for r in sorted(on_disk, key=lambda r: r["seed"])] == want
     assert [without_timing(r) for r in result[("ssr-ccd", "unstack")]] == want
+
+
+def test_ray_runs_the_finetuned_noisy_and_custom_rows_as_the_serial_run(tmp_path: Path) -> None:
+    root = Path(__file__).resolve().parents[2]
+    noise = str(root / "scenes" / "noise-224.toml")
+    rows = [
+        # (method, task, options): a finetuned row (a few reference steps),
+        # sensor noise, a task no policy saw, the TransporterNet.
+        ("spot-q", "row", {"finetune_steps": 3}),
+        ("ssr-ccd", "unstack", {"noise": noise}),
+        ("ssr-ccd", "custom:pyramid", {}),
+        ("transporter", "stack", {}),
+    ]
+    seeds = seespot.test_seeds(1, 2)
+    for method, task, options in rows:
+        out = tmp_path / f"{method}-{task.replace(':', '-')}"
+        dist.init_local_ray(num_workers=2, threads_per_worker=1)
+        try:
+            result = dist.evaluate([method], [task], seed=1, trials=2, out_dir=out, num_workers=2, **options)
+        finally:
+            ray.shutdown()
+        serial = seespot.Evaluator(method, task, out_dir=str(out), **options)
+        want = [without_timing(json.loads(serial.run(s, i))) for i, s in enumerate(seeds)]
+        path = Path(seespot.records_path(out, serial.record_name, task))
+        on_disk = sorted((json.loads(x) for x in path.read_text().splitlines()), key=lambda r: r["seed"])
+        assert [without_timing(r) for r in on_disk] == want, (method, task, options)
+        assert [without_timing(r) for r in result[(method, task)]] == want

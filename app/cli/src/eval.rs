@@ -131,7 +131,7 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
     crate::io::check_trial_seed(args.seed, args.training_seeds)?;
     let mut world = world_config(args.resolution);
     if let Some(path) = &args.noise {
-        world.noise = noise_of(path, args.resolution)?;
+        world.noise = seespot_eval::config::noise_of(path, args.resolution)?;
     }
     let config = EvalConfig {
         method: args.method,
@@ -226,37 +226,6 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         }
     }
     Ok(())
-}
-
-/// The sensor noise of the scene file `--noise` names, checked against the
-/// evaluation: the same resolution, no explicit blocks, a `[noise]` table.
-fn noise_of(path: &std::path::Path, resolution: usize) -> anyhow::Result<seespot_sim::SensorNoise> {
-    let scene = seespot_sim::Scene::load(path)?;
-    let refuse = |field: &str, why: String| {
-        Err(anyhow::anyhow!(
-            "{}: field `{field}`: {why}",
-            path.display()
-        ))
-    };
-    if scene.resolution != resolution {
-        return refuse(
-            "resolution",
-            format!("{} is not --resolution {resolution}", scene.resolution),
-        );
-    }
-    if scene.blocks.is_some() {
-        return refuse(
-            "blocks",
-            "--noise takes only the scene's noise, and an evaluation starts every trial from \
-             its seed; use `seespot sim run --scene` or `seespot view --scene` for an explicit \
-             start"
-                .into(),
-        );
-    }
-    if scene.noise.is_none() {
-        return refuse("noise", "the scene has no sensor noise".into());
-    }
-    Ok(scene.noise)
 }
 
 /// `eval --record failed`: a rerun recording of each failed trial in

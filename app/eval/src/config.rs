@@ -178,3 +178,36 @@ pub fn sha256_file(path: &Path) -> Result<String, EvalError> {
         .map(|b| format!("{b:02x}"))
         .collect())
 }
+
+/// The sensor noise of the scene file `path` (`seespot eval --noise`,
+/// Python's `Evaluator(noise=)`), checked against the evaluation: the same
+/// resolution, no explicit blocks, a `[noise]` table. Errors name the file
+/// and the field.
+pub fn noise_of(path: &Path, resolution: usize) -> Result<seespot_sim::SensorNoise, EvalError> {
+    let scene = seespot_sim::Scene::load(path).map_err(|e| EvalError::Invalid(e.to_string()))?;
+    let refuse = |field: &str, why: String| {
+        Err(EvalError::Invalid(format!(
+            "{}: field `{field}`: {why}",
+            path.display()
+        )))
+    };
+    if scene.resolution != resolution {
+        return refuse(
+            "resolution",
+            format!("{} is not --resolution {resolution}", scene.resolution),
+        );
+    }
+    if scene.blocks.is_some() {
+        return refuse(
+            "blocks",
+            "--noise takes only the scene's noise, and an evaluation starts every trial from \
+             its seed; use `seespot sim run --scene` or `seespot view --scene` for an explicit \
+             start"
+                .into(),
+        );
+    }
+    if scene.noise.is_none() {
+        return refuse("noise", "the scene has no sensor noise".into());
+    }
+    Ok(scene.noise)
+}

@@ -28,11 +28,15 @@ impl Evaluator {
     /// `method`: one of `METHODS` (ssr-ccd, ssr-l2cd, ssr-ccd-loopbreak,
     /// spot-q, oracle, random, transporter; no finetuning);
     /// `correspond`: `reference` or `plain` (SSR only); `embeddings` (SSR
-    /// only): a folder of `<task>.onnx` files or a list of ONNX files
+    /// and SPOT-Q): a folder of `<task>.onnx` files or a list of ONNX files
     /// (docs/embeddings.md) in place of the SPOT-Q policies; the record name
-    /// then names the set (`ssr-ccd@raw-patches`).
+    /// then names the set (`ssr-ccd@raw-patches`). `finetune_steps` and
+    /// `finetune_procedure` (`reference` or `adam`): the finetuned rows, their
+    /// models read from (or made once in) `out_dir/finetuned/`, as
+    /// `seespot eval` does; `noise`: a scene file whose `[noise]` table the
+    /// world observes through (`seespot eval --noise`).
     #[new]
-    #[pyo3(signature = (method, task, models_dir = "models".into(), demos_dir = "demos".into(), resolution = seespot_sim::DEFAULT_RESOLUTION as i64, correspond = "reference", embeddings = None))]
+    #[pyo3(signature = (method, task, models_dir = "models".into(), demos_dir = "demos".into(), resolution = seespot_sim::DEFAULT_RESOLUTION as i64, correspond = "reference", embeddings = None, finetune_steps = 0, finetune_procedure = "reference", noise = None, out_dir = "results".into()))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -43,6 +47,10 @@ impl Evaluator {
         resolution: i64,
         correspond: &str,
         embeddings: Option<Vec<PathBuf>>,
+        finetune_steps: i64,
+        finetune_procedure: &str,
+        noise: Option<PathBuf>,
+        out_dir: PathBuf,
     ) -> PyResult<Self> {
         let eval_method: EvalMethod = method.parse().map_err(|e| bad("method", e))?;
         let task = arrays::task(task, &demos_dir)?;
@@ -50,16 +58,25 @@ impl Evaluator {
         let resolution = arrays::resolution(resolution as usize, "resolution")?;
         let mode: seespot_ssr::correspond::Correspondence =
             correspond.parse().map_err(|e| bad("correspond", e))?;
+        let mut world = seespot_eval::runner::world_config(resolution);
+        if let Some(path) = &noise {
+            world.noise =
+                seespot_eval::config::noise_of(path, resolution).map_err(|e| bad("noise", e))?;
+        }
+        let finetune_steps = non_negative(finetune_steps, "finetune_steps")? as usize;
+        let finetune_procedure = finetune_procedure
+            .parse()
+            .map_err(|e| bad("finetune_procedure", e))?;
         let config = EvalConfig {
             method: eval_method,
             seeds: Seeds::new(1, 1).map_err(|e| bad("seeds", e))?,
-            out_dir: PathBuf::new(),
+            out_dir,
             layout: seespot_ssr::Layout::new(models_dir, demos_dir)
                 .with_embeddings(arrays::embeddings(embeddings)?),
-            world: seespot_eval::runner::world_config(resolution),
+            world,
             correspond: seespot_ssr::CorrespondOptions::of_mode(mode),
-            finetune_steps: 0,
-            finetune_procedure: seespot_policy::finetune::FinetuneProcedure::Reference,
+            finetune_steps,
+            finetune_procedure,
         };
         config
             .check_embeddings(&[task])
@@ -67,6 +84,9 @@ impl Evaluator {
         let name = config.spec().to_string();
         let (actor, provenance) = py
             .detach(|| {
+                // The finetuned models first (made once, then reused): the
+                // provenance names them with their checksums.
+                seespot_eval::finetuned::prepare_models(&config, task, &mut |_| {})?;
                 let provenance = seespot_eval::runner::provenance(&config, task)?;
                 let actor = seespot_eval::runner::make_actor(&config, task)?;
                 Ok::<_, seespot_eval::EvalError>((actor, provenance))
