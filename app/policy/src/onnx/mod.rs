@@ -221,9 +221,7 @@ impl OnnxEmbedder {
                 .par_chunks_mut(per_out)
                 .zip(chw.par_chunks(per))
                 .try_for_each(|(dst, src)| {
-                    let t = self.run(single, src, 1)?;
-                    to_channels_last(&t, depth, cells, dst);
-                    Ok::<_, PolicyError>(())
+                    self.run(single, src, 1, |t| to_channels_last(t, depth, cells, dst))
                 })?,
             (None, b) => {
                 // A fixed batch of 16 embeds fewer rotations by running all 16
@@ -234,10 +232,11 @@ impl OnnxEmbedder {
                 padded.extend(
                     (b * per..NUM_ROTATIONS * per).map(|i| fill[(i / plane) % INPUT_CHANNELS]),
                 );
-                let t = self.run(&plans.full, &padded, NUM_ROTATIONS)?;
-                for (dst, src) in out.chunks_mut(per_out).zip(t.chunks(per_out)) {
-                    to_channels_last(src, depth, cells, dst);
-                }
+                self.run(&plans.full, &padded, NUM_ROTATIONS, |t| {
+                    for (dst, src) in out.chunks_mut(per_out).zip(t.chunks(per_out)) {
+                        to_channels_last(src, depth, cells, dst);
+                    }
+                })?;
             }
         }
         if let Some(i) = out.iter().position(|v| !v.is_finite()) {
@@ -252,8 +251,15 @@ impl OnnxEmbedder {
         Ok(out)
     }
 
-    /// Runs `plan` on `batch` inputs and returns its one output's values.
-    fn run(&self, plan: &Plan, chw: &[f32], batch: usize) -> Result<Vec<f32>, PolicyError> {
+    /// Runs `plan` on `batch` inputs and hands its one output's values, in
+    /// order, to `read`.
+    fn run(
+        &self,
+        plan: &Plan,
+        chw: &[f32],
+        batch: usize,
+        read: impl FnOnce(&[f32]),
+    ) -> Result<(), PolicyError> {
         let fail = |e: TractError| PolicyError::Onnx {
             path: self.path.clone(),
             reason: format!("running the model failed: {e:#}"),
@@ -265,7 +271,12 @@ impl OnnxEmbedder {
         .map_err(fail)?;
         let outputs = plan.run(tvec!(input.into_tvalue())).map_err(fail)?;
         let t = outputs[0].to_plain_array_view::<f32>().map_err(fail)?;
-        Ok(t.iter().copied().collect())
+        match t.as_slice() {
+            Some(values) => read(values),
+            // Not in standard layout: copied in logical order.
+            None => read(&t.iter().copied().collect::<Vec<f32>>()),
+        }
+        Ok(())
     }
 }
 
