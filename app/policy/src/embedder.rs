@@ -170,18 +170,21 @@ impl seespot_sim::Actor for Embedder {
         hm: &Heightmaps,
     ) -> Result<seespot_sim::actor::Choice, seespot_sim::ActorError> {
         let primitive = trial.world().next_primitive();
-        let q = self
-            .q_values(hm, primitive)?
-            .ok_or_else(|| PolicyError::Onnx {
-                path: match self {
-                    Self::Onnx(o) => o.path().to_path_buf(),
-                    Self::Spot(_) => std::path::PathBuf::new(),
-                },
-                reason: "the model has no Q outputs (`grasp_q`, `place_q`) to act on".into(),
-            })?;
-        let mask = common_sense_mask(hm, primitive);
-        let i = crate::policy::masked_argmax(&q.q, &mask);
-        Ok(seespot_sim::Action::from_flat_index(primitive, i, hm.resolution()).into())
+        let action = match &*self {
+            Self::Spot(p) => crate::policy::greedy_action(p, hm, primitive)?,
+            Self::Onnx(o) => {
+                let q = self
+                    .q_values(hm, primitive)?
+                    .ok_or_else(|| PolicyError::Onnx {
+                        path: o.path().to_path_buf(),
+                        reason: "the model has no Q outputs (`grasp_q`, `place_q`) to act on"
+                            .into(),
+                    })?;
+                let i = crate::policy::masked_argmax(&q.q, &common_sense_mask(hm, primitive));
+                seespot_sim::Action::from_flat_index(primitive, i, hm.resolution())
+            }
+        };
+        Ok(action.into())
     }
 }
 

@@ -117,6 +117,45 @@ fn raw_patches_are_the_cells_around_each_cell() {
 }
 
 #[test]
+fn a_fixed_batch_of_16_gives_the_named_batchs_features() {
+    use pb::tensor_shape_proto::dimension::Value as Dim;
+    let named = export::raw_patches_model();
+    let mut fixed = named.clone();
+    let g = graph(&mut fixed);
+    for v in g.input.iter_mut().chain(g.output.iter_mut()) {
+        let Some(pb::type_proto::Value::TensorType(t)) = v.r#type.as_mut().unwrap().value.as_mut()
+        else {
+            unreachable!()
+        };
+        t.shape.as_mut().unwrap().dim[0].value = Some(Dim::DimValue(16));
+    }
+    let (a, b) = (
+        Embedder::Onnx(load(&named).unwrap()),
+        Embedder::Onnx(load(&fixed).unwrap()),
+    );
+    let (_, hm) = scene(112, 4);
+    for p in Primitive::ALL {
+        let (x, y) = (
+            a.embed_cells(&hm, p).unwrap(),
+            b.embed_cells(&hm, p).unwrap(),
+        );
+        // One rotation alone: the fixed batch runs it among 15 bare tables.
+        let (x1, y1) = (
+            a.embed_cells_rotation(&hm, p, 7).unwrap(),
+            b.embed_cells_rotation(&hm, p, 7).unwrap(),
+        );
+        for i in (0..x.len()).step_by(37) {
+            assert_eq!(x.feature(i), y.feature(i), "{p} action {i}");
+            assert_eq!(
+                x1.feature(i),
+                y1.feature(i),
+                "{p} action {i}, rotation 7 alone"
+            );
+        }
+    }
+}
+
+#[test]
 fn bad_models_are_refused_naming_the_file_and_the_fault() {
     // Not ONNX at all.
     let e = OnnxEmbedder::from_bytes(Path::new("model.onnx"), b"\x08\x07not a protobuf\xff\xff")

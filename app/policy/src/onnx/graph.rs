@@ -18,6 +18,8 @@ const FLOAT: i32 = pb::tensor_proto::DataType::Float as i32;
 /// A file that passed the checks that need no engine.
 pub(super) struct Checked {
     proto: pb::ModelProto,
+    /// The engine's ONNX reader (its operator register is built once).
+    engine: tract_onnx::Onnx,
     /// Whether the input's batch is a named dimension (else it is 16).
     pub batch_named: bool,
     /// The outputs' names, in the file's order.
@@ -60,7 +62,8 @@ pub(super) fn check(bytes: &[u8]) -> Result<Checked, String> {
     for n in &graph.node {
         check_window(n)?;
     }
-    let register = tract_onnx::onnx().op_register;
+    let engine = tract_onnx::onnx();
+    let register = &engine.op_register;
     for n in &graph.node {
         let standard = n.domain.is_empty() || n.domain == "ai.onnx";
         if !standard || !register.0.contains_key(&n.op_type) {
@@ -146,6 +149,7 @@ pub(super) fn check(bytes: &[u8]) -> Result<Checked, String> {
     }
     Ok(Checked {
         proto,
+        engine,
         batch_named,
         outputs,
     })
@@ -306,7 +310,8 @@ fn names<'a>(it: impl Iterator<Item = &'a str>) -> String {
 /// others need, e.g. the other primitive's network).
 pub(super) fn plan(checked: &Checked, batch: usize, only: Option<usize>) -> Result<Plan, String> {
     let fact = f32::fact([batch, INPUT_CHANNELS, NET_RESOLUTION, NET_RESOLUTION]);
-    let plan = tract_onnx::onnx()
+    let plan = checked
+        .engine
         .model_for_proto_model(&checked.proto)
         .and_then(|m| match only {
             None => Ok(m),

@@ -50,13 +50,14 @@ pub const PLACE_Q: &str = "place_q";
 
 type Plan = Arc<TypedRunnableModel>;
 
-/// The plans of one output: at batch 16, and at batch 1 when the batch is a
-/// named dimension (one rotation per run, the rotations spread over the
-/// cores, measured faster than one run of 16 on 2 cores: docs/embeddings.md).
+/// The plan of one output: at batch 1 when the batch is a named dimension
+/// (one rotation per run, the rotations spread over the cores, measured
+/// faster than one run of 16 on 2 cores: docs/embeddings.md), else at the
+/// file's fixed batch of 16.
 #[derive(Clone)]
-struct Plans {
-    full: Plan,
-    single: Option<Plan>,
+enum Plans {
+    PerRotation(Plan),
+    Sixteen(Plan),
 }
 
 /// A loaded, checked embedding model.
@@ -114,13 +115,10 @@ impl OnnxEmbedder {
                 .map_err(refuse)?;
         let plans = |output: usize| -> Result<Plans, PolicyError> {
             let plan = |batch| graph::plan(&checked, batch, Some(output)).map_err(refuse);
-            Ok(Plans {
-                full: plan(NUM_ROTATIONS)?,
-                single: if checked.batch_named {
-                    Some(plan(1)?)
-                } else {
-                    None
-                },
+            Ok(if checked.batch_named {
+                Plans::PerRotation(plan(1)?)
+            } else {
+                Plans::Sixteen(plan(NUM_ROTATIONS)?)
             })
         };
         let pair = |o: [usize; 2]| -> Result<Arc<[Plans; 2]>, PolicyError> {
@@ -149,12 +147,7 @@ impl OnnxEmbedder {
             stride: NET_RESOLUTION / cells,
         };
         // The first observation every trial could start from: the bare table.
-        let fill = fill_values();
-        let plane = NET_RESOLUTION * NET_RESOLUTION;
-        let mut blank = vec![0.0; NUM_ROTATIONS * INPUT_CHANNELS * plane];
-        for (i, v) in blank.iter_mut().enumerate() {
-            *v = fill[(i / plane) % INPUT_CHANNELS];
-        }
+        let blank = bare_table(NUM_ROTATIONS);
         for p in Primitive::ALL {
             model.features(&blank, NUM_ROTATIONS, p)?;
             model.q_map(&blank, NUM_ROTATIONS, p)?;
@@ -215,24 +208,20 @@ impl OnnxEmbedder {
         let cells = self.cells * self.cells;
         let per_out = cells * depth;
         let mut out = vec![0.0f32; batch * per_out];
-        match (&plans.single, batch) {
+        match plans {
             // One rotation per run, the rotations spread over the cores.
-            (Some(single), _) => out
+            Plans::PerRotation(single) => out
                 .par_chunks_mut(per_out)
                 .zip(chw.par_chunks(per))
                 .try_for_each(|(dst, src)| {
                     self.run(single, src, 1, |t| to_channels_last(t, depth, cells, dst))
                 })?,
-            (None, b) => {
+            Plans::Sixteen(full) => {
                 // A fixed batch of 16 embeds fewer rotations by running all 16
-                // (the others bare table) and keeping the first `b`.
+                // (the others bare table) and keeping the first `batch`.
                 let mut padded = chw.to_vec();
-                let fill = fill_values();
-                let plane = NET_RESOLUTION * NET_RESOLUTION;
-                padded.extend(
-                    (b * per..NUM_ROTATIONS * per).map(|i| fill[(i / plane) % INPUT_CHANNELS]),
-                );
-                self.run(&plans.full, &padded, NUM_ROTATIONS, |t| {
+                padded.extend(bare_table(NUM_ROTATIONS - batch));
+                self.run(full, &padded, NUM_ROTATIONS, |t| {
                     for (dst, src) in out.chunks_mut(per_out).zip(t.chunks(per_out)) {
                         to_channels_last(src, depth, cells, dst);
                     }
@@ -278,6 +267,16 @@ impl OnnxEmbedder {
         }
         Ok(())
     }
+}
+
+/// `count` network inputs (`count x 4 x 112 x 112`) of the bare table: what
+/// a rotated scene reads outside the workspace ([`fill_values`]).
+fn bare_table(count: usize) -> Vec<f32> {
+    let fill = fill_values();
+    let plane = NET_RESOLUTION * NET_RESOLUTION;
+    (0..count * INPUT_CHANNELS * plane)
+        .map(|i| fill[(i / plane) % INPUT_CHANNELS])
+        .collect()
 }
 
 /// One item's `depth x cells` values (channels first) into `dst` as
