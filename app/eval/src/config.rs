@@ -7,7 +7,6 @@ use std::path::{Path, PathBuf};
 use seespot_policy::finetune::FinetuneProcedure;
 use seespot_sim::{Seeds, WorldConfig};
 use seespot_ssr::correspond::CorrespondOptions;
-use seespot_ssr::explain::Method;
 use seespot_ssr::layout::Layout;
 use seespot_ssr::policy::{SsrConfig, SsrError};
 
@@ -116,19 +115,7 @@ impl EvalConfig {
     /// the loop-breaking extension) or L2CD, the correspondence, and whether
     /// loops are broken.
     pub fn ssr_config(&self) -> SsrConfig {
-        SsrConfig {
-            method: if self.method == EvalMethod::SsrL2cd {
-                Method::SsrL2cd
-            } else {
-                Method::SsrCcd
-            },
-            correspond: self.correspond,
-            loop_break: matches!(
-                self.method,
-                EvalMethod::SsrCcdLoopBreak | EvalMethod::SsrCcdNoLoops
-            ),
-            put_back_break: self.method == EvalMethod::SsrCcdNoLoops,
-        }
+        self.method.ssr_config(self.correspond)
     }
 }
 

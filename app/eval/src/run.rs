@@ -77,6 +77,22 @@ impl EvalMethod {
         Self::ALL.into_iter().find(|m| m.as_str() == s)
     }
 
+    /// How See-SPOT-Run runs as this method with `correspond`: CCD (also
+    /// for the extensions) or L2CD, and which extensions are on. Methods
+    /// that are not SSR get the paper's SSR CCD.
+    pub fn ssr_config(self, correspond: CorrespondOptions) -> seespot_ssr::SsrConfig {
+        seespot_ssr::SsrConfig {
+            method: if self == Self::SsrL2cd {
+                seespot_ssr::explain::Method::SsrL2cd
+            } else {
+                seespot_ssr::explain::Method::SsrCcd
+            },
+            correspond,
+            loop_break: matches!(self, Self::SsrCcdLoopBreak | Self::SsrCcdNoLoops),
+            put_back_break: self == Self::SsrCcdNoLoops,
+        }
+    }
+
     /// Whether the method is See-SPOT-Run (faithful or extended).
     pub fn is_ssr(self) -> bool {
         matches!(

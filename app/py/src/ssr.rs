@@ -7,7 +7,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use seespot_sim::Action;
 use seespot_ssr::correspond::Correspondence;
-use seespot_ssr::{CorrespondOptions, Method, SsrConfig, SsrPolicy};
+use seespot_ssr::{CorrespondOptions, SsrConfig, SsrPolicy};
 
 use crate::arrays::{self, bad};
 
@@ -25,27 +25,21 @@ pub struct Ssr {
 
 /// An [`SsrConfig`] from the method and correspondence names.
 pub fn ssr_config(method: &str, correspond: &str) -> PyResult<SsrConfig> {
-    let (method, loop_break, put_back_break) = match method {
-        "ssr-ccd" => (Method::SsrCcd, false, false),
-        "ssr-l2cd" => (Method::SsrL2cd, false, false),
-        "ssr-ccd-loopbreak" => (Method::SsrCcd, true, false),
-        "ssr-ccd-noloops" => (Method::SsrCcd, true, true),
-        _ => {
-            return Err(bad(
+    let ssr: Vec<&str> = seespot_eval::EvalMethod::ALL
+        .into_iter()
+        .filter(|m| m.is_ssr())
+        .map(|m| m.as_str())
+        .collect();
+    let m = seespot_eval::EvalMethod::parse(method)
+        .filter(|m| m.is_ssr())
+        .ok_or_else(|| {
+            bad(
                 "method",
-                format!(
-                    "'{method}' is not ssr-ccd, ssr-l2cd, ssr-ccd-loopbreak or ssr-ccd-noloops"
-                ),
-            ));
-        }
-    };
+                format!("'{method}' is not one of {}", ssr.join(", ")),
+            )
+        })?;
     let mode: Correspondence = correspond.parse().map_err(|e| bad("correspond", e))?;
-    Ok(SsrConfig {
-        method,
-        correspond: CorrespondOptions::of_mode(mode),
-        loop_break,
-        put_back_break,
-    })
+    Ok(m.ssr_config(CorrespondOptions::of_mode(mode)))
 }
 
 #[pymethods]
