@@ -40,8 +40,8 @@ function drawCounts(d) {
       td.dataset.kind = k.key;
       if (n) td.onclick = () => setFilter({ method: c.method, task: c.task, kind: k.key, label: k.label });
     }
-    // The reason is shown, not only in a tooltip.
-    cell(tr, c.replay.ok ? 'yes' : `no: ${c.replay.reason}`, c.replay.ok ? 'ok' : 'refused why').title = c.replay.ok
+    // A short word; the reason on hover.
+    cell(tr, c.replay.ok ? 'yes' : 'no', c.replay.ok ? 'ok' : 'refused').title = c.replay.ok
       ? 'the records were made with today\'s models and demonstrations'
       : c.replay.reason;
     return tr;
@@ -92,12 +92,6 @@ function drawTrials() {
       a.download = `${t.method}-${t.task.replace(":", "-")}-${t.seed}.rrd`;
     } else a.hidden = true;
     td.append(b, ' ', a);
-    if (!r.ok) {
-      const why = document.createElement('small');
-      why.className = 'why'; why.dataset.testid = 'replay-why';
-      why.textContent = ` ${r.reason}`;
-      td.append(why);
-    }
     return tr;
   });
   $('trials-body').replaceChildren(...rows);
@@ -118,6 +112,51 @@ function replay(t) {
   ws.onerror = () => showError('cannot reach the seespot server');
 }
 
+function act(a) { return a ? `${a.primitive} r${a.rotation} (${a.y}, ${a.x})` : 'nothing (ended)'; }
+
+// The discordant seeds of the two chosen runs, sorted by where they part;
+// a click opens the difference view.
+async function drawDiscordant() {
+  const a = $('run-a').value, b = $('run-b').value;
+  review.discordant = null;
+  if (!a || !b || a === b) {
+    $('discordant-summary').textContent = 'choose two different runs';
+    $('discordant-body').replaceChildren();
+    return;
+  }
+  $('discordant-summary').textContent = 'reading the records…';
+  const r = await fetch(`/api/divergences?${new URLSearchParams({ a, b })}`);
+  if (!r.ok) { showError(await r.text()); return; }
+  const list = await r.json();
+  if ($('run-a').value !== a || $('run-b').value !== b) return; // superseded
+  review.discordant = { a, b, list };
+  const onlyA = list.filter((d) => d.first_succeeded).length;
+  $('discordant-summary').textContent = `${list.length} discordant seeds: ${onlyA} where only ${a} succeeded, ${list.length - onlyA} where only ${b} did.`;
+  const rows = list.slice(0, SHOWN).map((d) => {
+    const tr = document.createElement('tr');
+    tr.className = 'discordant'; tr.dataset.testid = 'discordant-seed';
+    cell(tr, d.task); cell(tr, String(d.seed));
+    cell(tr, d.first_succeeded ? `only ${a}` : `only ${b}`, 'ok');
+    cell(tr, String(d.action_index + 1)); cell(tr, `${d.progress_before} / 4`);
+    cell(tr, act(d.first && d.first.action)); cell(tr, act(d.second && d.second.action));
+    const q = new URLSearchParams({ a, b, task: d.task, seed: String(d.seed) });
+    tr.title = 'both trials side by side from this action';
+    tr.onclick = () => { location.href = `/difference?${q}`; };
+    return tr;
+  });
+  $('discordant-body').replaceChildren(...rows);
+}
+
+function fillRuns(d) {
+  const runs = [...new Set(d.counts.map((c) => c.method))];
+  for (const [id, want] of [['run-a', 'ssr-ccd'], ['run-b', 'ssr-l2cd']]) {
+    const sel = $(id);
+    for (const m of runs) sel.add(new Option(m, m));
+    sel.value = runs.includes(want) ? want : runs[id === 'run-a' ? 0 : Math.min(1, runs.length - 1)] || '';
+    sel.onchange = () => drawDiscordant().catch((e) => showError(String(e)));
+  }
+}
+
 async function load() {
   const r = await fetch('/api/review');
   if (!r.ok) { showError(await r.text()); $('conn').textContent = 'no evaluation'; return; }
@@ -131,6 +170,8 @@ async function load() {
   $('show-successes').onchange = drawTrials;
   drawCounts(d);
   drawTrials();
+  fillRuns(d);
+  await drawDiscordant();
 }
 
 load().catch((e) => showError(String(e)));

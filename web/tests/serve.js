@@ -54,6 +54,8 @@ const ASSETS = {
   '/style.css': ['style.css', 'text/css; charset=utf-8'],
   '/review': ['review.html', 'text/html; charset=utf-8'],
   '/review.js': ['review.js', 'text/javascript; charset=utf-8'],
+  '/difference': ['difference.html', 'text/html; charset=utf-8'],
+  '/difference.js': ['difference.js', 'text/javascript; charset=utf-8'],
   '/favicon.svg': ['favicon.svg', 'image/svg+xml'],
 };
 
@@ -63,7 +65,7 @@ export const WEB_FROM_DISK = process.env.SEESPOT_WEB_FROM_DISK === '1';
 /**
  * With SEESPOT_WEB_FROM_DISK=1: a proxy on 127.0.0.1 in front of the server
  * at `pageUrl` that answers the page's own files (index.html, app.js,
- * render.js, style.css, review.*) from web/ on disk and passes every other
+ * render.js, style.css, review.*, difference.*) from web/ on disk and passes every other
  * request, the WebSocket included, to the server (with its `Host` and
  * `Origin`). For trying page changes against a prebuilt server, which embeds
  * the files it was built with. Resolves to `{ url, close() }`: `url` is

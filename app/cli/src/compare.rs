@@ -151,6 +151,7 @@ fn diverge(args: &CompareArgs, pairs: &[RunPair<'_>]) -> anyhow::Result<()> {
             "first": args.first, "second": args.second, "names": [n1, n2], "runs": runs,
         }));
     }
+    // Actions counted from 1, as the page and the rerun timeline count them.
     outln!("| run | task | seed | succeeded | parts at action | P | {n1} chose | {n2} chose |")?;
     outln!("|---|---|---|---|---|---|---|---|")?;
     for (run, ds) in &all {
@@ -160,7 +161,7 @@ fn diverge(args: &CompareArgs, pairs: &[RunPair<'_>]) -> anyhow::Result<()> {
                 "| {run} | {} | {} | only {who} | {} | {} | {} | {} |",
                 d.task,
                 d.seed,
-                d.action_index,
+                d.action_index + 1,
                 d.progress_before,
                 side_text(&d.first),
                 side_text(&d.second)

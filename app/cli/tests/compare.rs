@@ -43,3 +43,62 @@ fn custom_tasks_are_compared_and_a_missing_folder_is_named() {
     assert_ne!(code, 0);
     assert!(err.contains("no-such-folder/trials"), "{err}");
 }
+
+/// `--diverge` lists the discordant seeds of CCD against L2CD, the table
+/// counting actions from 1 and the JSON from 0, sorted by where they part,
+/// and each entry's choices are the records' actions at that index.
+#[test]
+fn diverge_lists_where_the_discordant_trials_part() {
+    let args = [
+        "compare",
+        "results",
+        "results",
+        "--runs",
+        "ssr-ccd",
+        "ssr-l2cd",
+        "--diverge",
+    ];
+    let (code, out, err) = run_in(&root(), &args);
+    assert_eq!(code, 0, "{err}");
+    let rows: Vec<Vec<String>> = out
+        .lines()
+        .skip(2)
+        .map(|r| r.split('|').map(|c| c.trim().to_owned()).collect())
+        .collect();
+    let (code, json, err) = run_in(&root(), &[&args[..], &["--json"]].concat());
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&json).expect("json");
+    let list = v["runs"][0]["divergences"].as_array().expect("divergences");
+    assert_eq!(rows.len(), list.len());
+    assert!(list.len() > 10, "{}", list.len());
+    let mut last = 0;
+    for (row, d) in rows.iter().zip(list) {
+        let index = d["action_index"].as_u64().expect("index");
+        assert!(index >= last, "not sorted by where they part");
+        last = index;
+        assert_eq!(row[3], d["seed"].to_string(), "{row:?}");
+        assert_eq!(row[5], (index + 1).to_string(), "{row:?}");
+        let (a, b) = (&d["first"]["action"], &d["second"]["action"]);
+        assert_ne!(a, b, "{d}");
+        let records = |run: &str| {
+            let task = d["task"].as_str().expect("task");
+            let path = root().join(format!("results/trials/{run}/{task}.jsonl"));
+            let text = std::fs::read_to_string(&path).expect("records");
+            text.lines()
+                .map(|l| serde_json::from_str::<serde_json::Value>(l).expect("record"))
+                .find(|r| r["seed"] == d["seed"])
+                .expect("the seed's record")
+        };
+        let (ra, rb) = (records("ssr-ccd"), records("ssr-l2cd"));
+        let i = index as usize;
+        assert_eq!(&ra["actions_log"][i]["action"], a);
+        assert_eq!(&rb["actions_log"][i]["action"], b);
+        for k in 0..i {
+            assert_eq!(
+                ra["actions_log"][k]["action"],
+                rb["actions_log"][k]["action"]
+            );
+        }
+        assert_ne!(ra["success"], rb["success"]);
+    }
+}

@@ -10,10 +10,12 @@
 //! - [`server`]: the local web server behind `web/` (assets, JSON API, WebSocket);
 //! - [`token`]: the per-run access token of a page server bound off loopback;
 //! - [`review`]: the page's review of an evaluation and replays of its trials;
+//! - [`difference`]: two runs of the review side by side from where they part;
 //! - [`live`]: `view`, `record` and the latency / size benchmarks the CLI calls.
 
 pub mod b64;
 pub mod decider;
+pub mod difference;
 pub mod documents;
 pub mod live;
 pub mod paths;

@@ -34,49 +34,10 @@ use crate::session::{PairQuery, Session};
 use crate::token::AccessToken;
 use seespot_sim::TaskId;
 
-/// The page's files, embedded at compile time: `(url path, content type, body)`.
-pub const ASSETS: &[(&str, &str, &str)] = &[
-    (
-        "/",
-        "text/html; charset=utf-8",
-        include_str!("../../../web/index.html"),
-    ),
-    (
-        "/index.html",
-        "text/html; charset=utf-8",
-        include_str!("../../../web/index.html"),
-    ),
-    (
-        "/app.js",
-        "text/javascript; charset=utf-8",
-        include_str!("../../../web/app.js"),
-    ),
-    (
-        "/render.js",
-        "text/javascript; charset=utf-8",
-        include_str!("../../../web/render.js"),
-    ),
-    (
-        "/style.css",
-        "text/css; charset=utf-8",
-        include_str!("../../../web/style.css"),
-    ),
-    (
-        "/review",
-        "text/html; charset=utf-8",
-        include_str!("../../../web/review.html"),
-    ),
-    (
-        "/review.js",
-        "text/javascript; charset=utf-8",
-        include_str!("../../../web/review.js"),
-    ),
-    (
-        "/favicon.svg",
-        "image/svg+xml",
-        include_str!("../../../web/favicon.svg"),
-    ),
-];
+mod assets;
+mod difference;
+
+pub use assets::ASSETS;
 
 /// Largest WebSocket message accepted from a tab, bytes.
 pub const MAX_MESSAGE_BYTES: usize = 16 * 1024;
@@ -91,6 +52,8 @@ pub struct AppState {
     /// The evaluation `/review` lists, and its document once built.
     review: Option<ReviewSource>,
     review_doc: Mutex<Option<crate::documents::ReviewDoc>>,
+    /// The two trials the difference view shows, once opened.
+    difference: Mutex<Option<crate::difference::Difference>>,
 }
 
 impl std::fmt::Debug for AppState {
@@ -116,6 +79,7 @@ impl AppState {
             info,
             review,
             review_doc: Mutex::new(None),
+            difference: Mutex::new(None),
         })
     }
 
@@ -161,6 +125,9 @@ pub fn router(state: Arc<AppState>) -> Router {
         .route("/api/embedding", get(api_embedding))
         .route("/api/review", get(api_review))
         .route("/api/replay.rrd", get(api_replay_rrd))
+        .route("/api/divergences", get(difference::divergences))
+        .route("/api/difference", get(difference::open))
+        .route("/api/difference/view", get(difference::view))
         .route("/ws", get(ws))
         .fallback(asset)
         .with_state(state)

@@ -1,0 +1,384 @@
+//! Two runs side by side from the first decision where they part: the
+//! page's `/difference` view and the review's list of discordant seeds.
+//!
+//! Both runs are trials of the reviewed evaluation (two methods, or two
+//! embedding sets, of one folder), named by (run, task, seed). Each is
+//! replayed in its own [`Session`], as the review's replay does, up to and
+//! including the action where the two records part
+//! ([`seespot_eval::diverge::first_difference`]); the replayed actions are
+//! checked against each record on the way, so what the view shows is what
+//! the evaluation did. The page then asks for either side at any action up to
+//! that one: the state and the frame of that action's Act phase (the decision
+//! with its pairs, L and C, on the scene it was made on).
+
+use anyhow::{Context, bail};
+use seespot_eval::diverge::{Divergence, divergences, first_difference};
+use seespot_eval::records::read_records;
+use seespot_sim::{Action, TaskId, TrialRecord};
+use serde::{Deserialize, Serialize};
+
+use crate::documents::{FrameDoc, StateDoc};
+use crate::phase::Phase;
+use crate::review::ReviewSource;
+use crate::session::{Session, SessionConfig};
+
+/// Which of the two runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Side {
+    A,
+    B,
+}
+
+/// The two trials compared: the request that names them.
+#[derive(Clone, Debug, PartialEq, Eq, Deserialize, Serialize)]
+pub struct Pairing {
+    /// The two runs (methods of the reviewed folder, e.g. `ssr-ccd` and
+    /// `ssr-l2cd`, or `ssr-ccd@raw-patches`).
+    pub a: String,
+    pub b: String,
+    pub task: TaskId,
+    pub seed: u64,
+}
+
+/// One run's trial, replayed up to the action where the two part.
+struct Run {
+    name: String,
+    record: TrialRecord,
+    session: Session,
+}
+
+/// What the page shows of one run before it asks for an action.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RunDoc {
+    pub run: String,
+    pub success: bool,
+    /// Actions the whole recorded trial took.
+    pub actions: usize,
+    /// The action this run took where the two part; `None` when its trial
+    /// had already ended there.
+    pub chosen: Option<Action>,
+    /// The replay's decider, as the debugger names it.
+    pub decider: String,
+}
+
+/// The difference view's document.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct DifferenceDoc {
+    pub task: TaskId,
+    pub seed: u64,
+    /// The index (from 0) of the first action where the two runs chose
+    /// differently; every earlier action was the same on both sides.
+    pub first_difference: usize,
+    /// The earliest action whose decision both sides still keep (the
+    /// session keeps the last [`crate::session::HISTORY_PHASES`] phases).
+    pub first_kept: usize,
+    pub a: RunDoc,
+    pub b: RunDoc,
+}
+
+/// One side at one action: the state and the frame the page draws.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SideView {
+    pub side: Side,
+    /// The action (from 0) shown; for a trial that had already ended, its
+    /// last one.
+    pub action: usize,
+    pub state: StateDoc,
+    pub frame: FrameDoc,
+}
+
+/// Two replayed trials of one seed, from their start to where they part.
+pub struct Difference {
+    pairing: Pairing,
+    first_difference: usize,
+    a: Run,
+    b: Run,
+}
+
+impl std::fmt::Debug for Difference {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Difference")
+            .field("pairing", &self.pairing)
+            .field("first_difference", &self.first_difference)
+            .finish_non_exhaustive()
+    }
+}
+
+/// The record of `seed` in run `run`'s records of `task`.
+fn record_of(
+    src: &ReviewSource,
+    run: &str,
+    task: TaskId,
+    seed: u64,
+) -> anyhow::Result<TrialRecord> {
+    let file = src.records_file(run, task)?;
+    read_records(&file)?
+        .into_iter()
+        .find(|r| r.seed == seed)
+        .with_context(|| format!("{}: no trial of seed {seed}", file.display()))
+}
+
+/// Replays `record` of `run` through action `upto` (or its end), checking
+/// each replayed action against the recorded one.
+fn replay_run(
+    src: &ReviewSource,
+    run: &str,
+    record: TrialRecord,
+    upto: usize,
+) -> anyhow::Result<Run> {
+    let (task, seed) = (record.task, record.seed);
+    let replay = src.replay(run, task, seed)?;
+    let world = replay.world();
+    let summary = replay.summary.clone();
+    let mut session = Session::new(replay.factory, SessionConfig { task, seed, world }, None)?;
+    session.mark_replay(summary);
+    while !session.ended() && session.trial().steps().len() <= upto {
+        let i = session.trial().steps().len();
+        session
+            .next_action()
+            .with_context(|| format!("replaying {run} on {task} seed {seed}, action {i}"))?;
+        let got = session.trial().steps().last().map(|s| s.action);
+        let want = record.actions_log.get(i).map(|l| l.action);
+        if got != want {
+            bail!(
+                "the replay of {run} on {task} seed {seed} takes {got:?} at action {i}, its record {want:?}: the models or demonstrations changed since the evaluation"
+            );
+        }
+    }
+    Ok(Run {
+        name: run.to_owned(),
+        record,
+        session,
+    })
+}
+
+/// The history index of action `action`'s Act phase in `s`, if kept.
+fn act_phase(s: &Session, action: usize) -> Option<usize> {
+    let h = s.state().history?;
+    h.phases
+        .iter()
+        .position(|p| p.action_number == action + 1 && p.phase == Phase::Act)
+}
+
+impl Difference {
+    /// Replays both trials of `pairing` up to the action where their records
+    /// part; refused when the two never part (the same actions throughout).
+    pub fn open(src: &ReviewSource, pairing: Pairing) -> anyhow::Result<Self> {
+        let Pairing { a, b, task, seed } = &pairing;
+        let (ra, rb) = (
+            record_of(src, a, *task, *seed)?,
+            record_of(src, b, *task, *seed)?,
+        );
+        let part = first_difference(&ra.actions_log, &rb.actions_log).with_context(|| {
+            format!("{a} and {b} took the same actions on {task} seed {seed}: nothing to compare")
+        })?;
+        let (a, b) = (replay_run(src, a, ra, part)?, replay_run(src, b, rb, part)?);
+        Ok(Self {
+            pairing,
+            first_difference: part,
+            a,
+            b,
+        })
+    }
+
+    /// Which two trials these are.
+    pub fn pairing(&self) -> &Pairing {
+        &self.pairing
+    }
+
+    fn run(&self, side: Side) -> &Run {
+        match side {
+            Side::A => &self.a,
+            Side::B => &self.b,
+        }
+    }
+
+    fn run_mut(&mut self, side: Side) -> &mut Run {
+        match side {
+            Side::A => &mut self.a,
+            Side::B => &mut self.b,
+        }
+    }
+
+    /// The view's document.
+    pub fn document(&self) -> DifferenceDoc {
+        let run_doc = |r: &Run| RunDoc {
+            run: r.name.clone(),
+            success: r.record.success,
+            actions: r.record.actions,
+            chosen: r
+                .record
+                .actions_log
+                .get(self.first_difference)
+                .map(|l| l.action),
+            decider: r.session.state().decider,
+        };
+        let kept = |r: &Run| {
+            (0..=self.first_difference)
+                .find(|&i| act_phase(&r.session, i).is_some())
+                .unwrap_or(self.first_difference)
+        };
+        DifferenceDoc {
+            task: self.pairing.task,
+            seed: self.pairing.seed,
+            first_difference: self.first_difference,
+            first_kept: kept(&self.a).max(kept(&self.b)),
+            a: run_doc(&self.a),
+            b: run_doc(&self.b),
+        }
+    }
+
+    /// Side `side` at action `action` (from 0, at most where the two part):
+    /// the state and frame of that action's Act phase, for pair `pair` (the
+    /// chosen one when `None`). A trial that ended earlier shows its last
+    /// action.
+    pub fn view(
+        &mut self,
+        side: Side,
+        action: usize,
+        pair: Option<usize>,
+    ) -> anyhow::Result<SideView> {
+        if action > self.first_difference {
+            bail!(
+                "action {action} is past the first difference (action {}): the view shows the trials up to where they part",
+                self.first_difference
+            );
+        }
+        let run = self.run_mut(side);
+        let steps = run.session.trial().steps().len();
+        let shown = action.min(steps.saturating_sub(1));
+        let index = act_phase(&run.session, shown).with_context(|| {
+            format!(
+                "{}: action {shown} is no longer kept (the debugger keeps the last {} phases)",
+                run.name,
+                crate::session::HISTORY_PHASES
+            )
+        })?;
+        run.session.goto(index)?;
+        let state = run.session.state();
+        let pair = pair.or(state.chosen).unwrap_or(0);
+        let frame = run.session.frame(pair);
+        Ok(SideView {
+            side,
+            action: shown,
+            state,
+            frame,
+        })
+    }
+
+    /// The actions both sides took before they part (the same on each).
+    pub fn common_actions(&self) -> Vec<Action> {
+        let r = self.run(Side::A);
+        r.session.trial().steps()[..self.first_difference]
+            .iter()
+            .map(|s| s.action)
+            .collect()
+    }
+}
+
+/// For every task both runs were evaluated on, the seeds where exactly one
+/// of them succeeded and where their trials part (sorted by that action,
+/// then task and seed).
+pub fn discordant(src: &ReviewSource, a: &str, b: &str) -> anyhow::Result<Vec<Divergence>> {
+    let files = |run: &str| -> anyhow::Result<Vec<TrialRecord>> {
+        let mut out = Vec::new();
+        for task in tasks_of(src, run)? {
+            out.extend(read_records(&src.records_file(run, task)?)?);
+        }
+        Ok(out)
+    };
+    let (ra, rb) = (files(a)?, files(b)?);
+    if ra.is_empty() || rb.is_empty() {
+        bail!(
+            "{}: no records of `{}`",
+            src.dir.display(),
+            if ra.is_empty() { a } else { b }
+        );
+    }
+    Ok(divergences(&ra, &rb))
+}
+
+/// The tasks `run` has records of in the review's folder.
+fn tasks_of(src: &ReviewSource, run: &str) -> anyhow::Result<Vec<TaskId>> {
+    let mut tasks: Vec<TaskId> = TaskId::ALL
+        .into_iter()
+        .chain(src.layout.custom_tasks())
+        .filter(|&t| src.records_file(run, t).is_ok())
+        .collect();
+    tasks.dedup();
+    Ok(tasks)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use seespot_ssr::Layout;
+    use std::path::Path;
+
+    fn source() -> ReviewSource {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        ReviewSource {
+            dir: root.join("results"),
+            layout: Layout::new(root.join("models"), root.join("demos")),
+        }
+    }
+
+    /// The earliest-parting discordant seed of CCD against L2CD opens on both
+    /// sides at the same action, where the two chose differently, after the
+    /// same earlier actions.
+    #[test]
+    fn both_sides_open_where_the_runs_part() {
+        let src = source();
+        let list = discordant(&src, "ssr-ccd", "ssr-l2cd").expect("discordant seeds");
+        assert!(list.len() > 10, "{}", list.len());
+        assert!(
+            list.windows(2)
+                .all(|w| w[0].action_index <= w[1].action_index)
+        );
+        let d = &list[0];
+        let mut diff = Difference::open(
+            &src,
+            Pairing {
+                a: "ssr-ccd".into(),
+                b: "ssr-l2cd".into(),
+                task: d.task,
+                seed: d.seed,
+            },
+        )
+        .expect("open");
+        let doc = diff.document();
+        assert_eq!(doc.first_difference, d.action_index);
+        assert_ne!(doc.a.chosen, doc.b.chosen);
+        let (va, vb) = (
+            diff.view(Side::A, d.action_index, None).expect("a"),
+            diff.view(Side::B, d.action_index, None).expect("b"),
+        );
+        assert_eq!(va.state.action_number, vb.state.action_number);
+        let taken = |v: &SideView| v.state.steps.last().map(|s| s.action);
+        assert_eq!(taken(&va), doc.a.chosen);
+        assert_eq!(taken(&vb), doc.b.chosen);
+        assert_ne!(taken(&va), taken(&vb));
+        let before = |v: &SideView| {
+            v.state.steps[..d.action_index]
+                .iter()
+                .map(|s| s.action)
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(before(&va), before(&vb));
+        assert_eq!(before(&va), diff.common_actions());
+        let err = diff
+            .view(Side::A, d.action_index + 1, None)
+            .expect_err("past");
+        assert!(
+            format!("{err:#}").contains("past the first difference"),
+            "{err:#}"
+        );
+    }
+
+    #[test]
+    fn a_run_without_records_is_named() {
+        let e = discordant(&source(), "ssr-ccd", "no-such-run").expect_err("refused");
+        assert!(format!("{e:#}").contains("no-such-run"), "{e:#}");
+    }
+}
