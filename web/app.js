@@ -248,6 +248,8 @@ function renderPairs(s) {
   $('method-choices').textContent = !s.pairs.length ? ''
     : s.method === 'transporter'
       ? 'TransporterNet: the match map is its score map for this primitive (best score minus score: 0 at the action, larger is worse); no rematch.'
+      : s.method === 'spot-q'
+        ? 'SPOT-Q: the match map is the policy\'s Q map for this primitive at the chosen rotation (best Q minus Q: 0 at the action, larger is worse); no demonstrations, no rematch.'
       : `On this state SSR CCD would take ${pick(s.ccd_choice)}; SSR L2CD would take ${pick(s.l2cd_choice)}.`;
   // Where an extension of SSR departed from SSR CCD: the actions it masked, and why.
   const skipped = s.skipped || [];

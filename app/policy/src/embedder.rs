@@ -169,22 +169,32 @@ impl seespot_sim::Actor for Embedder {
         trial: &seespot_sim::Trial,
         hm: &Heightmaps,
     ) -> Result<seespot_sim::actor::Choice, seespot_sim::ActorError> {
-        let primitive = trial.world().next_primitive();
-        let action = match &*self {
-            Self::Spot(p) => crate::policy::greedy_action(p, hm, primitive)?,
-            Self::Onnx(o) => {
-                let q = self
-                    .q_values(hm, primitive)?
-                    .ok_or_else(|| PolicyError::Onnx {
-                        path: o.path().to_path_buf(),
-                        reason: "the model has no Q outputs (`grasp_q`, `place_q`) to act on"
-                            .into(),
-                    })?;
-                let i = crate::policy::masked_argmax(&q.q, &common_sense_mask(hm, primitive));
-                seespot_sim::Action::from_flat_index(primitive, i, hm.resolution())
-            }
-        };
+        let (action, _) = self.greedy(hm, trial.world().next_primitive())?;
         Ok(action.into())
+    }
+}
+
+impl Embedder {
+    /// The SPOT-Q action of `primitive` in `hm` (the argmax of Q under the
+    /// common-sense mask) and the Q map it was taken from; an error for an
+    /// ONNX model without Q outputs.
+    pub fn greedy(
+        &self,
+        hm: &Heightmaps,
+        primitive: Primitive,
+    ) -> Result<(seespot_sim::Action, QMap), PolicyError> {
+        let q = self
+            .q_values(hm, primitive)?
+            .ok_or_else(|| PolicyError::Onnx {
+                path: match self {
+                    Self::Onnx(o) => o.path().to_path_buf(),
+                    Self::Spot(_) => std::path::PathBuf::new(),
+                },
+                reason: "the model has no Q outputs (`grasp_q`, `place_q`) to act on".into(),
+            })?;
+        let i = crate::policy::masked_argmax(&q.q, &common_sense_mask(hm, primitive));
+        let action = seespot_sim::Action::from_flat_index(primitive, i, hm.resolution());
+        Ok((action, q))
     }
 }
 

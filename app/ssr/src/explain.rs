@@ -18,6 +18,11 @@ pub enum Method {
     /// scores the debugger shows in SSR's views (one pair per decision, its
     /// match map the score map as a distance, `C` = 0).
     Transporter,
+    /// Not See-SPOT-Run: a SPOT-Q policy acting greedily on its own Q map,
+    /// which the debugger shows in SSR's views (one pair per decision, no
+    /// demonstration, its match map the chosen rotation's Q map as best Q
+    /// minus Q, `C` = 0).
+    SpotQ,
 }
 
 /// One (policy m, demo n) pair's correspondence.

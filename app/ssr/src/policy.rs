@@ -713,6 +713,7 @@ impl Actor for SsrPolicy {
             Method::SsrCcd => "See-SPOT-Run CCD".to_owned(),
             Method::SsrL2cd => "See-SPOT-Run L2CD".to_owned(),
             Method::Transporter => "TransporterNet".to_owned(),
+            Method::SpotQ => "SPOT-Q (greedy)".to_owned(),
         }
     }
 
@@ -773,6 +774,7 @@ pub fn chosen_pair(
         Method::SsrCcd => Method::SsrL2cd,
         Method::SsrL2cd => Method::SsrCcd,
         Method::Transporter => Method::Transporter,
+        Method::SpotQ => Method::SpotQ,
     };
     let p = &pairs[chosen];
     ChosenPair {
@@ -794,7 +796,7 @@ pub fn choose(pairs: &[PairExplanation], method: Method, mode: Correspondence) -
     };
     let key = |p: &PairExplanation| match method {
         Method::SsrCcd => (p.c, second(p.l)),
-        Method::SsrL2cd | Method::Transporter => (p.l, second(p.c)),
+        Method::SsrL2cd | Method::Transporter | Method::SpotQ => (p.l, second(p.c)),
     };
     let mut best = 0;
     for (i, p) in pairs.iter().enumerate() {

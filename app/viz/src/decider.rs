@@ -44,8 +44,7 @@ pub trait Decider: Actor + Send {
 }
 
 // An actor that decides without demonstrations, policies or an
-// explanation the page can show (the oracle, a SPOT-Q policy acting greedily
-// on its own Q maps, random actions): the debugger runs it and shows the
+// explanation the page can show (the oracle, random actions): the debugger runs it and shows the
 // scene and the action; the page and the recording still work.
 macro_rules! plain_decider {
     ($($t:ty),+) => {$(
@@ -69,12 +68,7 @@ macro_rules! plain_decider {
     )+};
 }
 
-plain_decider!(
-    Oracle,
-    seespot_policy::PolicyNet,
-    seespot_policy::Embedder,
-    seespot_policy::RandomActor
-);
+plain_decider!(Oracle, seespot_policy::RandomActor);
 
 /// See-SPOT-Run with the shipped policies and demonstrations.
 impl Decider for SsrPolicy {

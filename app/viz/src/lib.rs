@@ -3,6 +3,7 @@
 //! - [`paths`]: the one scheme of rerun entity paths and timelines;
 //! - [`recording`]: logging trials to rerun (`.rrd` files or a live gRPC stream);
 //! - [`decider`]: what picks actions in a viewed trial and explains them (SSR, a feature baseline, the oracle);
+//! - [`spot_q`]: a SPOT-Q policy as a decider, its Q map shown as the match map;
 //! - [`registry`]: which deciders there are, the factory that loads one, and a trial to replay;
 //! - [`session`]: a trial stepped phase by phase (embed, match, verify, act);
 //! - [`protocol`]: the WebSocket message types shared by the server and the page;
@@ -26,6 +27,7 @@ pub mod registry;
 pub mod review;
 pub mod server;
 pub mod session;
+pub mod spot_q;
 pub mod ssr;
 pub mod token;
 pub mod transporter;

@@ -26,7 +26,7 @@ use crate::session::{Session, SessionConfig};
 /// The replay of trial `seed` of the records file `path`, deciding with the
 /// models and demonstrations of `layout`; refused when they (or
 /// the settings) differ from the ones the record was made with, and for
-/// methods the debugger cannot run (SPOT-Q, random, finetuned, noisy).
+/// methods the debugger cannot run.
 pub fn replay(path: &Path, seed: u64, layout: &Layout) -> anyhow::Result<Replay> {
     let records = seespot_eval::records::read_records(path)?;
     let record = records.iter().find(|r| r.seed == seed).with_context(|| {
@@ -93,8 +93,12 @@ fn replay_factory(
     if config.method == EvalMethod::SpotQ {
         return Ok(Box::new(move |task: TaskId, _world| {
             let policy = seespot_eval::runner::spot_q_actor(&config, task)?;
-            let note = format!("SPOT-Q policy {} (greedy)", policy.name());
-            Ok((Box::new(policy) as Box<dyn crate::decider::Decider>, note))
+            let note = format!(
+                "SPOT-Q policy {} (greedy); the match map is its Q map at the chosen rotation",
+                policy.name()
+            );
+            let decider = crate::spot_q::SpotQDecider::new(policy);
+            Ok((Box::new(decider) as Box<dyn crate::decider::Decider>, note))
         }));
     }
     if config.method == EvalMethod::Transporter && config.finetune_steps > 0 {
@@ -303,6 +307,37 @@ mod tests {
             ses.next_action().expect("action");
         }
         ses.trial().steps().iter().map(|st| st.action).collect()
+    }
+
+    /// A SPOT-Q replay shows the policy's Q map in place of the pairs: one
+    /// pair, its match map 0 at the executed action and nowhere below.
+    #[test]
+    fn a_spot_q_replay_shows_its_q_map() {
+        let s = source();
+        let r = s.replay("spot-q", TaskId::Stack, 1).expect("replay");
+        let world = r.world();
+        let mut ses = Session::new(
+            r.factory,
+            SessionConfig {
+                task: TaskId::Stack,
+                seed: 1,
+                world,
+            },
+            None,
+        )
+        .expect("session");
+        ses.next_action().expect("action");
+        let d = ses.decision().expect("a decision");
+        assert_eq!(d.method, seespot_ssr::Method::SpotQ);
+        assert_eq!(d.pairs.len(), 1);
+        let map = &d.pairs[0].match_map;
+        let h = d.resolution;
+        assert_eq!(map[d.action.y * h + d.action.x], 0.0);
+        assert!(
+            map.iter().all(|&v| v >= 0.0),
+            "best Q minus Q is never negative"
+        );
+        assert!(map.iter().any(|&v| v.is_finite() && v > 0.0));
     }
 
     /// Replays the first trial of every run of `results/trials/` that `keep`
