@@ -8,7 +8,9 @@
 // results/. SEESPOT_SCREENSHOTS=DIR saves difference.png there.
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
-import { existsSync, readFileSync } from 'node:fs';
+import { existsSync, readFileSync, mkdtempSync, rmSync } from 'node:fs';
+import { spawnSync } from 'node:child_process';
+import { tmpdir } from 'node:os';
 import { join, resolve } from 'node:path';
 import { root, BIN, openView } from './serve.js';
 
@@ -92,4 +94,22 @@ test('a discordant CCD / L2CD seed opens both trials at the action where they pa
   assert.equal(key(y.a.state.steps[d.action_index - 1].action), key(y.b.state.steps[d.action_index - 1].action));
   assert.ok(!(await page.getByTestId('side-a').getByTestId('choice').evaluate((e) => e.classList.contains('parts'))));
   assert.deepEqual(view.errors, []);
+});
+
+test('record --runs writes both trials of a seed into one recording, each under its own root', () => {
+  const out = mkdtempSync(join(tmpdir(), 'seespot-two-runs-'));
+  try {
+    const r = spawnSync(BIN, ['record', '--task', 'stack', '--seed', '15', '--runs', 'ssr-ccd', 'ssr-l2cd', '--out', out, '--json'],
+      { cwd: root, encoding: 'utf8' });
+    assert.equal(r.status, 0, r.stderr);
+    const file = JSON.parse(r.stdout).recordings[0].path;
+    if (!process.env.RERUN_BIN) return;
+    const verify = spawnSync(process.env.RERUN_BIN, ['rrd', 'verify', file], { encoding: 'utf8' });
+    assert.equal(verify.status, 0, `rerun rrd verify failed:\n${verify.stdout}\n${verify.stderr}`);
+    const print = spawnSync(process.env.RERUN_BIN, ['rrd', 'print', file], { encoding: 'utf8', maxBuffer: 64 << 20 });
+    assert.equal(print.status, 0, print.stderr);
+    for (const run of ['ssr-ccd', 'ssr-l2cd']) {
+      for (const e of ['world/blocks', 'test/color', 'status']) assert.ok(print.stdout.includes(`runs/${run}/${e}`), `${run}/${e}`);
+    }
+  } finally { rmSync(out, { recursive: true, force: true }); }
 });

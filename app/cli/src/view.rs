@@ -261,10 +261,95 @@ pub struct RecordArgs {
     /// with its trial's outcome); the progress goes to stderr.
     #[arg(long)]
     pub json: bool,
+    /// Two runs of the evaluation in --results side by side: per seed, one
+    /// recording of both runs' trials (replayed from their records), each
+    /// under `runs/<run>`, in `<task>-<seed>-<FIRST>-vs-<SECOND>.rrd` (e.g.
+    /// `--runs ssr-ccd ssr-l2cd`).
+    #[arg(long, num_args = 2, value_names = ["FIRST", "SECOND"])]
+    pub runs: Option<Vec<String>>,
+    /// The evaluation whose records --runs replays.
+    #[arg(long, default_value = "results", requires = "runs")]
+    pub results: PathBuf,
+}
+
+/// `seespot record --runs A B`: per seed, both runs' trials in one recording.
+fn record_two_runs(args: &RecordArgs, runs: &[String]) -> anyhow::Result<()> {
+    let src = seespot_viz::review::ReviewSource {
+        dir: args.results.clone(),
+        layout: args.decider.layout()?,
+    };
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    let seeds = seespot_sim::Seeds::new(args.seed, args.trials)?;
+    let bar = crate::io::progress_bar(args.trials, false);
+    let mut done = Vec::new();
+    for seed in seeds.iter() {
+        let pairing = seespot_viz::difference::Pairing {
+            a: runs[0].clone(),
+            b: runs[1].clone(),
+            task: args.task,
+            seed,
+        };
+        let name = format!(
+            "{}-{seed}-{}-vs-{}.rrd",
+            args.task.file_stem(),
+            seespot_viz::paths::run(&runs[0]).trim_start_matches("runs/"),
+            seespot_viz::paths::run(&runs[1]).trim_start_matches("runs/")
+        );
+        let path = args.out.join(name);
+        let both = seespot_viz::difference::record_both(&src, &pairing, &path)?;
+        let bytes = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
+        bar.println(format!(
+            "{}: {} ({} actions, {}) beside {} ({} actions, {}), {:.2} MB",
+            path.display(),
+            both[0].run,
+            both[0].actions,
+            if both[0].success {
+                "success"
+            } else {
+                "failure"
+            },
+            both[1].run,
+            both[1].actions,
+            if both[1].success {
+                "success"
+            } else {
+                "failure"
+            },
+            bytes as f64 / 1e6
+        ));
+        bar.inc(1);
+        done.push((path, seed, both, bytes));
+    }
+    bar.finish_and_clear();
+    if args.json {
+        return crate::io::print_json(&serde_json::json!({
+            "task": args.task.as_str(),
+            "out": args.out.display().to_string(),
+            "recordings": done.iter().map(|(path, seed, both, bytes)| serde_json::json!({
+                "path": path.display().to_string(),
+                "seed": seed,
+                "runs": both,
+                "bytes": bytes,
+            })).collect::<Vec<_>>(),
+        }));
+    }
+    outln!(
+        "wrote {} recordings of {} beside {} to {}; open one with `rerun FILE.rrd` (pip install rerun-sdk==0.36.3)",
+        done.len(),
+        runs[0],
+        runs[1],
+        args.out.display()
+    )?;
+    Ok(())
 }
 
 /// Runs `seespot record`; Ctrl-C finishes the current file and stops.
 pub fn run_record(args: RecordArgs) -> anyhow::Result<()> {
+    if let Some(runs) = &args.runs {
+        crate::io::check_trial_seed(args.seed, args.training_seeds)?;
+        return record_two_runs(&args, runs);
+    }
     crate::io::check_trial_seed(args.seed, args.training_seeds)?;
     args.decider.load_task(args.task)?;
     let factory = args.decider.factory()?;

@@ -102,3 +102,50 @@ fn diverge_lists_where_the_discordant_trials_part() {
         assert_ne!(ra["success"], rb["success"]);
     }
 }
+
+/// `record --runs` writes both runs' trials of a seed into one recording,
+/// each under its own entity root, and refuses two runs that would share one.
+#[test]
+fn record_runs_writes_both_trials_into_one_recording() {
+    let out = std::env::temp_dir().join(format!("seespot-two-runs-{}", std::process::id()));
+    let out_s = out.display().to_string();
+    let args = [
+        "record", "--task", "stack", "--seed", "15", "--runs", "ssr-ccd", "ssr-l2cd", "--out",
+        &out_s, "--json",
+    ];
+    let (code, json, err) = run_in(&root(), &args);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&json).expect("json");
+    let rec = &v["recordings"][0];
+    let path = std::path::PathBuf::from(rec["path"].as_str().expect("path"));
+    assert!(
+        path.ends_with("stack-15-ssr-ccd-vs-ssr-l2cd.rrd"),
+        "{}",
+        path.display()
+    );
+    let head = std::fs::read(&path).expect("the recording");
+    assert_eq!(&head[..4], b"RRF2");
+    assert_eq!(rec["runs"][0]["entities"], "runs/ssr-ccd");
+    assert_eq!(rec["runs"][1]["entities"], "runs/ssr-l2cd");
+    // The records' own outcomes and lengths.
+    for (i, run) in ["ssr-ccd", "ssr-l2cd"].into_iter().enumerate() {
+        let text =
+            std::fs::read_to_string(root().join(format!("results/trials/{run}/stack.jsonl")))
+                .expect("records");
+        let r: serde_json::Value = text
+            .lines()
+            .map(|l| serde_json::from_str(l).expect("record"))
+            .find(|r: &serde_json::Value| r["seed"] == 15)
+            .expect("seed 15");
+        assert_eq!(rec["runs"][i]["success"], r["success"], "{run}");
+        assert_eq!(rec["runs"][i]["actions"], r["actions"], "{run}");
+    }
+    let same = [
+        "record", "--task", "stack", "--seed", "15", "--runs", "ssr-ccd", "ssr-ccd", "--out",
+        &out_s,
+    ];
+    let (code, _, err) = run_in(&root(), &same);
+    assert_ne!(code, 0);
+    assert!(err.contains("two different runs"), "{err}");
+    std::fs::remove_dir_all(&out).ok();
+}

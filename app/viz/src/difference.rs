@@ -277,6 +277,74 @@ impl Difference {
     }
 }
 
+/// One run's trial as [`record_both`] recorded it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RecordedRun {
+    pub run: String,
+    /// Where its entities lie in the recording (`runs/<run>`).
+    pub entities: String,
+    pub actions: usize,
+    pub success: bool,
+}
+
+/// Both trials of `pairing`, whole, as one rerun recording at `path`: each
+/// run replayed (and checked against its record at every action) with its
+/// entities under [`crate::paths::run`], on the same `action` and `phase`
+/// timelines, so that the viewer shows the two side by side
+/// ([`crate::recording::two_runs_blueprint`]).
+pub fn record_both(
+    src: &ReviewSource,
+    pairing: &Pairing,
+    path: &std::path::Path,
+) -> anyhow::Result<[RecordedRun; 2]> {
+    let Pairing { a, b, task, seed } = pairing;
+    if crate::paths::run(a) == crate::paths::run(b) {
+        bail!(
+            "the two runs `{a}` and `{b}` would share one place in the recording: name two different runs"
+        );
+    }
+    let stream = crate::recording::two_runs_stream([a.as_str(), b.as_str()], path)?;
+    let record = |run: &str| -> anyhow::Result<RecordedRun> {
+        let rec = record_of(src, run, *task, *seed)?;
+        let replay = src.replay(run, *task, *seed)?;
+        let world = replay.world();
+        let entities = crate::paths::run(run);
+        let recorder = crate::recording::Recorder::under(stream.clone(), entities.clone());
+        let config = SessionConfig {
+            task: *task,
+            seed: *seed,
+            world,
+        };
+        let mut session = Session::new(replay.factory, config, Some(recorder))?;
+        while !session.ended() {
+            session.next_phase()?;
+        }
+        let got: Vec<Action> = session.trial().steps().iter().map(|s| s.action).collect();
+        let want: Vec<Action> = rec.actions_log.iter().map(|l| l.action).collect();
+        if got != want {
+            let at = (0..got.len().max(want.len()))
+                .find(|&k| got.get(k) != want.get(k))
+                .unwrap_or(0);
+            bail!(
+                "the replay of {run} on {task} seed {seed} parts from its record at action {}: the models or demonstrations changed since the evaluation",
+                at + 1
+            );
+        }
+        drop(session.take_recorder());
+        Ok(RecordedRun {
+            run: run.to_owned(),
+            entities,
+            actions: got.len(),
+            success: session.trial().succeeded(),
+        })
+    };
+    let both = [record(a)?, record(b)?];
+    stream
+        .flush_blocking()
+        .context("cannot finish the recording")?;
+    Ok(both)
+}
+
 /// For every task both runs were evaluated on, the seeds where exactly one
 /// of them succeeded and where their trials part (sorted by that action,
 /// then task and seed).

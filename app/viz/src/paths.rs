@@ -15,6 +15,7 @@
 //! | `corr/{policy}/{n}/l`, `.../c` | scalars L and C (Eq. 4, Eq. 7) |
 //! | `metrics/...` | progress and running trial metrics |
 //! | `status` | a markdown note: phase, action, chosen pair |
+//! | `runs/{run}/...` | all of the above for one run, when a recording holds two runs side by side |
 
 /// Timeline: index of the trial within a recording (sequence).
 pub const TIMELINE_TRIAL: &str = "trial";
@@ -42,6 +43,23 @@ pub const METRICS_MAX_PROGRESS: &str = "metrics/max_progress";
 pub const METRICS_ACTIONS: &str = "metrics/actions";
 pub const METRICS_SUCCESS_RATE: &str = "metrics/success_rate";
 pub const METRICS_MEAN_PROGRESS: &str = "metrics/mean_progress";
+
+/// `runs/{run}`: the root of one run's entities in a recording of two runs
+/// side by side; characters other than ASCII letters, digits, `-` and `_`
+/// become `-` (an embedding set's `@`, for one).
+pub fn run(run: &str) -> String {
+    let name: String = run
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '-'
+            }
+        })
+        .collect();
+    format!("runs/{name}")
+}
 
 /// `demo/{n}`.
 pub fn demo(n: usize) -> String {
@@ -119,5 +137,6 @@ mod tests {
         assert_eq!(demo_color(0), "demo/0/color");
         assert!(WORLD_BLOCKS.starts_with(WORLD));
         assert!(TEST_COLOR.starts_with(TEST));
+        assert_eq!(run("ssr-ccd@raw-patches"), "runs/ssr-ccd-raw-patches");
     }
 }

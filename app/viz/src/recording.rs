@@ -44,6 +44,9 @@ pub struct Recorder {
     successes: u64,
     progress_sum: f64,
     save_path: Option<PathBuf>,
+    /// Prepended to every entity path (`runs/<run>` when one recording holds
+    /// two runs side by side; empty otherwise).
+    prefix: String,
 }
 
 impl std::fmt::Debug for Recorder {
@@ -151,6 +154,43 @@ pub fn blueprint(policies: &[String]) -> Blueprint {
         .with_time_panel(TimePanel::new().with_timeline(paths::TIMELINE_PHASE))
 }
 
+/// The layout of one recording holding two runs' trials of one seed (under
+/// [`paths::run`] each): per run, side by side, its 3-D scene, its live
+/// heightmap with the executed action, and its status (the pairs table).
+pub fn two_runs_blueprint(runs: [&str; 2]) -> Blueprint {
+    let column = |run: &str| -> ContainerLike {
+        let root = paths::run(run);
+        Vertical::new([
+            Spatial3DView::new(format!("{run} · scene"))
+                .with_origin(format!("/{root}/{}", paths::WORLD))
+                .into(),
+            Spatial2DView::new(format!("{run} · live"))
+                .with_origin("/")
+                .with_contents([
+                    format!("+ /{root}/{}", paths::TEST_COLOR),
+                    format!("+ /{root}/{}", paths::TEST_ACTION),
+                ])
+                .into(),
+            TextDocumentView::new(format!("{run} · status"))
+                .with_origin(format!("/{root}/{}", paths::STATUS))
+                .into(),
+        ])
+        .with_row_shares([3.0, 3.0, 2.0])
+        .into()
+    };
+    Blueprint::new(Horizontal::new([column(runs[0]), column(runs[1])]))
+        .with_time_panel(TimePanel::new().with_timeline(paths::TIMELINE_ACTION))
+}
+
+/// A recording of two runs side by side written to `path`, laid out by
+/// [`two_runs_blueprint`]; one [`Recorder::under`] per run logs into it.
+pub fn two_runs_stream(runs: [&str; 2], path: &Path) -> anyhow::Result<RecordingStream> {
+    RecordingStreamBuilder::new(APPLICATION_ID)
+        .with_blueprint(two_runs_blueprint(runs))
+        .save(path)
+        .with_context(|| format!("cannot create the recording {}", path.display()))
+}
+
 /// The stream of a recording, laid out for the shipped policies of fold
 /// `task` until [`Recorder::send_blueprint`] names others.
 fn builder(task: TaskId) -> RecordingStreamBuilder {
@@ -208,6 +248,16 @@ impl Recorder {
     }
 
     fn from_stream(rec: RecordingStream, save_path: Option<PathBuf>) -> Self {
+        Self::with_prefix(rec, save_path, String::new())
+    }
+
+    /// A recorder on `rec` whose entity paths all lie under `prefix` (one of
+    /// [`paths::run`]), for several runs in one recording.
+    pub fn under(rec: RecordingStream, prefix: String) -> Self {
+        Self::with_prefix(rec, None, prefix)
+    }
+
+    fn with_prefix(rec: RecordingStream, save_path: Option<PathBuf>, prefix: String) -> Self {
         let recorder = Self {
             rec,
             phase_tick: 0,
@@ -216,9 +266,19 @@ impl Recorder {
             successes: 0,
             progress_sum: 0.0,
             save_path,
+            prefix,
         };
         recorder.log_static();
         recorder
+    }
+
+    /// `path` under this recorder's prefix.
+    fn at(&self, path: impl AsRef<str>) -> String {
+        if self.prefix.is_empty() {
+            path.as_ref().to_owned()
+        } else {
+            format!("{}/{}", self.prefix, path.as_ref())
+        }
     }
 
     /// Sends the layout of a decider whose embedding models are `policies`
@@ -255,11 +315,11 @@ impl Recorder {
         )
         .with_colors([rerun::Color::from_rgb(200, 200, 206)])
         .with_fill_mode(rerun::FillMode::Solid);
-        self.warn(self.rec.log_static(paths::WORLD_TABLE, &table));
-        self.warn(
-            self.rec
-                .log_static(paths::WORLD, &rerun::ViewCoordinates::RIGHT_HAND_Z_UP()),
-        );
+        self.warn(self.rec.log_static(self.at(paths::WORLD_TABLE), &table));
+        self.warn(self.rec.log_static(
+            self.at(paths::WORLD),
+            &rerun::ViewCoordinates::RIGHT_HAND_Z_UP(),
+        ));
     }
 
     fn warn(&self, r: rerun::RecordingStreamResult<()>) {
@@ -292,10 +352,10 @@ impl Recorder {
             trial.seed(),
             trial.progress()
         );
-        self.warn(
-            self.rec
-                .log(paths::STATUS, &rerun::TextDocument::from_markdown(note)),
-        );
+        self.warn(self.rec.log(
+            self.at(paths::STATUS),
+            &rerun::TextDocument::from_markdown(note),
+        ));
     }
 
     /// Logs one phase of the decision for action `action` (0-based) of `trial`
@@ -354,12 +414,12 @@ impl Recorder {
         let image = |rgb: &[u8]| rerun::Image::from_rgb24(rgb.to_vec(), [n as u32, n as u32]);
         self.warn(
             self.rec
-                .log(paths::corr_pca_live(policy, demo), &image(live)),
+                .log(self.at(paths::corr_pca_live(policy, demo)), &image(live)),
         );
-        self.warn(
-            self.rec
-                .log(paths::corr_pca_demo(policy, demo), &image(demo_rgb)),
-        );
+        self.warn(self.rec.log(
+            self.at(paths::corr_pca_demo(policy, demo)),
+            &image(demo_rgb),
+        ));
     }
 
     /// Logs a finished trial into the running metrics.
@@ -378,7 +438,7 @@ impl Recorder {
     }
 
     fn log_scalar(&self, path: &str, v: f64) {
-        self.warn(self.rec.log(path, &rerun::Scalars::single(v)));
+        self.warn(self.rec.log(self.at(path), &rerun::Scalars::single(v)));
     }
 
     fn log_progress(&self, trial: &Trial) {
@@ -409,7 +469,7 @@ impl Recorder {
         )
         .with_labels(["red", "blue", "green", "yellow"])
         .with_fill_mode(rerun::FillMode::Solid);
-        self.warn(self.rec.log(paths::WORLD_BLOCKS, &boxes));
+        self.warn(self.rec.log(self.at(paths::WORLD_BLOCKS), &boxes));
         if let Some([x, y, z, yaw]) = world.last_action_pose() {
             let (s, c) = yaw.sin_cos();
             // Two fingers along the jaw axis (yaw from +x) and a palm above them.
@@ -435,18 +495,18 @@ impl Recorder {
                 .with_colors([rerun::Color::from_rgb(90, 90, 100); 3])
                 .with_labels(["", "", held])
                 .with_fill_mode(rerun::FillMode::Solid);
-            self.warn(self.rec.log(paths::WORLD_GRIPPER, &gripper));
+            self.warn(self.rec.log(self.at(paths::WORLD_GRIPPER), &gripper));
             let arrow = rerun::Arrows3D::from_vectors([(0.0, 0.0, -0.12)])
                 .with_origins([(x, y, z + 0.12)])
                 .with_colors([rerun::Color::from_rgb(CHOSEN[0], CHOSEN[1], CHOSEN[2])]);
-            self.warn(self.rec.log(paths::WORLD_ACTION, &arrow));
+            self.warn(self.rec.log(self.at(paths::WORLD_ACTION), &arrow));
         }
     }
 
     fn log_test(&self, hm: &Heightmaps) {
         let (color, depth) = images(hm);
-        self.warn(self.rec.log(paths::TEST_COLOR, &color));
-        self.warn(self.rec.log(paths::TEST_DEPTH, &depth));
+        self.warn(self.rec.log(self.at(paths::TEST_COLOR), &color));
+        self.warn(self.rec.log(self.at(paths::TEST_DEPTH), &depth));
     }
 
     fn log_demos(&self, d: &Decision, demos: &[Demo]) {
@@ -463,8 +523,8 @@ impl Recorder {
                 continue;
             };
             let (color, depth) = images(&step.heightmaps);
-            self.warn(self.rec.log(paths::demo_color(p.demo), &color));
-            self.warn(self.rec.log(paths::demo_depth(p.demo), &depth));
+            self.warn(self.rec.log(self.at(paths::demo_color(p.demo)), &color));
+            self.warn(self.rec.log(self.at(paths::demo_depth(p.demo)), &depth));
             let a = p.demo_action;
             let pt = rerun::Points2D::new([(a.x as f32 + 0.5, a.y as f32 + 0.5)])
                 .with_radii([3.0])
@@ -474,7 +534,7 @@ impl Recorder {
                     ARROW_MATCH[2],
                 )])
                 .with_labels([format!("demo {} step {}: {a}", p.demo, p.demo_step)]);
-            self.warn(self.rec.log(paths::demo_action(p.demo), &pt));
+            self.warn(self.rec.log(self.at(paths::demo_action(p.demo)), &pt));
         }
     }
 
@@ -482,7 +542,7 @@ impl Recorder {
         let n = d.resolution;
         for p in &d.pairs {
             self.warn(self.rec.log(
-                paths::corr_match(&p.policy, p.demo),
+                self.at(paths::corr_match(&p.policy, p.demo)),
                 &heat_image(&p.match_map, n),
             ));
             let arrows = rerun::Arrows2D::from_vectors([(
@@ -496,7 +556,10 @@ impl Recorder {
                 ARROW_MATCH[2],
             )])
             .with_labels([format!("demo -> F, L = {:.3}", p.l)]);
-            self.warn(self.rec.log(paths::corr_arrows(&p.policy, p.demo), &arrows));
+            self.warn(
+                self.rec
+                    .log(self.at(paths::corr_arrows(&p.policy, p.demo)), &arrows),
+            );
             self.log_scalar(&paths::corr_l(&p.policy, p.demo), f64::from(p.l));
         }
     }
@@ -505,11 +568,11 @@ impl Recorder {
         let n = d.resolution;
         for p in &d.pairs {
             self.warn(self.rec.log(
-                paths::corr_rematch(&p.policy, p.demo),
+                self.at(paths::corr_rematch(&p.policy, p.demo)),
                 &heat_image(&p.rematch_map, n),
             ));
             self.warn(self.rec.log(
-                paths::corr_arrows(&p.policy, p.demo),
+                self.at(paths::corr_arrows(&p.policy, p.demo)),
                 &pair_arrows(p, false),
             ));
             self.log_scalar(&paths::corr_c(&p.policy, p.demo), f64::from(p.c));
@@ -518,10 +581,10 @@ impl Recorder {
 
     fn log_chosen(&self, d: &Decision) {
         if let Some(p) = d.pairs.get(d.chosen) {
-            self.warn(
-                self.rec
-                    .log(paths::corr_arrows(&p.policy, p.demo), &pair_arrows(p, true)),
-            );
+            self.warn(self.rec.log(
+                self.at(paths::corr_arrows(&p.policy, p.demo)),
+                &pair_arrows(p, true),
+            ));
             let a = d.action;
             let pt = rerun::Points2D::new([(a.x as f32 + 0.5, a.y as f32 + 0.5)])
                 .with_radii([4.0])
@@ -531,7 +594,7 @@ impl Recorder {
                     p.policy.as_str(),
                     p.demo
                 )]);
-            self.warn(self.rec.log(paths::TEST_ACTION, &pt));
+            self.warn(self.rec.log(self.at(paths::TEST_ACTION), &pt));
         }
     }
 
@@ -590,10 +653,10 @@ impl Recorder {
                 trial.actions()
             ));
         }
-        self.warn(
-            self.rec
-                .log(paths::STATUS, &rerun::TextDocument::from_markdown(s)),
-        );
+        self.warn(self.rec.log(
+            self.at(paths::STATUS),
+            &rerun::TextDocument::from_markdown(s),
+        ));
     }
 }
 
