@@ -1,7 +1,8 @@
-"""The README as a newcomer follows it: its Python snippet and every example
-under python/examples/ run exactly as written, from the repository root; the
-quick start's commands run (in cheap form); and every `seespot` command the
-README shows is accepted by the binary (its flags and values parse)."""
+"""The README and the documentation pages as a newcomer follows them: the
+Python snippet of docs/python.md and every example under python/examples/
+run exactly as written, from the repository root; the quick start's
+commands run (in cheap form); and every `seespot` command the README and
+docs/*.md show is accepted by the binary (its flags and values parse)."""
 
 from __future__ import annotations
 
@@ -18,6 +19,8 @@ import pytest
 from conftest import ROOT
 
 README = (ROOT / "README.md").read_text()
+PYTHON_PAGE = (ROOT / "docs" / "python.md").read_text()
+PAGES = [README, *(p.read_text() for p in sorted((ROOT / "docs").glob("*.md")))]
 
 
 def _blocks(lang: str, text: str = README) -> list[str]:
@@ -37,7 +40,7 @@ def _run_python(args: list[str], timeout: float) -> subprocess.CompletedProcess[
 
 
 def test_the_readme_python_snippet_runs_as_written() -> None:
-    [snippet] = _blocks("python")
+    [snippet] = _blocks("python", PYTHON_PAGE)
     r = _run_python(["-c", snippet], timeout=600)
     assert r.returncode == 0, f"the README's snippet failed:\n{r.stdout}\n{r.stderr}"
     assert "F (" in r.stdout and "C " in r.stdout, r.stdout
@@ -55,11 +58,11 @@ def test_every_example_runs_as_written(example: str) -> None:
 
 
 def _readme_commands() -> list[list[str]]:
-    """Every `seespot ...` command the README shows (inline or in a block),
-    as argument lists, less those with placeholders (`...`, FILE, shell
-    variables, alternatives)."""
+    """Every `seespot ...` command the README and docs/*.md show (inline or
+    in a block), as argument lists, less those with placeholders (`...`,
+    FILE, shell variables, alternatives)."""
     found: list[str] = []
-    for line in README.splitlines():
+    for line in "\n".join(PAGES).splitlines():
         for m in re.finditer(r"`((?:seespot|cargo run --release -p seespot --) [^`]+)`", line):
             found.append(m.group(1))
         m = re.match(r"\s*(cargo run --release -p seespot -- .*)", line)
@@ -68,7 +71,7 @@ def _readme_commands() -> list[list[str]]:
     out = []
     for cmd in found:
         cmd = cmd.split("#")[0].strip().replace("cargo run --release -p seespot --", "seespot")
-        if re.search(r"\.\.\.|…|\||\$|\bFILE\b|\bDIR\b|\bARGS\b|\bCOMMAND\b|\bTASK\b|<", cmd):
+        if re.search(r"\.\.\.|…|\||\$|\bFILE\b|\bN\b|\bDIR\b|\bARGS\b|\bCOMMAND\b|\bTASK\b|<", cmd):
             continue
         out.append(shlex.split(cmd)[1:])
     return out
