@@ -91,12 +91,15 @@ def run_trial(
     models_dir: str = "models",
     demos_dir: str = "demos",
     resolution: int = DEFAULT_RESOLUTION,
-    correspond: str = "reference",
+    correspond: str | dict[str, Any] | None = None,
     embeddings: list[str] | None = None,
 ) -> dict[str, Any]:
     """Runs one trial of ``method`` on ``task`` from ``seed`` and returns its
     record: the object ``seespot eval`` writes as one JSONL line (``index`` is
-    the trial's number in the run, ``trial`` in the record). ``embeddings``
+    the trial's number in the run, ``trial`` in the record). ``correspond``
+    (SSR only): None for the reference's Correspond, ``"plain"``, or a dict of
+    Correspond's settings as records hold them (``{"rematch": "global"}``).
+    ``embeddings``
     (SSR only): a folder of ``<task>.onnx`` files or a list of ONNX files
     used in place of the SPOT-Q policies (docs/embeddings.md)."""
     ev = Evaluator(method, task, models_dir, demos_dir, resolution, correspond, embeddings)

@@ -2,7 +2,7 @@
 
 import os
 import pathlib
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any, TypeAlias, final
 
 import numpy as np
@@ -115,7 +115,7 @@ class Ssr:
         models_dir: str | os.PathLike[str] = ...,
         demos_dir: str | os.PathLike[str] = ...,
         method: str = "ssr-ccd",
-        correspond: str = "reference",
+        correspond: str | Mapping[str, Any] | None = None,
         embeddings: Sequence[str | os.PathLike[str]] | None = None,
     ) -> Ssr: ...
     @property
@@ -133,7 +133,7 @@ class Evaluator:
         models_dir: str | os.PathLike[str] = ...,
         demos_dir: str | os.PathLike[str] = ...,
         resolution: int = ...,
-        correspond: str = "reference",
+        correspond: str | Mapping[str, Any] | None = None,
         embeddings: Sequence[str | os.PathLike[str]] | None = None,
         finetune_steps: int = 0,
         finetune_procedure: str = "reference",
@@ -151,7 +151,7 @@ def cli(argv: list[str]) -> int: ...
 def demo_dirs(task: str, demos_dir: str | os.PathLike[str] = ...) -> list[pathlib.Path]: ...
 def test_seeds(start: int, count: int) -> list[int]: ...
 def records_path(out_dir: str | os.PathLike[str], method: str, task: str) -> pathlib.Path: ...
-def record_name(method: str, correspond: str) -> str: ...
+def record_name(method: str, correspond: str | Mapping[str, Any] | None = None) -> str: ...
 def run_spec(name: str) -> dict[str, Any]: ...
 def read_records(path: str | os.PathLike[str]) -> list[str]: ...
 def append_record(path: str | os.PathLike[str], line: str) -> None: ...

@@ -80,3 +80,21 @@ def test_bad_heightmaps() -> None:
         policy.q_values(color.astype(np.float32), depth, "grasp")
     with pytest.raises(ValueError, match="^primitive"):
         policy.q_values(color, depth, "push")
+
+
+def test_correspond_options_are_the_records_settings() -> None:
+    """Correspond's options from Python: a name, or a dict with the keys
+    records' settings use, converted by the rules the command line uses."""
+    assert seespot.record_name("ssr-ccd") == "ssr-ccd"
+    assert seespot.record_name("ssr-ccd", "plain") == "ssr-ccd-plain"
+    assert seespot.record_name("ssr-ccd", {"rematch": "global"}) == "ssr-ccd-global-rematch"
+    both = {"correspond": "reference", "smoothing": "normalized", "demo_features": "real"}
+    assert seespot.record_name("ssr-l2cd", both) == "ssr-l2cd-normalized-demo-real"
+    with pytest.raises(ValueError, match="`rematch` applies to correspond reference only, not plain"):
+        seespot.record_name("ssr-ccd", {"correspond": "plain", "rematch": "global"})
+    with pytest.raises(ValueError, match="unknown key 'rematch_area'"):
+        seespot.record_name("ssr-ccd", {"rematch_area": "global"})
+    with pytest.raises(ValueError, match="unknown variant `wide`"):
+        seespot.record_name("ssr-ccd", {"rematch": "wide"})
+    with pytest.raises(ValueError, match="expected None, a name or a dict"):
+        seespot.record_name("ssr-ccd", 3)  # type: ignore[arg-type]

@@ -7,7 +7,7 @@ use seespot_eval::EvalMethod;
 use seespot_eval::Summary;
 use seespot_eval::runner::{EvalConfig, Evaluation, Finished, world_config};
 use seespot_sim::{Seeds, TaskId};
-use seespot_ssr::correspond::Correspondence;
+use seespot_ssr::correspond::{CorrespondSettings, Correspondence};
 use seespot_ssr::{CorrespondOptions, Layout};
 
 #[derive(clap::Args, Debug)]
@@ -52,36 +52,8 @@ pub struct EvalArgs {
     /// Heightmap pixels per side (must match the demonstrations).
     #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = seespot_sim::DEFAULT_RESOLUTION)]
     resolution: usize,
-    /// How SSR computes Correspond: `reference` (the default: the reference
-    /// code's masks, smoothing, rematch window and tie order; see
-    /// `seespot_ssr::correspond::reference`) or `plain` (seespot's first
-    /// formulation, recorded as `ssr-ccd-plain` / `ssr-l2cd-plain`).
-    #[arg(long, default_value = "reference")]
-    correspond: Correspondence,
-    /// With `--correspond plain` only: Gaussian smoothing of the distance maps
-    /// before the argmin, sigma in pixels; off by default.
-    #[arg(long, value_parser = seespot_sim::bounds::parse_sigma)]
-    smooth_sigma: Option<f32>,
-    /// With `--correspond reference` only: what the rematch reads at the
-    /// demo's actions outside its test-time mask: `zeroed` (the default, as
-    /// the reference's zeroed features) or `real` (their real embeddings; a
-    /// departure, recorded as `<method>-demo-real`).
-    #[arg(long, default_value = "zeroed")]
-    demo_features: seespot_ssr::correspond::DemoFeatures,
-    /// With `--correspond reference` only: `reference` (the default: masked
-    /// actions smoothed as zero embeddings, scipy's edges, the rematch window
-    /// wrapped) or `normalized` (seespot's earlier smoothing, a departure
-    /// recorded as `<method>-normalized`: masked actions left out, the
-    /// rematch's whole plane smoothed on real embeddings).
-    #[arg(long, default_value = "reference")]
-    smoothing: seespot_ssr::correspond::Smoothing,
-    /// With `--correspond reference` only: `window` (the default, Eq. 7 as
-    /// the paper writes it: the rematch within 3 cm of the demonstrated
-    /// action, C measured from it) or `global` (the reference trial runner's
-    /// pair: the rematch over the whole demo plane, C measured from the live
-    /// match; recorded as `<method>-global-rematch`).
-    #[arg(long, default_value = "window")]
-    rematch: seespot_ssr::correspond::Rematch,
+    #[command(flatten)]
+    correspond: CorrespondArgs,
     /// Finetune on the two demonstrations first: steps per policy (333 = the
     /// paper's 1k in all). With `--method spot-q` this gives "Good Robot
     /// finetuned"; with `--method transporter`, iterations of another task's
@@ -140,7 +112,7 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         layout: Layout::new(&args.models, &args.demos)
             .with_embeddings(crate::io::embeddings(&args.embeddings)?),
         world,
-        correspond: correspond_options(&args)?,
+        correspond: args.correspond.options()?,
         finetune_steps: args.finetune_steps,
         finetune_procedure: args.finetune_procedure,
     };
@@ -297,35 +269,61 @@ fn record_failed(
     anyhow::bail!("--record needs seespot built with the `viewer` feature")
 }
 
-/// The Correspond options the flags name; a flag of the other formulation is
-/// refused.
-fn correspond_options(args: &EvalArgs) -> anyhow::Result<CorrespondOptions> {
-    use seespot_ssr::correspond::{DemoFeatures, Rematch, Smoothing};
-    Ok(match args.correspond {
-        Correspondence::Plain => {
-            if args.smoothing != Smoothing::Reference
-                || args.demo_features != DemoFeatures::Zeroed
-                || args.rematch != Rematch::Window
-            {
-                anyhow::bail!(
-                    "--smoothing, --demo-features and --rematch apply to --correspond reference only"
-                );
-            }
-            CorrespondOptions::Plain {
-                smooth_sigma: args.smooth_sigma,
-            }
-        }
-        Correspondence::Reference => {
-            if args.smooth_sigma.is_some() {
-                anyhow::bail!(
-                    "--smooth-sigma applies to --correspond plain only (the reference smooths at 6 mm)"
-                );
-            }
-            CorrespondOptions::Reference {
-                demo_features: args.demo_features,
-                smoothing: args.smoothing,
-                rematch: args.rematch,
-            }
-        }
-    })
+/// SSR's Correspond options on the command line: the flags of
+/// [`CorrespondSettings`], one per key, converted by the same rules records
+/// and Python go through.
+#[derive(clap::Args, Debug, Clone)]
+pub struct CorrespondArgs {
+    /// How SSR computes Correspond: `reference` (the default: the reference
+    /// code's masks, smoothing, rematch window and tie order; see
+    /// `seespot_ssr::correspond::reference`) or `plain` (seespot's first
+    /// formulation, recorded as `ssr-ccd-plain` / `ssr-l2cd-plain`).
+    #[arg(long, default_value = "reference")]
+    correspond: Correspondence,
+    /// With `--correspond plain` only: Gaussian smoothing of the distance maps
+    /// before the argmin, sigma in pixels; off by default.
+    #[arg(long, value_parser = seespot_sim::bounds::parse_sigma)]
+    smooth_sigma: Option<f32>,
+    /// With `--correspond reference` only: what the rematch reads at the
+    /// demo's actions outside its test-time mask: `zeroed` (the default, as
+    /// the reference's zeroed features) or `real` (their real embeddings; a
+    /// departure, recorded as `<method>-demo-real`).
+    #[arg(long)]
+    demo_features: Option<seespot_ssr::correspond::DemoFeatures>,
+    /// With `--correspond reference` only: `reference` (the default: masked
+    /// actions smoothed as zero embeddings, scipy's edges, the rematch window
+    /// wrapped) or `normalized` (seespot's earlier smoothing, a departure
+    /// recorded as `<method>-normalized`: masked actions left out, the
+    /// rematch's whole plane smoothed on real embeddings).
+    #[arg(long)]
+    smoothing: Option<seespot_ssr::correspond::Smoothing>,
+    /// With `--correspond reference` only: `window` (the default, Eq. 7 as
+    /// the paper writes it: the rematch within 3 cm of the demonstrated
+    /// action, C measured from it) or `global` (the reference trial runner's
+    /// pair: the rematch over the whole demo plane, C measured from the live
+    /// match; recorded as `<method>-global-rematch`).
+    #[arg(long)]
+    rematch: Option<seespot_ssr::correspond::Rematch>,
+}
+
+impl CorrespondArgs {
+    /// The options the flags name; a flag of the other formulation is
+    /// refused (`--smoothing` with `--correspond plain`, ...).
+    fn options(&self) -> anyhow::Result<CorrespondOptions> {
+        let settings = CorrespondSettings {
+            correspond: self.correspond,
+            smooth_sigma: self.smooth_sigma,
+            smoothing: self.smoothing,
+            demo_features: self.demo_features,
+            rematch: self.rematch,
+        };
+        CorrespondOptions::try_from(settings).map_err(|e| {
+            anyhow::anyhow!(
+                "--{} applies to --correspond {} only, not {}",
+                e.setting.replace('_', "-"),
+                e.belongs,
+                e.given
+            )
+        })
+    }
 }

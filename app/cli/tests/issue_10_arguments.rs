@@ -145,3 +145,29 @@ fn issue_10_training_and_finetuning_counts_are_bounded() {
         refused(&[command, "--task", "stack", flag, value], flag, range);
     }
 }
+
+/// An option of the other Correspond formulation is refused, naming the flag
+/// (the rule held once, in `CorrespondOptions::try_from`).
+#[test]
+fn correspond_flags_of_the_other_formulation_are_refused() {
+    let (code, err) = seespot(&[
+        "eval",
+        "--task",
+        "stack",
+        "--correspond",
+        "plain",
+        "--rematch",
+        "global",
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("--rematch applies to --correspond reference only, not plain"),
+        "{err}"
+    );
+    let (code, err) = seespot(&["eval", "--task", "stack", "--smooth-sigma", "2"]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("--smooth-sigma applies to --correspond plain only, not reference"),
+        "{err}"
+    );
+}

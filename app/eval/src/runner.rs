@@ -15,9 +15,7 @@ use seespot_sim::{
     Actor, Grid, Oracle, Provenance, Seeds, TaskId, Trial, TrialRecord, WorldConfig,
 };
 
-use seespot_ssr::correspond::{
-    CorrespondOptions, Correspondence, DemoFeatures, Rematch, Smoothing,
-};
+use seespot_ssr::correspond::{CorrespondOptions, CorrespondSettings};
 use seespot_ssr::layout::{Layout, records_path};
 use seespot_ssr::policy::SsrPolicy;
 
@@ -37,19 +35,13 @@ use crate::run::{EvalMethod, RunSpec};
 /// reference's.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RunSettings {
-    /// `reference` or `plain`.
-    pub correspond: String,
-    /// The plain scan's smoothing, pixels.
-    pub smooth_sigma: Option<f32>,
+    /// Correspond's options, as SSR's runs used them (the others write the
+    /// reference's formulation alone: [`CorrespondSettings::unused`]).
+    #[serde(flatten)]
+    pub correspond: CorrespondSettings,
     pub finetune_steps: usize,
     pub resolution: usize,
     pub noise: seespot_sim::noise::SensorNoise,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub smoothing: Option<String>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub demo_features: Option<String>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub rematch: Option<String>,
     /// How the SPOT-Q networks' trunk computed
     /// ([`seespot_policy::infer::TRUNK_KERNELS`]), for the methods that run
     /// them. Absent in the records of the other methods, and in those made
@@ -74,29 +66,15 @@ pub struct RunSettings {
 impl RunSettings {
     /// The settings of an evaluation configuration on fold `task`.
     pub fn of(config: &EvalConfig, task: TaskId) -> Self {
-        let c = &config.correspond;
-        // The reference's options, for SSR (the only methods that correspond).
-        let reference = match *c {
-            CorrespondOptions::Reference {
-                demo_features,
-                smoothing,
-                rematch,
-            } if config.method.is_ssr() => Some((demo_features, smoothing, rematch)),
-            _ => None,
-        };
         Self {
-            correspond: c.mode().as_str().to_owned(),
-            smooth_sigma: c.smooth_sigma(),
+            correspond: if config.method.is_ssr() {
+                config.correspond.into()
+            } else {
+                CorrespondSettings::unused()
+            },
             finetune_steps: config.finetune_steps,
             resolution: config.world.grid.resolution,
             noise: config.world.noise,
-            smoothing: reference.map(|(_, s, _)| s.as_str().to_owned()),
-            demo_features: reference
-                .filter(|(d, _, _)| *d != DemoFeatures::Zeroed)
-                .map(|(d, _, _)| d.as_str().to_owned()),
-            rematch: reference
-                .filter(|(_, _, r)| *r != Rematch::Window)
-                .map(|(_, _, r)| r.as_str().to_owned()),
             trunk: config
                 .method
                 .runs_spot_q_nets()
@@ -108,48 +86,10 @@ impl RunSettings {
         }
     }
 
-    /// The Correspond options these settings name.
-    /// A setting of the other formulation is refused, naming it.
+    /// The Correspond options these settings name
+    /// ([`CorrespondOptions::try_from`] holds the rules).
     pub fn correspond_options(&self) -> Result<CorrespondOptions, String> {
-        match self.correspond.parse()? {
-            Correspondence::Plain => {
-                let reference_only = [
-                    ("smoothing", &self.smoothing),
-                    ("demo_features", &self.demo_features),
-                    ("rematch", &self.rematch),
-                ];
-                if let Some((name, _)) = reference_only.iter().find(|(_, v)| v.is_some()) {
-                    return Err(format!(
-                        "settings `{name}` apply to correspond=reference only, not plain"
-                    ));
-                }
-                Ok(CorrespondOptions::Plain {
-                    smooth_sigma: self.smooth_sigma,
-                })
-            }
-            Correspondence::Reference => {
-                if self.smooth_sigma.is_some() {
-                    return Err(
-                        "setting `smooth_sigma` applies to correspond=plain only, not reference"
-                            .to_owned(),
-                    );
-                }
-                Ok(CorrespondOptions::Reference {
-                    demo_features: self
-                        .demo_features
-                        .as_deref()
-                        .map_or(Ok(DemoFeatures::Zeroed), str::parse)?,
-                    smoothing: self
-                        .smoothing
-                        .as_deref()
-                        .map_or(Ok(Smoothing::Reference), str::parse)?,
-                    rematch: self
-                        .rematch
-                        .as_deref()
-                        .map_or(Ok(Rematch::Window), str::parse)?,
-                })
-            }
-        }
+        CorrespondOptions::try_from(self.correspond).map_err(|e| e.to_string())
     }
 }
 

@@ -137,3 +137,52 @@ pub fn embeddings(
         .map(|p| seespot_ssr::layout::Embeddings::from_paths(&p).map_err(|e| bad("embeddings", e)))
         .transpose()
 }
+
+/// Correspond's options from Python: `None` (the reference's, the default),
+/// a formulation's name (`"reference"` or `"plain"`), or a dict of
+/// `seespot_ssr::correspond::CorrespondSettings`' keys as records hold them
+/// (`{"correspond": "reference", "rematch": "global"}`); converted by the
+/// rules the command line and records go through.
+pub fn correspond(
+    py: Python<'_>,
+    arg: Option<&Bound<'_, PyAny>>,
+) -> PyResult<seespot_ssr::CorrespondOptions> {
+    use seespot_ssr::correspond::CorrespondSettings;
+    let settings = match arg {
+        None => CorrespondSettings::default(),
+        Some(a) if a.is_instance_of::<pyo3::types::PyString>() => CorrespondSettings {
+            correspond: a
+                .extract::<String>()?
+                .parse()
+                .map_err(|e| bad("correspond", e))?,
+            ..CorrespondSettings::default()
+        },
+        Some(a) if a.is_instance_of::<pyo3::types::PyDict>() => {
+            let d = a.cast::<pyo3::types::PyDict>()?;
+            for k in d.keys() {
+                let k: String = k.extract()?;
+                if !CorrespondSettings::KEYS.contains(&k.as_str()) {
+                    return Err(bad(
+                        "correspond",
+                        format!(
+                            "unknown key '{k}' (the keys are {})",
+                            CorrespondSettings::KEYS.join(", ")
+                        ),
+                    ));
+                }
+            }
+            let json: String = py.import("json")?.call_method1("dumps", (d,))?.extract()?;
+            serde_json::from_str(&json).map_err(|e| bad("correspond", e))?
+        }
+        Some(a) => {
+            return Err(bad(
+                "correspond",
+                format!(
+                    "expected None, a name or a dict, not {}",
+                    a.get_type().name()?
+                ),
+            ));
+        }
+    };
+    seespot_ssr::CorrespondOptions::try_from(settings).map_err(|e| bad("correspond", e))
+}

@@ -27,7 +27,9 @@ pub struct Evaluator {
 impl Evaluator {
     /// `method`: one of `METHODS` (ssr-ccd, ssr-l2cd, ssr-ccd-loopbreak,
     /// spot-q, oracle, random, transporter; no finetuning);
-    /// `correspond`: `reference` or `plain` (SSR only); `embeddings` (SSR
+    /// `correspond` (SSR only): None (the reference's Correspond), `reference`
+    /// or `plain`, or a dict of Correspond's settings as records hold them
+    /// (`{"correspond": "reference", "rematch": "global"}`); `embeddings` (SSR
     /// and SPOT-Q): a folder of `<task>.onnx` files or a list of ONNX files
     /// (docs/embeddings.md) in place of the SPOT-Q policies; the record name
     /// then names the set (`ssr-ccd@raw-patches`). `finetune_steps` and
@@ -36,7 +38,7 @@ impl Evaluator {
     /// `seespot eval` does; `noise`: a scene file whose `[noise]` table the
     /// world observes through (`seespot eval --noise`).
     #[new]
-    #[pyo3(signature = (method, task, models_dir = "models".into(), demos_dir = "demos".into(), resolution = seespot_sim::DEFAULT_RESOLUTION as i64, correspond = "reference", embeddings = None, finetune_steps = 0, finetune_procedure = "reference", noise = None, out_dir = "results".into()))]
+    #[pyo3(signature = (method, task, models_dir = "models".into(), demos_dir = "demos".into(), resolution = seespot_sim::DEFAULT_RESOLUTION as i64, correspond = None, embeddings = None, finetune_steps = 0, finetune_procedure = "reference", noise = None, out_dir = "results".into()))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -45,7 +47,7 @@ impl Evaluator {
         models_dir: PathBuf,
         demos_dir: PathBuf,
         resolution: i64,
-        correspond: &str,
+        correspond: Option<&Bound<'_, PyAny>>,
         embeddings: Option<Vec<PathBuf>>,
         finetune_steps: i64,
         finetune_procedure: &str,
@@ -56,8 +58,7 @@ impl Evaluator {
         let task = arrays::task(task, &demos_dir)?;
         let resolution = non_negative(resolution, "resolution")?;
         let resolution = arrays::resolution(resolution as usize, "resolution")?;
-        let mode: seespot_ssr::correspond::Correspondence =
-            correspond.parse().map_err(|e| bad("correspond", e))?;
+        let correspond = crate::arrays::correspond(py, correspond)?;
         let mut world = seespot_eval::runner::world_config(resolution);
         if let Some(path) = &noise {
             world.noise =
@@ -74,7 +75,7 @@ impl Evaluator {
             layout: seespot_ssr::Layout::new(models_dir, demos_dir)
                 .with_embeddings(arrays::embeddings(embeddings)?),
             world,
-            correspond: seespot_ssr::CorrespondOptions::of_mode(mode),
+            correspond,
             finetune_steps,
             finetune_procedure,
         };
@@ -153,9 +154,14 @@ pub fn records_path(out_dir: PathBuf, method: &str, task: &str) -> PyResult<Path
 /// The method's name in records and file names: `method`, with `-plain` for
 /// SSR with the plain correspondence (no finetuning).
 #[pyfunction]
-pub fn record_name(method: &str, correspond: &str) -> PyResult<String> {
+#[pyo3(signature = (method, correspond = None))]
+pub fn record_name(
+    py: Python<'_>,
+    method: &str,
+    correspond: Option<&Bound<'_, PyAny>>,
+) -> PyResult<String> {
     let m: EvalMethod = method.parse().map_err(|e| bad("method", e))?;
-    let config = crate::ssr::ssr_config("ssr-ccd", correspond)?;
+    let config = crate::ssr::ssr_config(py, "ssr-ccd", correspond)?;
     let spec = seespot_eval::RunSpec::new(m);
     let spec = if m.is_ssr() {
         spec.with_correspond(seespot_eval::run::CorrespondName::of(&config.correspond))

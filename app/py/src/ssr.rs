@@ -6,8 +6,7 @@ use numpy::ndarray::Array2;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use seespot_sim::Action;
-use seespot_ssr::correspond::Correspondence;
-use seespot_ssr::{CorrespondOptions, SsrConfig, SsrPolicy};
+use seespot_ssr::{SsrConfig, SsrPolicy};
 
 use crate::arrays::{self, bad};
 
@@ -24,7 +23,11 @@ pub struct Ssr {
 }
 
 /// An [`SsrConfig`] from the method and correspondence names.
-pub fn ssr_config(method: &str, correspond: &str) -> PyResult<SsrConfig> {
+pub fn ssr_config(
+    py: Python<'_>,
+    method: &str,
+    correspond: Option<&Bound<'_, PyAny>>,
+) -> PyResult<SsrConfig> {
     let ssr: Vec<&str> = seespot_eval::EvalMethod::ALL
         .into_iter()
         .filter(|m| m.is_ssr())
@@ -38,30 +41,31 @@ pub fn ssr_config(method: &str, correspond: &str) -> PyResult<SsrConfig> {
                 format!("'{method}' is not one of {}", ssr.join(", ")),
             )
         })?;
-    let mode: Correspondence = correspond.parse().map_err(|e| bad("correspond", e))?;
-    Ok(m.ssr_config(CorrespondOptions::of_mode(mode)))
+    Ok(m.ssr_config(crate::arrays::correspond(py, correspond)?))
 }
 
 #[pymethods]
 impl Ssr {
     /// Loads `models_dir/<other task>.safetensors` (default `models`) and the demonstrations of
     /// `task` under `demos_dir`. `method`: `ssr-ccd` (Eq. 8) or `ssr-l2cd`
-    /// (Eq. 9); `correspond`: `reference` or `plain`. `embeddings`: a folder
+    /// (Eq. 9); `correspond`: Correspond's options (None for the reference's,
+    /// `reference` or `plain`, or a dict of their settings, e.g.
+    /// `{"correspond": "reference", "rematch": "global"}`). `embeddings`: a folder
     /// of `<task>.onnx` files or a list of ONNX files (docs/embeddings.md),
     /// used in place of the SPOT-Q policies.
     #[new]
-    #[pyo3(signature = (task, models_dir = "models".into(), demos_dir = "demos".into(), method = "ssr-ccd", correspond = "reference", embeddings = None))]
+    #[pyo3(signature = (task, models_dir = "models".into(), demos_dir = "demos".into(), method = "ssr-ccd", correspond = None, embeddings = None))]
     fn new(
         py: Python<'_>,
         task: &str,
         models_dir: std::path::PathBuf,
         demos_dir: std::path::PathBuf,
         method: &str,
-        correspond: &str,
+        correspond: Option<&Bound<'_, PyAny>>,
         embeddings: Option<Vec<std::path::PathBuf>>,
     ) -> PyResult<Self> {
         let task = arrays::task(task, &demos_dir)?;
-        let config = ssr_config(method, correspond)?;
+        let config = ssr_config(py, method, correspond)?;
         let layout = seespot_ssr::Layout::new(models_dir, demos_dir)
             .with_embeddings(crate::arrays::embeddings(embeddings)?);
         let ssr = py

@@ -22,12 +22,17 @@
 
 mod bench;
 pub mod cells;
+mod options;
 pub mod reference;
 mod smooth;
 
 pub use bench::{
     CellBenchInput, CorrespondBenchInput, bandwidth_baseline, bench_correspond, correspond_step,
     correspond_step_cells, correspond_step_naive, random_ase_map,
+};
+pub use options::{
+    CorrespondOptions, CorrespondSettings, CorrespondSettingsError, Correspondence, DemoFeatures,
+    Rematch, Smoothing,
 };
 pub use smooth::{
     Edge, Rows, smooth, smooth_reference, smooth_reference_into, smooth_with_weights,
@@ -38,7 +43,6 @@ use std::ops::Range;
 
 use rayon::prelude::*;
 use seespot_policy::AseMap;
-use seespot_sim::bounds::parse_named;
 use seespot_sim::{Action, Primitive};
 
 /// Actions per parallel work item: 4096 rows of 64 f32 = 1 MiB.
@@ -98,234 +102,6 @@ impl CUnit {
             Self::SquaredReferencePixels => &[0.0, 1.0, 2.0, 4.0, 8.0, 16.0, 64.0, 256.0],
             Self::Pixels => &[0.0, 0.5, 0.75, 1.0, 1.5, 2.0, 4.0, 8.0],
         }
-    }
-}
-
-/// Which formulation of Correspond SSR uses.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Correspondence {
-    /// The reference code's choices ([`mod@reference`]): test-time masks per task,
-    /// squared distances smoothed at 6 mm, the rematch unmasked in a 3 cm window
-    /// at the demo's rotation, C in squared 2 mm pixels, ties to the first pair.
-    /// The faithful default, named `ssr-ccd` / `ssr-l2cd` in records.
-    #[default]
-    Reference,
-    /// seespot's first formulation, kept for comparison (records `ssr-ccd-plain`,
-    /// `ssr-l2cd-plain`): the training-time common-sense masks, unsquared
-    /// distances (smoothed only with `smooth_sigma`), the rematch over the whole
-    /// masked demo rotation plane, C in pixels, ties broken by the other distance.
-    Plain,
-}
-
-impl Correspondence {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Reference => "reference",
-            Self::Plain => "plain",
-        }
-    }
-}
-
-impl std::str::FromStr for Correspondence {
-    type Err = String;
-
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        parse_named(
-            s,
-            &[Self::Reference, Self::Plain],
-            Self::as_str,
-            "correspondence",
-        )
-    }
-}
-
-/// Options of the Correspond step: each formulation with only its own
-/// options, so a combination that means nothing (a smoothing sigma with the
-/// reference's Correspond, a rematch area with the plain one) is not a value.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum CorrespondOptions {
-    /// The reference code's Correspond ([`mod@reference`]), the faithful
-    /// default; each option's default is the reference's choice, the others
-    /// are named departures.
-    Reference {
-        /// What the rematch reads at the demo's actions outside its test-time mask.
-        demo_features: DemoFeatures,
-        /// How the distance maps are smoothed.
-        smoothing: Smoothing,
-        /// Where the rematch searches and what C measures.
-        rematch: Rematch,
-    },
-    /// seespot's first formulation (the scan functions of this module).
-    Plain {
-        /// Gaussian smoothing of each per-rotation `H x W` distance map before
-        /// the argmin, sigma in pixels (the reference code used 3 px). `None` = off.
-        ///
-        /// Cost: smoothing needs the full distance maps instead of a running minimum,
-        /// plus a separable normalized convolution of `2 * (2 * ceil(3 sigma) + 1)`
-        /// taps per pixel for each query; at 16 x 224 x 224 with 2 queries and
-        /// sigma 3 that adds roughly the time of one extra scan (see
-        /// [`bench_correspond`], `correspond_smoothed_ms`).
-        smooth_sigma: Option<f32>,
-    },
-}
-
-impl Default for CorrespondOptions {
-    /// The reference's Correspond with the reference's choices.
-    fn default() -> Self {
-        Self::of_mode(Correspondence::Reference)
-    }
-}
-
-impl CorrespondOptions {
-    /// The unit of the C these options compute.
-    pub fn c_unit(&self) -> CUnit {
-        match self {
-            Self::Reference { .. } => CUnit::SquaredReferencePixels,
-            Self::Plain { .. } => CUnit::Pixels,
-        }
-    }
-
-    /// `mode` with its default options (the reference's choices; no smoothing
-    /// for the plain scan).
-    pub fn of_mode(mode: Correspondence) -> Self {
-        match mode {
-            Correspondence::Reference => Self::Reference {
-                demo_features: DemoFeatures::default(),
-                smoothing: Smoothing::default(),
-                rematch: Rematch::default(),
-            },
-            Correspondence::Plain => Self::Plain { smooth_sigma: None },
-        }
-    }
-
-    /// Which formulation these are options of.
-    pub fn mode(&self) -> Correspondence {
-        match self {
-            Self::Reference { .. } => Correspondence::Reference,
-            Self::Plain { .. } => Correspondence::Plain,
-        }
-    }
-
-    /// The plain scan's smoothing sigma, pixels (`None` for the reference's
-    /// Correspond, which smooths at 6 mm by [`Smoothing`]).
-    pub fn smooth_sigma(&self) -> Option<f32> {
-        match self {
-            Self::Plain { smooth_sigma } => *smooth_sigma,
-            Self::Reference { .. } => None,
-        }
-    }
-}
-
-/// Where the reference rematch searches, and what C measures.
-///
-/// The reference's `compute_cc_dist` has both: its default (and the paper's
-/// Eq. 7) searches a window around the demonstrated action and measures C
-/// from it; the authors' trial runner (`main.py`) called it with
-/// `neighborhood_match=False`, which searches the whole demo plane and
-/// measures C from the live match F. The default follows the paper.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Rematch {
-    /// Eq. 7 as the paper writes it (the faithful default): the rematch in
-    /// the window of +/- 3 cm around the demonstrated pixel at the demo
-    /// action's rotation; C is the squared pixel distance from the
-    /// demonstrated action to the rematch.
-    #[default]
-    Window,
-    /// The reference trial runner's pair (records `<method>-global-rematch`):
-    /// the rematch over the whole demo plane at the demo action's rotation
-    /// (smoothed with wrap-around edges); C is the squared pixel distance
-    /// from the live match F to the rematch.
-    Global,
-}
-
-impl Rematch {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Window => "window",
-            Self::Global => "global",
-        }
-    }
-}
-
-impl std::str::FromStr for Rematch {
-    type Err = String;
-
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        parse_named(s, &[Self::Window, Self::Global], Self::as_str, "rematch")
-    }
-}
-
-/// How the reference Correspond smooths its distance maps.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Smoothing {
-    /// As the reference did ([`mod@reference`]): masked actions take part as
-    /// zero embeddings, scipy's kernel and edges, the rematch window cut out
-    /// and wrapped (the faithful default).
-    #[default]
-    Reference,
-    /// seespot's earlier smoothing, a departure kept for comparison (records
-    /// `<method>-normalized`): masked actions left out of their neighbours'
-    /// averages (normalized convolution, radius 3 sigma), and the rematch on
-    /// the demo's real embeddings, its whole plane smoothed before the
-    /// window's argmin.
-    Normalized,
-}
-
-impl Smoothing {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Reference => "reference",
-            Self::Normalized => "normalized",
-        }
-    }
-}
-
-impl std::str::FromStr for Smoothing {
-    type Err = String;
-
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        parse_named(
-            s,
-            &[Self::Reference, Self::Normalized],
-            Self::as_str,
-            "smoothing",
-        )
-    }
-}
-
-/// What the reference rematch reads at demo actions outside the demo's
-/// test-time mask.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum DemoFeatures {
-    /// Zero embeddings, as the reference's masked features were (the
-    /// faithful default).
-    #[default]
-    Zeroed,
-    /// The actions' real embeddings (a departure, recorded as
-    /// `<method>-demo-real`): a demonstrated action outside its own mask
-    /// can still be returned to.
-    Real,
-}
-
-impl DemoFeatures {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Zeroed => "zeroed",
-            Self::Real => "real",
-        }
-    }
-}
-
-impl std::str::FromStr for DemoFeatures {
-    type Err = String;
-
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        parse_named(
-            s,
-            &[Self::Zeroed, Self::Real],
-            Self::as_str,
-            "demo features",
-        )
     }
 }
 
