@@ -86,7 +86,7 @@ pub fn run(cmd: DemoCommand) -> anyhow::Result<()> {
             let demo = match actions {
                 Some(file) => {
                     let list = read_actions(&file)?;
-                    let mut recorder = seespot_sim::custom::Recorder::new(task, seed, config)
+                    let mut recorder = seespot_sim::custom::DemoRecorder::new(task, seed, config)
                         .with_colours_matter(colours_matter);
                     for (i, a) in list.into_iter().enumerate() {
                         recorder

@@ -50,14 +50,14 @@ impl Experience {
     }
 }
 
-/// Replay buffers, one per primitive, each capped at `capacity` (oldest dropped).
+/// The replay buffers, one per primitive, each capped at `capacity` (oldest dropped).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct Replay {
+pub struct ReplayBuffer {
     pub capacity: usize,
     pub buffers: [Vec<Experience>; 2],
 }
 
-impl Replay {
+impl ReplayBuffer {
     pub fn new(capacity: usize) -> Self {
         Self {
             capacity,

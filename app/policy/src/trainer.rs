@@ -39,7 +39,7 @@ use crate::error::PolicyError;
 use crate::mask::random_action;
 use crate::net::Trunk;
 use crate::policy::{PolicyNet, greedy_action};
-use crate::replay::Replay;
+use crate::replay::ReplayBuffer;
 use crate::reward::{step_reward, trial_rewards};
 
 /// Experiences per training step (half grasp, half place when both exist).
@@ -281,7 +281,7 @@ pub struct TrainState {
     #[serde(default)]
     pub reloads: Vec<usize>,
     pub curve: Vec<CurveRow>,
-    pub replay: Replay,
+    pub replay: ReplayBuffer,
 }
 
 /// Where a run's best snapshot was taken.
@@ -477,7 +477,7 @@ pub fn open_run(
         best: None,
         reloads: Vec::new(),
         curve: Vec::new(),
-        replay: Replay::new(config.replay_capacity),
+        replay: ReplayBuffer::new(config.replay_capacity),
     };
     Ok((learner, state, None))
 }

@@ -1,11 +1,11 @@
 //! Demonstrating from Python: a list of actions becomes a demonstration
 //! folder through the same recorder a click in the debugger's Demonstrate
-//! mode drives (`seespot_sim::custom::Recorder`).
+//! mode drives (`seespot_sim::custom::DemoRecorder`).
 
 use std::path::PathBuf;
 
 use pyo3::prelude::*;
-use seespot_sim::custom::Recorder;
+use seespot_sim::custom::DemoRecorder;
 use seespot_sim::{Action, Grid, Primitive, TaskId, WorldConfig};
 
 use crate::arrays::bad;
@@ -55,7 +55,7 @@ pub fn record_demo(
         ..Default::default()
     };
     py.detach(move || {
-        let mut rec = Recorder::new(task, seed, config).with_colours_matter(colours_matter);
+        let mut rec = DemoRecorder::new(task, seed, config).with_colours_matter(colours_matter);
         for (i, a) in actions.iter().enumerate() {
             rec.step(*a).map_err(|e| format!("action {i}: {e}"))?;
         }

@@ -1,10 +1,10 @@
 //! Demonstrating a task action by action, and tasks defined by their
 //! demonstrations.
 //!
-//! [`Recorder`] is the one path a demonstration made by hand takes: the
+//! [`DemoRecorder`] is the one path a demonstration made by hand takes: the
 //! debugger's Demonstrate mode (a click per action), Python's
 //! `seespot.demo.record(actions)` and `seespot demo record --actions` all step
-//! one, undo on it, and save what it [`Recorder::finish`]es. For a built-in
+//! one, undo on it, and save what it [`DemoRecorder::finish`]es. For a built-in
 //! task it records exactly what `seespot demo record` records from the same
 //! seed and actions (the same `meta.json`, the same heightmap images).
 //!
@@ -24,7 +24,7 @@ use crate::world::{BlockPose, World, WorldConfig};
 
 /// Why an action or a save was refused while demonstrating.
 #[derive(Debug, thiserror::Error, PartialEq)]
-pub enum RecordError {
+pub enum DemonstrateError {
     #[error(
         "action {action}: pixel ({y}, {x}) is outside the {resolution} x {resolution} workspace \
          heightmap",
@@ -71,7 +71,7 @@ struct Recorded {
 }
 
 /// A demonstration being made, one action at a time.
-pub struct Recorder {
+pub struct DemoRecorder {
     task: TaskId,
     seed: u64,
     config: WorldConfig,
@@ -81,7 +81,7 @@ pub struct Recorder {
     colours_matter: bool,
 }
 
-impl Recorder {
+impl DemoRecorder {
     /// Starts from the task's test start for `seed`: the start `seespot demo
     /// record` uses for a built-in task, the start distribution of `stack`
     /// for a custom one.
@@ -134,20 +134,20 @@ impl Recorder {
     }
 
     /// Checks `action` and executes it.
-    pub fn step(&mut self, action: Action) -> Result<(), RecordError> {
+    pub fn step(&mut self, action: Action) -> Result<(), DemonstrateError> {
         let resolution = self.config.grid.resolution;
         if action.y >= resolution || action.x >= resolution {
-            return Err(RecordError::OutsideWorkspace { action, resolution });
+            return Err(DemonstrateError::OutsideWorkspace { action, resolution });
         }
         if action.rotation >= NUM_ROTATIONS {
-            return Err(RecordError::BadRotation { action });
+            return Err(DemonstrateError::BadRotation { action });
         }
         let expected = self.world.next_primitive();
         if action.primitive != expected {
-            return Err(RecordError::WrongPrimitive { action, expected });
+            return Err(DemonstrateError::WrongPrimitive { action, expected });
         }
         if self.progress() == Some(MAX_PROGRESS) && self.world.held_block().is_none() {
-            return Err(RecordError::Done { task: self.task });
+            return Err(DemonstrateError::Done { task: self.task });
         }
         let mut heightmaps = self.world.render();
         quantize_depth(&mut heightmaps);
@@ -180,12 +180,12 @@ impl Recorder {
     /// custom task the goal is the final layout and progress is counted
     /// against it. Refused when there is nothing to save, a block is held or
     /// left the workspace, progress fell, or a built-in task is unfinished.
-    pub fn finish(&self) -> Result<Demo, RecordError> {
+    pub fn finish(&self) -> Result<Demo, DemonstrateError> {
         if self.steps.is_empty() {
-            return Err(RecordError::Empty);
+            return Err(DemonstrateError::Empty);
         }
         if self.world.held_block().is_some() {
-            return Err(RecordError::Holding);
+            return Err(DemonstrateError::Holding);
         }
         let final_blocks = self.world.table_blocks();
         let goal = match self.task {
@@ -203,7 +203,7 @@ impl Recorder {
         let mut steps = Vec::with_capacity(self.steps.len());
         for (i, s) in self.steps.iter().enumerate() {
             if s.out_of_workspace {
-                return Err(RecordError::OutOfWorkspace { step: i });
+                return Err(DemonstrateError::OutOfWorkspace { step: i });
             }
             let after_blocks = match self.steps.get(i + 1) {
                 Some(next) => next.blocks_before.as_slice(),
@@ -211,7 +211,7 @@ impl Recorder {
             };
             let (before, after) = (progress_of(&s.blocks_before), progress_of(after_blocks));
             if after < before {
-                return Err(RecordError::Reversal {
+                return Err(DemonstrateError::Reversal {
                     task: self.task,
                     step: i,
                     before,
@@ -233,7 +233,7 @@ impl Recorder {
         }
         let done = progress_of(&final_blocks);
         if done < MAX_PROGRESS {
-            return Err(RecordError::Unfinished {
+            return Err(DemonstrateError::Unfinished {
                 task: self.task,
                 progress: done,
             });

@@ -1,7 +1,7 @@
-//! Demonstrating by actions (`seespot_sim::custom::Recorder`, the path a click
+//! Demonstrating by actions (`seespot_sim::custom::DemoRecorder`, the path a click
 //! in the debugger takes) and tasks defined by their demonstrations.
 
-use seespot_sim::custom::{RecordError, Recorder, check_agrees, load};
+use seespot_sim::custom::{DemoRecorder, DemonstrateError, check_agrees, load};
 use seespot_sim::{Action, CustomTask, Demo, Grid, Primitive, TaskId, WorldConfig};
 
 fn config() -> WorldConfig {
@@ -16,7 +16,7 @@ fn recording_the_oracles_actions_gives_the_bytes_of_demo_record() {
     let dir = tempfile::tempdir().expect("tempdir");
     for (task, seed) in [(TaskId::Stack, 0), (TaskId::Row, 2)] {
         let oracle = Demo::record(task, seed, config()).expect("oracle demo");
-        let mut rec = Recorder::new(task, seed, config());
+        let mut rec = DemoRecorder::new(task, seed, config());
         for s in &oracle.meta.steps {
             rec.step(s.action).expect("the oracle's action");
         }
@@ -29,7 +29,7 @@ fn recording_the_oracles_actions_gives_the_bytes_of_demo_record() {
         );
         // Done: a further action is refused.
         let more = Action::new(Primitive::Grasp, 0, 50, 50);
-        assert_eq!(rec.step(more), Err(RecordError::Done { task }));
+        assert_eq!(rec.step(more), Err(DemonstrateError::Done { task }));
     }
 }
 
@@ -37,7 +37,7 @@ fn recording_the_oracles_actions_gives_the_bytes_of_demo_record() {
 fn undo_takes_back_one_action_and_gives_the_same_world() {
     let oracle = Demo::record(TaskId::Stack, 0, config()).expect("oracle demo");
     let actions: Vec<Action> = oracle.meta.steps.iter().map(|s| s.action).collect();
-    let mut rec = Recorder::new(TaskId::Stack, 0, config());
+    let mut rec = DemoRecorder::new(TaskId::Stack, 0, config());
     rec.step(actions[0]).expect("grasp");
     rec.step(actions[1]).expect("place");
     let before = rec.world().block_poses();
@@ -49,8 +49,8 @@ fn undo_takes_back_one_action_and_gives_the_same_world() {
 
 #[test]
 fn bad_actions_and_saves_are_refused_by_name() {
-    let mut rec = Recorder::new(TaskId::Stack, 0, config());
-    assert_eq!(rec.finish().err(), Some(RecordError::Empty));
+    let mut rec = DemoRecorder::new(TaskId::Stack, 0, config());
+    assert_eq!(rec.finish().err(), Some(DemonstrateError::Empty));
     let outside = Action::new(Primitive::Grasp, 0, 112, 5);
     let e = rec.step(outside).expect_err("outside");
     assert!(
@@ -95,8 +95,8 @@ fn task_names_with_a_path_are_refused() {
 /// The spots are shifted to the first anchor (on a grid) where every spot
 /// keeps 7 cm from every block of the start, as a person would build it in a
 /// clear part of the table.
-fn demonstrate(task: TaskId, seed: u64, spots: &[(f32, f32)]) -> Result<Demo, RecordError> {
-    let mut rec = Recorder::new(task, seed, config());
+fn demonstrate(task: TaskId, seed: u64, spots: &[(f32, f32)]) -> Result<Demo, DemonstrateError> {
+    let mut rec = DemoRecorder::new(task, seed, config());
     let start = rec.world().block_poses();
     let grid: Vec<f32> = (-5..=5).map(|i| i as f32 * 0.03).collect();
     let (dx, dy) = grid
@@ -161,8 +161,8 @@ fn a_custom_task_is_defined_by_its_demonstrations_and_disagreeing_ones_are_refus
 #[test]
 fn a_custom_demonstration_must_end_with_the_block_placed() {
     let task = TaskId::Custom(CustomTask::named("test-held").expect("name"));
-    let mut rec = Recorder::new(task, 0, config());
+    let mut rec = DemoRecorder::new(task, 0, config());
     let grasp = seespot_sim::oracle::grasp_action(rec.world(), 0).expect("graspable");
     rec.step(grasp).expect("grasp");
-    assert_eq!(rec.finish().err(), Some(RecordError::Holding));
+    assert_eq!(rec.finish().err(), Some(DemonstrateError::Holding));
 }

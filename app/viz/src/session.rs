@@ -101,7 +101,7 @@ pub struct Session {
     /// The evaluation trial being replayed (task, seed, summary), if any.
     replay_of: Option<(TaskId, u64, String)>,
     /// Demonstrate mode: the demonstration being made by clicks.
-    demonstration: Option<seespot_sim::custom::Recorder>,
+    demonstration: Option<seespot_sim::custom::DemoRecorder>,
     /// Where Demonstrate mode saves (`<demos>/<task>/<seed>`,
     /// `<demos>/custom/NAME/<n>`), and where custom tasks are read from.
     demos: PathBuf,
@@ -221,7 +221,7 @@ impl Session {
         }
         let seed = seed.unwrap_or(self.config.seed);
         self.demonstration = Some(
-            seespot_sim::custom::Recorder::new(task, seed, self.config.world)
+            seespot_sim::custom::DemoRecorder::new(task, seed, self.config.world)
                 .with_colours_matter(colours_matter),
         );
         self.last_error = None;
@@ -230,7 +230,7 @@ impl Session {
         Ok(())
     }
 
-    fn demonstrating(&mut self) -> anyhow::Result<&mut seespot_sim::custom::Recorder> {
+    fn demonstrating(&mut self) -> anyhow::Result<&mut seespot_sim::custom::DemoRecorder> {
         self.demonstration
             .as_mut()
             .ok_or_else(|| anyhow::anyhow!("not demonstrating: send `demonstrate` first"))
