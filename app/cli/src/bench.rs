@@ -307,7 +307,7 @@ fn bench_ssr(
 ) -> anyhow::Result<()> {
     use seespot_sim::{Primitive, TaskId, Trial};
     use seespot_ssr::{SsrConfig, SsrPolicy};
-    let correspond = seespot_ssr::bench_correspond(resolution, iterations);
+    let correspond = seespot_ssr::bench::bench_correspond(resolution, iterations);
     let task = TaskId::Stack;
     let config = WorldConfig {
         grid: Grid::new(resolution),

@@ -9,10 +9,10 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput};
-use seespot_ssr::correspond::{
-    CellBenchInput, CorrespondBenchInput, CorrespondOptions, bench_correspond, correspond_step,
-    correspond_step_cells, match_queries,
+use seespot_ssr::bench::{
+    CellBenchInput, CorrespondBenchInput, bench_correspond, correspond_step, correspond_step_cells,
 };
+use seespot_ssr::correspond::{CorrespondOptions, match_queries};
 
 fn resolution() -> usize {
     std::env::var("SEESPOT_BENCH_RES")

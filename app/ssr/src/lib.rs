@@ -3,6 +3,7 @@
 //! evaluation that runs it beside the baselines, its records, metrics and
 //! report live one crate up, in `seespot_eval`.
 
+pub mod bench;
 pub mod correspond;
 pub mod explain;
 pub mod layout;
@@ -10,8 +11,8 @@ pub mod pca;
 pub mod policy;
 
 pub use correspond::{
-    CorrespondOptions, Match, bench_correspond, ccd, distance_map, match_queries,
-    match_queries_with, rematch, rematch_with, smooth,
+    CorrespondOptions, Match, ccd, distance_map, match_queries, match_queries_with, rematch,
+    rematch_with, smooth,
 };
 pub use explain::{Decision, Method, PairExplanation};
 pub use layout::Layout;

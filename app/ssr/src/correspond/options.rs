@@ -67,7 +67,7 @@ named!(
 #[serde(rename_all = "lowercase")]
 #[strum(serialize_all = "lowercase")]
 pub enum Correspondence {
-    /// The reference code's choices ([`mod@reference`]): test-time masks per task,
+    /// The reference code's choices ([`mod@super::reference`]): test-time masks per task,
     /// squared distances smoothed at 6 mm, the rematch unmasked in a 3 cm window
     /// at the demo's rotation, C in squared 2 mm pixels, ties to the first pair.
     /// The faithful default, named `ssr-ccd` / `ssr-l2cd` in records.
@@ -85,7 +85,7 @@ pub enum Correspondence {
 /// reference's Correspond, a rematch area with the plain one) is not a value.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum CorrespondOptions {
-    /// The reference code's Correspond ([`mod@reference`]), the faithful
+    /// The reference code's Correspond ([`mod@super::reference`]), the faithful
     /// default; each option's default is the reference's choice, the others
     /// are named departures.
     Reference {
@@ -105,7 +105,7 @@ pub enum CorrespondOptions {
         /// plus a separable normalized convolution of `2 * (2 * ceil(3 sigma) + 1)`
         /// taps per pixel for each query; at 16 x 224 x 224 with 2 queries and
         /// sigma 3 that adds roughly the time of one extra scan (see
-        /// [`bench_correspond`], `correspond_smoothed_ms`).
+        /// [`crate::bench::bench_correspond`], `correspond_smoothed_ms`).
         smooth_sigma: Option<f32>,
     },
 }
@@ -208,7 +208,7 @@ pub enum Rematch {
 #[serde(rename_all = "lowercase")]
 #[strum(serialize_all = "lowercase")]
 pub enum Smoothing {
-    /// As the reference did ([`mod@reference`]): masked actions take part as
+    /// As the reference did ([`mod@super::reference`]): masked actions take part as
     /// zero embeddings, scipy's kernel and edges, the rematch window cut out
     /// and wrapped (the faithful default).
     #[default]

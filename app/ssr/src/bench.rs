@@ -14,7 +14,8 @@ use seespot_policy::rotation::BackMap;
 use seespot_policy::{AseMap, CellAse};
 use seespot_sim::{Action, Grid, Heightmaps, Primitive};
 
-use super::{Best, CHUNK_ACTIONS, CorrespondOptions, ccd, match_queries_with, rematch_with};
+use crate::correspond::scan::{Best, CHUNK_ACTIONS};
+use crate::correspond::{CorrespondOptions, ccd, match_queries_with, rematch_with};
 
 /// SplitMix64: a tiny seeded generator for benchmark maps.
 fn splitmix(state: &mut u64) -> u64 {
@@ -301,8 +302,8 @@ impl CellBenchInput {
 /// 6 mm smoothing for 3 policies x 2 demos, then the 6 windowed rematches and
 /// their C). Returns the 6 (L, C) pairs.
 pub fn correspond_step_cells(input: &CellBenchInput) -> Vec<(f32, f32)> {
-    use super::cells::{match_reference_cells, rematch_cells_with};
-    use super::reference::{ccd_reference, half_window_pixels, sigma_pixels};
+    use crate::correspond::cells::{match_reference_cells, rematch_cells_with};
+    use crate::correspond::reference::{ccd_reference, half_window_pixels, sigma_pixels};
     let mut out = Vec::new();
     for ((test, demos), actions) in input.per_policy() {
         let res = test.resolution;
@@ -323,7 +324,7 @@ pub fn correspond_step_cells(input: &CellBenchInput) -> Vec<(f32, f32)> {
                 window,
                 sigma,
                 seespot_policy::Masked::ZeroFeature,
-                super::Smoothing::Reference,
+                crate::correspond::Smoothing::Reference,
             );
             let c = ccd_reference(a, &re.action(test.primitive, res), pixel);
             out.push((m.distance, c));
@@ -344,7 +345,9 @@ pub fn bench_correspond(resolution: usize, iterations: usize) -> serde_json::Val
     // 16 x 3 x 2 match planes is smoothed whole, two passes of `taps`
     // multiply-adds per entry (the rematch windows add well under 1%).
     let pixel = seespot_sim::workspace::WORKSPACE_SIZE / resolution as f32;
-    let taps = super::smooth::reference_taps(super::reference::sigma_pixels(pixel));
+    let taps = crate::correspond::smooth::reference_taps(
+        crate::correspond::reference::sigma_pixels(pixel),
+    );
     let planes: usize =
         input.demos.iter().map(Vec::len).sum::<usize>() * seespot_sim::NUM_ROTATIONS;
     let smoothing_pairs = planes * resolution * resolution * 2 * taps;
