@@ -29,6 +29,9 @@
 //! trunk's cells ([`CellAse`]); the plain formulation rebuilds full
 //! [`seespot_policy::AseMap`]s from them.
 
+mod put_back;
+pub use put_back::PutBack;
+
 use std::collections::HashMap;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -59,63 +62,6 @@ pub struct SsrConfig {
     /// seespot's put-back-breaking extension ([`PutBack`]), on top of loop
     /// breaking; off for the paper's method.
     pub put_back_break: bool,
-}
-
-/// **Put-back breaking (seespot's extension, not the paper's):** a grasp
-/// whose block came back where it was is not taken again. At each grasp
-/// decision, when progress is what it was at the last grasp and the scene
-/// differs from the scene of that grasp by less than one block's footprint
-/// (pixels whose height changed by more than half a block,
-/// [`PutBack::changed_area`]), the last grasp picked a block and put it
-/// back; it joins the put-back grasps, whose neighbourhood
-/// ([`LOOP_BREAK_RADIUS`]) is masked at every grasp decision until progress
-/// changes. The thresholds are the block's geometry, fixed before any run.
-#[derive(Clone, Debug, Default)]
-pub struct PutBack {
-    /// The depth heightmap, action and progress of the last grasp.
-    last_grasp: Option<(Vec<f32>, Action, u8)>,
-    /// The grasps whose blocks were put back, at the current progress.
-    grasps: Vec<Action>,
-}
-
-impl PutBack {
-    /// Metres squared of the scene whose height changed by more than half a
-    /// block between depth maps `a` and `b` (of pixel side `pixel`).
-    pub fn changed_area(a: &[f32], b: &[f32], pixel: f32) -> f32 {
-        let half = seespot_sim::blocks::BLOCK_SIZE / 2.0;
-        let n = a
-            .iter()
-            .zip(b)
-            .filter(|(x, y)| (*x - *y).abs() > half)
-            .count();
-        n as f32 * pixel * pixel
-    }
-
-    /// Called at each decision before it is made: updates the put-back grasps.
-    fn observe(&mut self, hm: &Heightmaps, progress: u8, primitive: Primitive) {
-        if primitive != Primitive::Grasp {
-            return;
-        }
-        match &self.last_grasp {
-            Some((depth, grasp, p)) if *p == progress => {
-                let footprint = seespot_sim::blocks::BLOCK_SIZE * seespot_sim::blocks::BLOCK_SIZE;
-                if Self::changed_area(depth, &hm.depth, hm.grid.pixel_size()) < footprint
-                    && !self.grasps.contains(grasp)
-                {
-                    self.grasps.push(*grasp);
-                }
-            }
-            Some(_) => self.grasps.clear(),
-            None => {}
-        }
-    }
-
-    /// Called after a decision: remembers a grasp and its scene.
-    fn chose(&mut self, hm: &Heightmaps, progress: u8, action: Action) {
-        if action.primitive == Primitive::Grasp {
-            self.last_grasp = Some((hm.depth.clone(), action, progress));
-        }
-    }
 }
 
 impl Default for SsrConfig {
@@ -807,48 +753,4 @@ pub fn choose(pairs: &[PairExplanation], method: Method, mode: Correspondence) -
         }
     }
     best
-}
-
-#[cfg(test)]
-mod put_back_tests {
-    use super::*;
-    use seespot_sim::{Trial, WorldConfig};
-
-    #[test]
-    fn a_grasp_whose_scene_comes_back_is_a_put_back_until_progress_changes() {
-        let trial = Trial::new(WorldConfig::default(), TaskId::Stack, 1);
-        let hm = trial.world().render();
-        let grasp = Action::new(Primitive::Grasp, 3, 40, 50);
-        let mut pb = PutBack::default();
-        pb.observe(&hm, 1, Primitive::Grasp);
-        assert!(pb.grasps.is_empty(), "no grasp yet");
-        pb.chose(&hm, 1, grasp);
-        // A place decision does not judge.
-        pb.observe(&hm, 1, Primitive::Place);
-        assert!(pb.grasps.is_empty());
-        // The next grasp decision sees the scene of the grasp again.
-        pb.observe(&hm, 1, Primitive::Grasp);
-        assert_eq!(pb.grasps, vec![grasp]);
-        // A scene changed over more than a block's footprint is no put-back.
-        let mut moved = hm.clone();
-        let side = (seespot_sim::BLOCK_SIZE / hm.grid.pixel_size()).ceil() as usize + 2;
-        for y in 0..side {
-            for x in 0..side {
-                moved.depth[y * hm.resolution() + x] += seespot_sim::BLOCK_SIZE;
-            }
-        }
-        let area = PutBack::changed_area(&hm.depth, &moved.depth, hm.grid.pixel_size());
-        assert!(
-            area > seespot_sim::BLOCK_SIZE * seespot_sim::BLOCK_SIZE,
-            "{area}"
-        );
-        let other = Action::new(Primitive::Grasp, 0, 10, 10);
-        pb.chose(&hm, 1, other);
-        pb.observe(&moved, 1, Primitive::Grasp);
-        assert_eq!(pb.grasps, vec![grasp]);
-        // Progress changed: the put-back grasps are forgotten.
-        pb.chose(&moved, 1, other);
-        pb.observe(&moved, 2, Primitive::Grasp);
-        assert!(pb.grasps.is_empty());
-    }
 }
