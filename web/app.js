@@ -36,7 +36,7 @@ function connect() {
     if (m.type === 'info') onInfo(m.info);
     else if (m.type === 'state') onState(m);
     else if (m.type === 'query') onQuery(m);
-    else if (m.type === 'error') showError(m.message, m.request);
+    else if (m.type === 'error') showError(m.message, m.request, m.kind);
     else if (m.type === 'demo_saved') {
       app.saved = m.dir; renderDemoStatus(app.state);
       // A custom task can be run once it has a demonstration.
@@ -46,11 +46,22 @@ function connect() {
   };
 }
 
-/** Shows an error in the user's words (`userWords`); `app.errors` keeps the
- *  server's own message, for the tests and the console. */
-function showError(msg, request) {
+// What each kind of failure is (protocol.rs `ServerMessage::Error.kind`),
+// said before the message; a refused request's words stand alone.
+const KIND_WORDS = {
+  files: 'A model, demonstration or records file could not be used',
+  decide: 'The decision failed',
+  recording: 'The recording failed',
+};
+
+/** Shows an error in the user's words (`userWords`), after what kind of
+ *  failure it is; `app.errors` keeps the server's own message, for the tests
+ *  and the console. */
+function showError(msg, request, kind) {
   app.errors.push(msg);
-  const words = userWords(msg, request);
+  app.errorKinds = [...(app.errorKinds || []), kind || 'request'];
+  const plain = userWords(msg, request);
+  const words = KIND_WORDS[kind] ? `${KIND_WORDS[kind]}: ${plain}` : plain;
   app.shownErrors = [...(app.shownErrors || []), words];
   const e = $('error');
   e.textContent = words; e.title = words === msg ? 'click to dismiss' : `the server said: ${msg} (click to dismiss)`; e.hidden = false;

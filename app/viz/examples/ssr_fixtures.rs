@@ -5,18 +5,14 @@
 
 use std::path::PathBuf;
 
-use anyhow::Context;
 use seespot_policy::PolicyNet;
 use seespot_sim::{Grid, TaskId, WorldConfig};
 use seespot_viz::decider::load_demos;
 
-fn main() -> anyhow::Result<()> {
+fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
-    let out = PathBuf::from(args.next().context("usage: ssr_fixtures OUT RES")?);
-    let res: usize = args
-        .next()
-        .context("usage: ssr_fixtures OUT RES")?
-        .parse()?;
+    let out = PathBuf::from(args.next().ok_or("usage: ssr_fixtures OUT RES")?);
+    let res: usize = args.next().ok_or("usage: ssr_fixtures OUT RES")?.parse()?;
     let world = WorldConfig {
         grid: Grid::new(res),
         ..WorldConfig::default()

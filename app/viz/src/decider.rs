@@ -5,9 +5,9 @@
 //! ([`seespot_ssr::SsrPolicy`], the default), the scripted oracle (no
 //! explanation), and [`FeatureDecider`], SSR's loop over handcrafted features.
 
+use crate::error::{FilesContext as _, Required as _};
 use std::time::Instant;
 
-use anyhow::Context;
 use seespot_policy::AseMap;
 use seespot_sim::actor::{Actor, ActorError, Choice};
 use seespot_sim::{Action, Demo, Heightmaps, Oracle, Primitive, Seeds, TaskId, Trial, WorldConfig};
@@ -26,7 +26,7 @@ pub trait Decider: Actor + Send {
     /// Click-to-query: the `H x W` distance map over the live scene `hm` of the
     /// ASE of the demo pixel `q` names, under its policy; `None` when the
     /// decider has no embedding.
-    fn query(&mut self, hm: &Heightmaps, q: DemoQuery) -> anyhow::Result<Option<Vec<f32>>>;
+    fn query(&mut self, hm: &Heightmaps, q: DemoQuery) -> crate::error::Result<Option<Vec<f32>>>;
 
     /// What policy index `policy` sees: its live embeddings of the last
     /// decision at `live_rotation` and its demo embeddings of demo `demo`'s step
@@ -38,7 +38,7 @@ pub trait Decider: Actor + Send {
         _demo: usize,
         _demo_step: usize,
         _live_rotation: usize,
-    ) -> anyhow::Result<Option<(Vec<u8>, Vec<u8>)>> {
+    ) -> crate::error::Result<Option<(Vec<u8>, Vec<u8>)>> {
         Ok(None)
     }
 }
@@ -61,7 +61,7 @@ macro_rules! plain_decider {
                 None
             }
 
-            fn query(&mut self, _: &Heightmaps, _: DemoQuery) -> anyhow::Result<Option<Vec<f32>>> {
+            fn query(&mut self, _: &Heightmaps, _: DemoQuery) -> crate::error::Result<Option<Vec<f32>>> {
                 Ok(None)
             }
         }
@@ -84,7 +84,7 @@ impl Decider for SsrPolicy {
         self.last_decision()
     }
 
-    fn query(&mut self, _hm: &Heightmaps, q: DemoQuery) -> anyhow::Result<Option<Vec<f32>>> {
+    fn query(&mut self, _hm: &Heightmaps, q: DemoQuery) -> crate::error::Result<Option<Vec<f32>>> {
         Ok(Some(SsrPolicy::query(self, q)?))
     }
 
@@ -94,7 +94,7 @@ impl Decider for SsrPolicy {
         demo: usize,
         demo_step: usize,
         live_rotation: usize,
-    ) -> anyhow::Result<Option<(Vec<u8>, Vec<u8>)>> {
+    ) -> crate::error::Result<Option<(Vec<u8>, Vec<u8>)>> {
         Ok(Some(SsrPolicy::embedding_rgb(
             self,
             policy,
@@ -381,7 +381,7 @@ impl Decider for FeatureDecider {
         self.last.as_ref()
     }
 
-    fn query(&mut self, hm: &Heightmaps, q: DemoQuery) -> anyhow::Result<Option<Vec<f32>>> {
+    fn query(&mut self, hm: &Heightmaps, q: DemoQuery) -> crate::error::Result<Option<Vec<f32>>> {
         let DemoQuery {
             policy,
             demo,
@@ -389,27 +389,30 @@ impl Decider for FeatureDecider {
             y,
             x,
         } = q;
-        anyhow::ensure!(
-            policy < self.policies.len(),
-            "policy index {policy} is out of range 0..{}",
-            self.policies.len()
-        );
-        let d = self.demos.get(demo).with_context(|| {
-            format!("demo index {demo} is out of range 0..{}", self.demos.len())
-        })?;
-        let step = d.steps.get(demo_step).with_context(|| {
-            format!("demo step {demo_step} is out of range 0..{}", d.steps.len())
-        })?;
+        if policy >= self.policies.len() {
+            crate::refuse!(
+                "policy index {policy} is out of range 0..{}",
+                self.policies.len()
+            );
+        }
+        let d = self
+            .demos
+            .get(demo)
+            .required(|| format!("demo index {demo} is out of range 0..{}", self.demos.len()))?;
+        let step = d
+            .steps
+            .get(demo_step)
+            .required(|| format!("demo step {demo_step} is out of range 0..{}", d.steps.len()))?;
         let n = step.heightmaps.grid.resolution;
-        anyhow::ensure!(
-            y < n && x < n,
-            "pixel ({y}, {x}) is outside the {n} x {n} demo heightmap"
-        );
-        anyhow::ensure!(
-            hm.grid.resolution == n,
-            "demo resolution {n} differs from the live resolution {}",
-            hm.grid.resolution
-        );
+        if y >= n || x >= n {
+            crate::refuse!("pixel ({y}, {x}) is outside the {n} x {n} demo heightmap");
+        }
+        if hm.grid.resolution != n {
+            crate::refuse!(
+                "demo resolution {n} differs from the live resolution {}",
+                hm.grid.resolution
+            );
+        }
         let w = self.weights(policy);
         let primitive = step.meta.action.primitive;
         let demo_ase = FeatureMap::new(&step.heightmaps).ase(w, primitive, false);
@@ -433,7 +436,7 @@ pub fn record_demo(
     seed: u64,
     taken: &[u64],
     config: WorldConfig,
-) -> anyhow::Result<Demo> {
+) -> crate::error::Result<Demo> {
     let seeds = Seeds::new(seed, DEMO_SEED_TRIES)?;
     let mut last = None;
     for s in seeds.iter().filter(|s| !taken.contains(s)) {
@@ -442,11 +445,11 @@ pub fn record_demo(
             Err(e) => last = Some(e),
         }
     }
-    Err(anyhow::anyhow!(
+    Err(crate::error::VizError::Request(format!(
         "the {task} oracle did not succeed from {DEMO_SEED_TRIES} seeds from {seed} at {} px{}",
         config.grid.resolution,
         last.map(|e| format!(" (last: {e})")).unwrap_or_default()
-    ))
+    )))
 }
 
 /// The two demonstrations of `task` at the resolution of `config`: read from
@@ -458,7 +461,7 @@ pub fn load_demos(
     task: TaskId,
     layout: &Layout,
     config: WorldConfig,
-) -> anyhow::Result<(Vec<Demo>, String)> {
+) -> crate::error::Result<(Vec<Demo>, String)> {
     let n = config.grid.resolution;
     let mut demos: Vec<Demo> = Vec::new();
     let mut notes = Vec::new();
@@ -466,7 +469,7 @@ pub fn load_demos(
         let path = layout.demo_dir(task, seed);
         if path.exists() {
             let d = Demo::read(&path)
-                .with_context(|| format!("cannot use the demonstration {}", path.display()))?;
+                .files(|| format!("cannot use the demonstration {}", path.display()))?;
             if d.meta.resolution == n {
                 notes.push(format!("read {}", path.display()));
                 demos.push(d);

@@ -11,7 +11,7 @@
 //! that one: the state and the frame of that action's Act phase (the decision
 //! with its pairs, L and C, on the scene it was made on).
 
-use anyhow::{Context, bail};
+use crate::error::{FilesContext as _, Required as _};
 use seespot_eval::diverge::{Divergence, divergences, first_difference};
 use seespot_eval::records::read_records;
 use seespot_sim::{Action, TaskId, TrialRecord};
@@ -111,12 +111,12 @@ fn record_of(
     run: &str,
     task: TaskId,
     seed: u64,
-) -> anyhow::Result<TrialRecord> {
+) -> crate::error::Result<TrialRecord> {
     let file = src.records_file(run, task)?;
     read_records(&file)?
         .into_iter()
         .find(|r| r.seed == seed)
-        .with_context(|| format!("{}: no trial of seed {seed}", file.display()))
+        .required(|| format!("{}: no trial of seed {seed}", file.display()))
 }
 
 /// Replays `record` of `run` through action `upto` (or its end), checking
@@ -126,7 +126,7 @@ fn replay_run(
     run: &str,
     record: TrialRecord,
     upto: usize,
-) -> anyhow::Result<Run> {
+) -> crate::error::Result<Run> {
     let (task, seed) = (record.task, record.seed);
     let replay = src.replay(run, task, seed)?;
     let world = replay.world();
@@ -137,11 +137,11 @@ fn replay_run(
         let i = session.trial().steps().len();
         session
             .next_action()
-            .with_context(|| format!("replaying {run} on {task} seed {seed}, action {i}"))?;
+            .files(|| format!("replaying {run} on {task} seed {seed}, action {i}"))?;
         let got = session.trial().steps().last().map(|s| s.action);
         let want = record.actions_log.get(i).map(|l| l.action);
         if got != want {
-            bail!(
+            crate::refuse!(
                 "the replay of {run} on {task} seed {seed} takes {got:?} at action {i}, its record {want:?}: the models or demonstrations changed since the evaluation"
             );
         }
@@ -164,13 +164,13 @@ fn act_phase(s: &Session, action: usize) -> Option<usize> {
 impl Difference {
     /// Replays both trials of `pairing` up to the action where their records
     /// part; refused when the two never part (the same actions throughout).
-    pub fn open(src: &ReviewSource, pairing: Pairing) -> anyhow::Result<Self> {
+    pub fn open(src: &ReviewSource, pairing: Pairing) -> crate::error::Result<Self> {
         let Pairing { a, b, task, seed } = &pairing;
         let (ra, rb) = (
             record_of(src, a, *task, *seed)?,
             record_of(src, b, *task, *seed)?,
         );
-        let part = first_difference(&ra.actions_log, &rb.actions_log).with_context(|| {
+        let part = first_difference(&ra.actions_log, &rb.actions_log).required(|| {
             format!("{a} and {b} took the same actions on {task} seed {seed}: nothing to compare")
         })?;
         let (a, b) = (replay_run(src, a, ra, part)?, replay_run(src, b, rb, part)?);
@@ -238,9 +238,9 @@ impl Difference {
         side: Side,
         action: usize,
         pair: Option<usize>,
-    ) -> anyhow::Result<SideView> {
+    ) -> crate::error::Result<SideView> {
         if action > self.first_difference {
-            bail!(
+            crate::refuse!(
                 "action {action} is past the first difference (action {}): the view shows the trials up to where they part",
                 self.first_difference
             );
@@ -248,7 +248,7 @@ impl Difference {
         let run = self.run_mut(side);
         let steps = run.session.trial().steps().len();
         let shown = action.min(steps.saturating_sub(1));
-        let index = act_phase(&run.session, shown).with_context(|| {
+        let index = act_phase(&run.session, shown).required(|| {
             format!(
                 "{}: action {shown} is no longer kept (the debugger keeps the last {} phases)",
                 run.name,
@@ -296,15 +296,15 @@ pub fn record_both(
     src: &ReviewSource,
     pairing: &Pairing,
     path: &std::path::Path,
-) -> anyhow::Result<[RecordedRun; 2]> {
+) -> crate::error::Result<[RecordedRun; 2]> {
     let Pairing { a, b, task, seed } = pairing;
     if crate::paths::run(a) == crate::paths::run(b) {
-        bail!(
+        crate::refuse!(
             "the two runs `{a}` and `{b}` would share one place in the recording: name two different runs"
         );
     }
     let stream = crate::recording::two_runs_stream([a.as_str(), b.as_str()], path)?;
-    let record = |run: &str| -> anyhow::Result<RecordedRun> {
+    let record = |run: &str| -> crate::error::Result<RecordedRun> {
         let rec = record_of(src, run, *task, *seed)?;
         let replay = src.replay(run, *task, *seed)?;
         let world = replay.world();
@@ -325,7 +325,7 @@ pub fn record_both(
             let at = (0..got.len().max(want.len()))
                 .find(|&k| got.get(k) != want.get(k))
                 .unwrap_or(0);
-            bail!(
+            crate::refuse!(
                 "the replay of {run} on {task} seed {seed} parts from its record at action {}: the models or demonstrations changed since the evaluation",
                 at + 1
             );
@@ -341,15 +341,15 @@ pub fn record_both(
     let both = [record(a)?, record(b)?];
     stream
         .flush_blocking()
-        .context("cannot finish the recording")?;
+        .files(|| "cannot finish the recording".into())?;
     Ok(both)
 }
 
 /// For every task both runs were evaluated on, the seeds where exactly one
 /// of them succeeded and where their trials part (sorted by that action,
 /// then task and seed).
-pub fn discordant(src: &ReviewSource, a: &str, b: &str) -> anyhow::Result<Vec<Divergence>> {
-    let files = |run: &str| -> anyhow::Result<Vec<TrialRecord>> {
+pub fn discordant(src: &ReviewSource, a: &str, b: &str) -> crate::error::Result<Vec<Divergence>> {
+    let files = |run: &str| -> crate::error::Result<Vec<TrialRecord>> {
         let mut out = Vec::new();
         for task in tasks_of(src, run)? {
             out.extend(read_records(&src.records_file(run, task)?)?);
@@ -358,7 +358,7 @@ pub fn discordant(src: &ReviewSource, a: &str, b: &str) -> anyhow::Result<Vec<Di
     };
     let (ra, rb) = (files(a)?, files(b)?);
     if ra.is_empty() || rb.is_empty() {
-        bail!(
+        crate::refuse!(
             "{}: no records of `{}`",
             src.dir.display(),
             if ra.is_empty() { a } else { b }
@@ -368,7 +368,7 @@ pub fn discordant(src: &ReviewSource, a: &str, b: &str) -> anyhow::Result<Vec<Di
 }
 
 /// The tasks `run` has records of in the review's folder.
-fn tasks_of(src: &ReviewSource, run: &str) -> anyhow::Result<Vec<TaskId>> {
+fn tasks_of(src: &ReviewSource, run: &str) -> crate::error::Result<Vec<TaskId>> {
     let mut tasks: Vec<TaskId> = TaskId::ALL
         .into_iter()
         .chain(src.layout.custom_tasks())

@@ -7,6 +7,7 @@
 //! - [`registry`]: which deciders there are, the factory that loads one, and a trial to replay;
 //! - [`session`]: a trial stepped phase by phase (embed, match, verify, act);
 //! - [`protocol`]: the WebSocket message types shared by the server and the page;
+//! - [`error`]: the debugger's errors, by kind;
 //! - [`documents`]: the documents the server sends the page and the viser client (state, frame, query, embedding), one schema;
 //! - [`server`]: the local web server behind `web/` (assets, JSON API, WebSocket);
 //! - [`token`]: the per-run access token of a page server bound off loopback;
@@ -18,6 +19,7 @@ pub mod b64;
 pub mod decider;
 pub mod difference;
 pub mod documents;
+pub mod error;
 pub mod live;
 pub mod paths;
 pub mod phase;

@@ -2,13 +2,13 @@
 //! the rerun web viewer), `record` (one `.rrd` per trial) and the latency and
 //! size benchmarks.
 
+use crate::error::{FilesContext as _, Required as _};
 use std::net::{IpAddr, Ipv4Addr, SocketAddr, TcpListener as StdListener};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
-use anyhow::Context;
 use seespot_sim::{Grid, Seeds, TaskId, WorldConfig};
 use serde::Serialize;
 use serde_json::json;
@@ -67,9 +67,8 @@ pub struct ViewUrls {
     pub grpc: Option<String>,
 }
 
-fn free_port(bind: IpAddr) -> anyhow::Result<u16> {
-    let l = StdListener::bind(SocketAddr::new(bind, 0))
-        .with_context(|| format!("cannot bind {bind}"))?;
+fn free_port(bind: IpAddr) -> crate::error::Result<u16> {
+    let l = StdListener::bind(SocketAddr::new(bind, 0)).files(|| format!("cannot bind {bind}"))?;
     Ok(l.local_addr()?.port())
 }
 
@@ -82,11 +81,11 @@ pub async fn serve_view(
     factory: DeciderFactory,
     ready: impl FnOnce(&ViewUrls) + Send,
     shutdown: impl std::future::Future<Output = ()> + Send + 'static,
-) -> anyhow::Result<()> {
+) -> crate::error::Result<()> {
     let bind = opts.bind;
     let remote = !bind.is_loopback();
     if remote && !opts.allow_remote {
-        anyhow::bail!(
+        crate::refuse!(
             "--bind {bind} is not a loopback address: anyone who can reach it could drive the debugger; pass --allow-remote to serve it protected by a per-run token"
         );
     }
@@ -142,7 +141,7 @@ pub async fn serve_view(
             };
             let srv = cfg
                 .host_web_viewer()
-                .context("cannot start the rerun web viewer")?;
+                .files(|| "cannot start the rerun web viewer".into())?;
             let url = format!("{}/?url={}", srv.server_url(), percent_encode(g));
             viewer_server = Some(srv);
             Some(url)
@@ -167,7 +166,7 @@ pub async fn serve_view(
         if let Some(summary) = replay {
             s.mark_replay(summary);
         }
-        anyhow::Ok(s)
+        Ok::<_, crate::error::VizError>(s)
     })
     .await??;
     let info = json!({
@@ -183,7 +182,7 @@ pub async fn serve_view(
     let state = AppState::with_review(session, info, opts.review.clone());
     let listener = tokio::net::TcpListener::bind(SocketAddr::new(bind, opts.port))
         .await
-        .with_context(|| format!("cannot bind the page server to {bind}:{}", opts.port))?;
+        .files(|| format!("cannot bind the page server to {bind}:{}", opts.port))?;
     let urls = ViewUrls {
         page: server::url(listener.local_addr()?, token.as_ref()),
         review: server::url_of(listener.local_addr()?, "/review", token.as_ref()),
@@ -256,14 +255,14 @@ pub fn record_trials(
     factory: &DeciderFactory,
     stop: &AtomicBool,
     mut progress: impl FnMut(&RecordedTrial),
-) -> anyhow::Result<Vec<RecordedTrial>> {
+) -> crate::error::Result<Vec<RecordedTrial>> {
     let RecordOptions {
         task,
         seeds,
         resolution,
         ref out,
     } = *opts;
-    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    std::fs::create_dir_all(out).files(|| format!("cannot create {}", out.display()))?;
     let world = WorldConfig {
         grid: Grid::new(resolution),
         ..WorldConfig::default()
@@ -283,9 +282,9 @@ pub fn record_trials(
             let cell = std::sync::Mutex::new(Some((d, note)));
             Box::new(move |_, _| {
                 cell.lock()
-                    .map_err(|_| anyhow::anyhow!("poisoned"))?
+                    .map_err(|_| crate::error::VizError::request("poisoned"))?
                     .take()
-                    .context("decider already used")
+                    .required(|| "decider already used".into())
             })
         };
         let mut session = Session::new(f, config, Some(recorder))?;
@@ -359,7 +358,7 @@ pub fn bench_view(
     resolution: usize,
     max_actions: usize,
     factory: DeciderFactory,
-) -> anyhow::Result<ViewBench> {
+) -> crate::error::Result<ViewBench> {
     let world = WorldConfig {
         grid: Grid::new(resolution),
         ..WorldConfig::default()

@@ -165,6 +165,10 @@ pub enum ServerMessage<'a> {
         message: String,
         /// The `type` of the request that failed, if known.
         request: Option<&'a str>,
+        /// What kind of failure ([`crate::error::VizError::kind`]): `request`
+        /// (not possible in this state, or malformed), `files`, `decide` or
+        /// `recording`; the page words it.
+        kind: &'a str,
     },
 }
 

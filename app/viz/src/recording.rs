@@ -6,9 +6,9 @@
 //! to `u16` (`DepthImage` with a `meter` scale and a colormap); depth heightmaps
 //! are `u16` in units of 0.1 mm. A 224 px trial of ~10 actions is a few MB.
 
+use crate::error::RecordingContext as _;
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
 use rerun::blueprint::{
     Blueprint, ContainerLike, Horizontal, Spatial2DView, Spatial3DView, Tabs, TextDocumentView,
     TimePanel, TimeSeriesView, Vertical,
@@ -184,11 +184,11 @@ pub fn two_runs_blueprint(runs: [&str; 2]) -> Blueprint {
 
 /// A recording of two runs side by side written to `path`, laid out by
 /// [`two_runs_blueprint`]; one [`Recorder::under`] per run logs into it.
-pub fn two_runs_stream(runs: [&str; 2], path: &Path) -> anyhow::Result<RecordingStream> {
+pub fn two_runs_stream(runs: [&str; 2], path: &Path) -> crate::error::Result<RecordingStream> {
     RecordingStreamBuilder::new(APPLICATION_ID)
         .with_blueprint(two_runs_blueprint(runs))
         .save(path)
-        .with_context(|| format!("cannot create the recording {}", path.display()))
+        .recording(|| format!("cannot create the recording {}", path.display()))
 }
 
 /// The stream of a recording, laid out for the shipped policies of fold
@@ -205,10 +205,10 @@ fn builder(task: TaskId) -> RecordingStreamBuilder {
 impl Recorder {
     /// A recording written to `path` (the `.rrd` footer is written when the
     /// recorder is dropped).
-    pub fn to_file(task: TaskId, path: &Path) -> anyhow::Result<Self> {
+    pub fn to_file(task: TaskId, path: &Path) -> crate::error::Result<Self> {
         let rec = builder(task)
             .save(path)
-            .with_context(|| format!("cannot create the recording {}", path.display()))?;
+            .recording(|| format!("cannot create the recording {}", path.display()))?;
         Ok(Self::from_stream(rec, Some(path.to_owned())))
     }
 
@@ -219,31 +219,31 @@ impl Recorder {
         bind: &str,
         grpc_port: u16,
         save: Option<&Path>,
-    ) -> anyhow::Result<Self> {
+    ) -> crate::error::Result<Self> {
         let mut sinks: Vec<Box<dyn rerun::sink::LogSink>> = Vec::new();
         let options = rerun::ServerOptions {
             memory_limit: rerun::MemoryLimit::from_bytes(512 * 1024 * 1024),
             ..Default::default()
         };
         let grpc = rerun::grpc_server::GrpcServerSink::new(bind, grpc_port, options)
-            .with_context(|| format!("bad gRPC address {bind}:{grpc_port}"))?;
+            .recording(|| format!("bad gRPC address {bind}:{grpc_port}"))?;
         sinks.push(Box::new(grpc));
         if let Some(path) = save {
             let file = rerun::sink::FileSink::new(path)
-                .with_context(|| format!("cannot create the recording {}", path.display()))?;
+                .recording(|| format!("cannot create the recording {}", path.display()))?;
             sinks.push(Box::new(file));
         }
         let rec = builder(task)
             .set_sinks(sinks)
-            .context("cannot start the rerun recording stream")?;
+            .recording(|| "cannot start the rerun recording stream".into())?;
         Ok(Self::from_stream(rec, save.map(Path::to_owned)))
     }
 
     /// An in-memory recording (tests and benchmarks).
-    pub fn memory(task: TaskId) -> anyhow::Result<(Self, rerun::sink::MemorySinkStorage)> {
+    pub fn memory(task: TaskId) -> crate::error::Result<(Self, rerun::sink::MemorySinkStorage)> {
         let (rec, storage) = builder(task)
             .memory()
-            .context("cannot start an in-memory recording")?;
+            .recording(|| "cannot start an in-memory recording".into())?;
         Ok((Self::from_stream(rec, None), storage))
     }
 

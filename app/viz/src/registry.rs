@@ -14,7 +14,7 @@ use crate::decider::{Decider, FeatureDecider, load_demos};
 /// Makes the decider for a task at a resolution; returns it and a note on
 /// what was loaded (shown on the page).
 pub type DeciderFactory =
-    Box<dyn Fn(TaskId, WorldConfig) -> anyhow::Result<(Box<dyn Decider>, String)> + Send>;
+    Box<dyn Fn(TaskId, WorldConfig) -> crate::error::Result<(Box<dyn Decider>, String)> + Send>;
 
 /// Which decider drives the trial.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -85,14 +85,17 @@ pub fn factory_with(
     ssr: seespot_ssr::SsrConfig,
 ) -> DeciderFactory {
     Box::new(
-        move |task: TaskId, world: WorldConfig| -> anyhow::Result<(Box<dyn Decider>, String)> {
+        move |task: TaskId,
+              world: WorldConfig|
+              -> crate::error::Result<(Box<dyn Decider>, String)> {
             match kind {
                 DeciderKind::Oracle => {
-                    anyhow::ensure!(
-                        task.is_builtin(),
-                        "the scripted oracle knows the four built-in tasks, not {task}: \
-                         choose the SSR decider (or features) for a custom task"
-                    );
+                    if !task.is_builtin() {
+                        crate::refuse!(
+                            "the scripted oracle knows the four built-in tasks, not {task}: \
+                             choose the SSR decider (or features) for a custom task"
+                        );
+                    }
                     Ok((Box::new(Oracle::new(task)), "scripted oracle".to_owned()))
                 }
                 DeciderKind::Ssr => crate::ssr::load_with(task, &layout, world, ssr),

@@ -9,9 +9,9 @@
 //! looked up among the files the review lists, so no path from a request ever
 //! reaches the file system.
 
+use crate::error::{FilesContext as _, Required as _};
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
 use seespot_eval::records::records_files;
 use seespot_eval::review::{FailureKind, count_rows, review_dir};
 use seespot_eval::runner::replay_config;
@@ -27,9 +27,9 @@ use crate::session::{Session, SessionConfig};
 /// models and demonstrations of `layout`; refused when they (or
 /// the settings) differ from the ones the record was made with, and for
 /// methods the debugger cannot run.
-pub fn replay(path: &Path, seed: u64, layout: &Layout) -> anyhow::Result<Replay> {
+pub fn replay(path: &Path, seed: u64, layout: &Layout) -> crate::error::Result<Replay> {
     let records = seespot_eval::records::read_records(path)?;
-    let record = records.iter().find(|r| r.seed == seed).with_context(|| {
+    let record = records.iter().find(|r| r.seed == seed).required(|| {
         format!(
             "{}: no trial of seed {seed} (it holds seeds {})",
             path.display(),
@@ -40,14 +40,14 @@ pub fn replay(path: &Path, seed: u64, layout: &Layout) -> anyhow::Result<Replay>
                 .join(", ")
         )
     })?;
-    let out_dir = seespot_ssr::layout::out_dir_of_records(path).with_context(|| {
+    let out_dir = seespot_ssr::layout::out_dir_of_records(path).required(|| {
         format!(
             "{}: a records file lies in a `trials/` folder",
             path.display()
         )
     })?;
     let config = replay_config(record, layout, &out_dir)
-        .with_context(|| format!("cannot replay {} seed {seed}", path.display()))?;
+        .files(|| format!("cannot replay {} seed {seed}", path.display()))?;
     let factory = replay_factory(config.clone(), layout, path)?;
     let summary = format!(
         "replay of {} on {} seed {} ({} actions, {})",
@@ -79,7 +79,7 @@ fn replay_factory(
     config: seespot_eval::EvalConfig,
     layout: &Layout,
     path: &Path,
-) -> anyhow::Result<crate::registry::DeciderFactory> {
+) -> crate::error::Result<crate::registry::DeciderFactory> {
     use seespot_eval::EvalMethod;
     if config.method == EvalMethod::Random {
         return Ok(Box::new(move |_task: TaskId, _world| {
@@ -119,7 +119,7 @@ fn replay_factory(
             crate::ssr::prepared(policy, world, "finetuned policies".to_owned())
         }));
     }
-    let kind = DeciderKind::of_method(config.method).with_context(|| {
+    let kind = DeciderKind::of_method(config.method).required(|| {
         format!(
             "{}: the debugger replays SSR, SPOT-Q, TransporterNet and oracle trials, not {}",
             path.display(),
@@ -140,7 +140,7 @@ fn replay_factory(
 pub fn replay_status(
     trials: &[seespot_eval::review::ReviewedTrial],
     layout: &Layout,
-) -> std::collections::BTreeMap<PathBuf, anyhow::Result<()>> {
+) -> std::collections::BTreeMap<PathBuf, crate::error::Result<()>> {
     let mut out = std::collections::BTreeMap::new();
     for t in trials {
         if !out.contains_key(&t.file) {
@@ -160,13 +160,13 @@ pub struct ReviewSource {
 
 impl ReviewSource {
     /// The records file of `method` on `task`, if the review lists one.
-    pub fn records_file(&self, method: &str, task: TaskId) -> anyhow::Result<PathBuf> {
+    pub fn records_file(&self, method: &str, task: TaskId) -> crate::error::Result<PathBuf> {
         let want = seespot_ssr::layout::records_path(&self.dir, method, task);
         records_files(&self.dir)?
             .into_iter()
             .chain(seespot_eval::records::custom_records_files(&self.dir)?)
             .find(|f| *f == want)
-            .with_context(|| {
+            .required(|| {
                 format!(
                     "{}: no records of method `{method}` on {task}",
                     self.dir.display()
@@ -175,16 +175,15 @@ impl ReviewSource {
     }
 
     /// The replay of trial (method, task, seed) of the review.
-    pub fn replay(&self, method: &str, task: TaskId, seed: u64) -> anyhow::Result<Replay> {
+    pub fn replay(&self, method: &str, task: TaskId, seed: u64) -> crate::error::Result<Replay> {
         let file = self.records_file(method, task)?;
         replay(&file, seed, &self.layout)
     }
 
     /// The page's document: the failure kinds, per (method, fold) the counts
     /// and whether its trials can be replayed (and why not), and every trial.
-    pub fn document(&self) -> anyhow::Result<ReviewDoc> {
-        let trials =
-            review_dir(&self.dir).with_context(|| format!("reviewing {}", self.dir.display()))?;
+    pub fn document(&self) -> crate::error::Result<ReviewDoc> {
+        let trials = review_dir(&self.dir).files(|| format!("reviewing {}", self.dir.display()))?;
         let replays = replay_status(&trials, &self.layout)
             .into_iter()
             .map(|(file, r)| (file, r.map_err(|e| format!("{e:#}"))))
@@ -205,7 +204,7 @@ impl ReviewSource {
 
     /// Runs trial (method, task, seed) again to its end with a recording in
     /// memory and returns the `.rrd` bytes.
-    pub fn record(&self, method: &str, task: TaskId, seed: u64) -> anyhow::Result<Vec<u8>> {
+    pub fn record(&self, method: &str, task: TaskId, seed: u64) -> crate::error::Result<Vec<u8>> {
         let r = self.replay(method, task, seed)?;
         let world = r.world();
         let (recorder, storage) = Recorder::memory(task)?;
@@ -220,7 +219,7 @@ impl ReviewSource {
         drop(s.take_recorder());
         storage
             .drain_as_bytes()
-            .context("cannot encode the recording")
+            .files(|| "cannot encode the recording".into())
     }
 }
 

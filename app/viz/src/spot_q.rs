@@ -106,7 +106,7 @@ impl Decider for SpotQDecider {
         self.decision.as_ref()
     }
 
-    fn query(&mut self, _: &Heightmaps, _: DemoQuery) -> anyhow::Result<Option<Vec<f32>>> {
+    fn query(&mut self, _: &Heightmaps, _: DemoQuery) -> crate::error::Result<Option<Vec<f32>>> {
         Ok(None)
     }
 }

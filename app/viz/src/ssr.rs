@@ -1,7 +1,7 @@
 //! Loading See-SPOT-Run for the debugger (the [`crate::decider::Decider`]
 //! implementation of [`SsrPolicy`] is in `decider.rs`).
 
-use anyhow::Context;
+use crate::error::FilesContext as _;
 use seespot_sim::{TaskId, WorldConfig};
 use seespot_ssr::{Layout, SsrConfig, SsrPolicy};
 
@@ -13,7 +13,7 @@ pub fn load(
     task: TaskId,
     layout: &Layout,
     world: WorldConfig,
-) -> anyhow::Result<(Box<dyn Decider>, String)> {
+) -> crate::error::Result<(Box<dyn Decider>, String)> {
     load_with(task, layout, world, SsrConfig::default())
 }
 
@@ -24,8 +24,8 @@ pub fn load_with(
     layout: &Layout,
     world: WorldConfig,
     config: SsrConfig,
-) -> anyhow::Result<(Box<dyn Decider>, String)> {
-    let policy = SsrPolicy::load(task, layout, config).with_context(|| {
+) -> crate::error::Result<(Box<dyn Decider>, String)> {
+    let policy = SsrPolicy::load(task, layout, config).files(|| {
         format!(
             "cannot load SSR for {} from {} and {}",
             task.as_str(),
@@ -62,10 +62,10 @@ pub fn prepared(
     mut policy: SsrPolicy,
     world: WorldConfig,
     note: String,
-) -> anyhow::Result<(Box<dyn Decider>, String)> {
+) -> crate::error::Result<(Box<dyn Decider>, String)> {
     let n = world.grid.resolution;
     if let Some(d) = policy.demos().iter().find(|d| d.meta.resolution != n) {
-        anyhow::bail!(
+        crate::refuse!(
             "the demonstrations are {} px but the trial is {n} px (pass --resolution {})",
             d.meta.resolution,
             d.meta.resolution
@@ -74,6 +74,6 @@ pub fn prepared(
     // The demonstrations' embeddings now, not in the first Embed phases.
     policy
         .prepare_demos()
-        .context("cannot embed the demonstrations")?;
+        .files(|| "cannot embed the demonstrations".into())?;
     Ok((Box::new(policy), note))
 }

@@ -8,9 +8,9 @@
 //! `L` is that map's value at the action (0) and `C` is 0. There is no
 //! rematch: the rematch map stays empty.
 
+use crate::error::FilesContext as _;
 use std::time::Instant;
 
-use anyhow::Context;
 use seespot_policy::transporter::{TransporterMaps, from_grid, to_grid};
 use seespot_policy::{TransporterActor, TransporterNet};
 use seespot_sim::actor::{Actor, ActorError, Choice};
@@ -35,10 +35,10 @@ pub fn load(
     task: TaskId,
     layout: &Layout,
     world: WorldConfig,
-) -> anyhow::Result<(Box<dyn Decider>, String)> {
+) -> crate::error::Result<(Box<dyn Decider>, String)> {
     let path = layout.transporter(task);
-    let net = TransporterNet::load(&path)
-        .with_context(|| format!("cannot load the {task} TransporterNet"))?;
+    let net =
+        TransporterNet::load(&path).files(|| format!("cannot load the {task} TransporterNet"))?;
     let note = format!(
         "TransporterNet {} ({} iterations on the {task} demonstrations)",
         path.display(),
@@ -55,7 +55,7 @@ pub fn with_net(
     note: String,
     layout: &Layout,
     world: WorldConfig,
-) -> anyhow::Result<(Box<dyn Decider>, String)> {
+) -> crate::error::Result<(Box<dyn Decider>, String)> {
     let (demos, _) = load_demos(task, layout, world)?;
     Ok((
         Box::new(TransporterDecider {
@@ -167,7 +167,7 @@ impl Decider for TransporterDecider {
         self.decision.as_ref()
     }
 
-    fn query(&mut self, _: &Heightmaps, _: DemoQuery) -> anyhow::Result<Option<Vec<f32>>> {
+    fn query(&mut self, _: &Heightmaps, _: DemoQuery) -> crate::error::Result<Option<Vec<f32>>> {
         Ok(None)
     }
 }

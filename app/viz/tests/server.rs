@@ -190,11 +190,14 @@ async fn malformed_and_unknown_messages_get_errors_and_the_server_keeps_running(
             m["message"].as_str().is_some_and(|s| !s.is_empty()),
             "{bad}: {m}"
         );
+        // The page words an error by its kind: a malformed request is one.
+        assert_eq!(m["kind"], "request", "{bad}: {m}");
     }
     // A query before any decision is an error too, not a crash.
     ws.send("{\"type\": \"query\", \"pair\": 0, \"policy\": 0, \"y\": 1, \"x\": 1}")
         .await;
-    ws.until("error").await;
+    let m = ws.until("error").await;
+    assert_eq!(m["kind"], "request", "{m}");
     // Still serving: a real step works.
     ws.send("{\"type\": \"next_phase\"}").await;
     let s = ws.until("state").await;

@@ -84,7 +84,7 @@ pub(super) async fn divergences(
 async fn with_difference<T: Send + 'static>(
     s: Arc<AppState>,
     pairing: Pairing,
-    f: impl FnOnce(&mut Difference) -> anyhow::Result<T> + Send + 'static,
+    f: impl FnOnce(&mut Difference) -> crate::error::Result<T> + Send + 'static,
     ok: impl FnOnce(T) -> Response,
 ) -> Response {
     let Some(src) = source(&s) else {
@@ -102,7 +102,7 @@ async fn with_difference<T: Send + 'static>(
             }
             let d = open
                 .as_mut()
-                .ok_or_else(|| anyhow::anyhow!("the difference was not opened"))?;
+                .ok_or_else(|| crate::error::VizError::request("the difference was not opened"))?;
             f(d)
         },
         ok,

@@ -28,6 +28,7 @@ use serde_json::Value;
 use tokio::sync::{broadcast, mpsc};
 
 use crate::documents::to_text;
+use crate::error::VizError;
 use crate::protocol::{ClientMessage, ServerMessage};
 use crate::review::ReviewSource;
 use crate::session::{PairQuery, Session};
@@ -184,6 +185,7 @@ fn bad_pair(request: &'static str) -> Response {
         ServerMessage::Error {
             message: "`pair` must be a non-negative integer".into(),
             request: Some(request),
+            kind: "request",
         }
         .to_text(),
     )
@@ -237,7 +239,7 @@ async fn api_review(State(s): State<Arc<AppState>>) -> Response {
         if cached.is_none() {
             *cached = Some(src.document()?);
         }
-        anyhow::Ok(cached.clone().unwrap_or_default())
+        Ok::<_, crate::error::VizError>(cached.clone().unwrap_or_default())
     };
     blocking_or_conflict(doc, |v| axum::Json(v).into_response()).await
 }
@@ -316,12 +318,12 @@ async fn api_scene(State(s): State<Arc<AppState>>) -> Response {
 /// Runs `f` on a blocking thread: its value through `ok`, its error as 409
 /// (the request cannot be served in this state), a panic as 500.
 async fn blocking_or_conflict<T: Send + 'static>(
-    f: impl FnOnce() -> anyhow::Result<T> + Send + 'static,
+    f: impl FnOnce() -> crate::error::Result<T> + Send + 'static,
     ok: impl FnOnce(T) -> Response,
 ) -> Response {
     match tokio::task::spawn_blocking(f).await {
         Ok(Ok(v)) => ok(v),
-        Ok(Err(e)) => (StatusCode::CONFLICT, format!("{e:#}")).into_response(),
+        Ok(Err(e)) => (StatusCode::CONFLICT, e.to_string()).into_response(),
         Err(e) => (
             StatusCode::INTERNAL_SERVER_ERROR,
             format!("internal error: {e}"),
@@ -350,9 +352,15 @@ async fn ws(State(s): State<Arc<AppState>>, upgrade: WebSocketUpgrade) -> Respon
 }
 
 fn error(message: impl Into<String>, request: Option<&str>) -> String {
+    failed(&VizError::request(message), request)
+}
+
+/// The error message of a request that failed with `e`, with its kind.
+fn failed(e: &VizError, request: Option<&str>) -> String {
     ServerMessage::Error {
-        message: message.into(),
+        message: e.to_string(),
         request,
+        kind: e.kind(),
     }
     .to_text()
 }
@@ -466,7 +474,7 @@ pub async fn handle(s: &Arc<AppState>, text: &str) -> Option<String> {
             .await;
             return Some(match r {
                 Ok(()) => ServerMessage::Replay { method, task, seed }.to_text(),
-                Err(e) => error(e, Some(kind)),
+                Err(e) => failed(&e, Some(kind)),
             });
         }
         ClientMessage::Live => {
@@ -483,8 +491,8 @@ pub async fn handle(s: &Arc<AppState>, text: &str) -> Option<String> {
             .await;
             return Some(match r {
                 Ok(Ok(v)) => to_text(&v),
-                Ok(Err(e)) => error(format!("{e:#}"), Some(kind)),
-                Err(e) => error(format!("internal error: {e}"), Some(kind)),
+                Ok(Err(e)) => failed(&e, Some(kind)),
+                Err(e) => failed(&e.into(), Some(kind)),
             });
         }
         ClientMessage::Demonstrate {
@@ -520,7 +528,7 @@ pub async fn handle(s: &Arc<AppState>, text: &str) -> Option<String> {
                     dir: dir.display().to_string(),
                 }
                 .to_text(),
-                (Err(e), _) => error(e, Some(kind)),
+                (Err(e), _) => failed(&e, Some(kind)),
                 (Ok(()), None) => error("the demonstration was not saved", Some(kind)),
             });
         }
@@ -537,7 +545,7 @@ pub async fn handle(s: &Arc<AppState>, text: &str) -> Option<String> {
     };
     match reply {
         Ok(()) => None,
-        Err(e) => Some(error(e, Some(kind))),
+        Err(e) => Some(failed(&e, Some(kind))),
     }
 }
 
@@ -555,7 +563,7 @@ fn run_to_end(st: &AppState) {
         };
         st.broadcast_state();
         if let Err(e) = r {
-            st.session().set_error(format!("run stopped: {e:#}"));
+            st.session().set_error(format!("run stopped: {e}"));
             break;
         }
     }
@@ -569,8 +577,8 @@ fn run_to_end(st: &AppState) {
 /// Runs `f` on the session on a blocking thread, then broadcasts the new state.
 async fn step(
     s: Arc<AppState>,
-    f: impl FnOnce(&mut Session) -> anyhow::Result<()> + Send + 'static,
-) -> Result<(), String> {
+    f: impl FnOnce(&mut Session) -> crate::error::Result<()> + Send + 'static,
+) -> Result<(), VizError> {
     let st = s.clone();
     let r = tokio::task::spawn_blocking(move || {
         let r = f(&mut st.session());
@@ -579,9 +587,8 @@ async fn step(
     })
     .await;
     match r {
-        Ok(Ok(())) => Ok(()),
-        Ok(Err(e)) => Err(format!("{e:#}")),
-        Err(e) => Err(format!("internal error: {e}")),
+        Ok(r) => r,
+        Err(e) => Err(e.into()),
     }
 }
 
@@ -727,10 +734,10 @@ pub async fn serve_page(
     state: Arc<AppState>,
     token: Option<AccessToken>,
     shutdown: impl std::future::Future<Output = ()> + Send + 'static,
-) -> anyhow::Result<()> {
+) -> crate::error::Result<()> {
     let addr = listener.local_addr()?;
     if !addr.ip().is_loopback() && token.is_none() {
-        anyhow::bail!(
+        crate::refuse!(
             "the page server on {addr} would be reachable from other machines; it needs an access token (seespot view --allow-remote)"
         );
     }

@@ -5,11 +5,11 @@
 //! heatmaps, L and F appear), **verify** (rematch heatmaps and C appear) and
 //! **act** (the chosen pair is marked and its F executed).
 
+use crate::error::Required as _;
 use std::collections::VecDeque;
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use anyhow::{Context, bail};
 use seespot_sim::task::MAX_TRIAL_ACTIONS;
 use seespot_sim::{Action, BlockPose, Heightmaps, NUM_BLOCKS, TaskId, Trial, World, WorldConfig};
 use seespot_ssr::Decision;
@@ -119,7 +119,7 @@ impl Session {
         factory: DeciderFactory,
         config: SessionConfig,
         recorder: Option<Recorder>,
-    ) -> anyhow::Result<Self> {
+    ) -> crate::error::Result<Self> {
         let (decider, decider_note) = factory(config.task, config.world)?;
         let trial = Trial::new(config.world, config.task, config.seed);
         let mut s = Self {
@@ -211,9 +211,11 @@ impl Session {
         task: TaskId,
         seed: Option<u64>,
         colours_matter: bool,
-    ) -> anyhow::Result<()> {
+    ) -> crate::error::Result<()> {
         if colours_matter && task.is_builtin() {
-            bail!("colours_matter: only a custom task's goal is a layout; {task} has its own rule");
+            crate::refuse!(
+                "colours_matter: only a custom task's goal is a layout; {task} has its own rule"
+            );
         }
         let seed = seed.unwrap_or(self.config.seed);
         self.demonstration = Some(
@@ -226,23 +228,23 @@ impl Session {
         Ok(())
     }
 
-    fn demonstrating(&mut self) -> anyhow::Result<&mut seespot_sim::custom::DemoRecorder> {
-        self.demonstration
-            .as_mut()
-            .ok_or_else(|| anyhow::anyhow!("not demonstrating: send `demonstrate` first"))
+    fn demonstrating(&mut self) -> crate::error::Result<&mut seespot_sim::custom::DemoRecorder> {
+        self.demonstration.as_mut().ok_or_else(|| {
+            crate::error::VizError::request("not demonstrating: send `demonstrate` first")
+        })
     }
 
     /// Executes one demonstrated action (a click on the live heightmap).
-    pub fn demo_act(&mut self, action: Action) -> anyhow::Result<()> {
+    pub fn demo_act(&mut self, action: Action) -> crate::error::Result<()> {
         self.demonstrating()?.step(action)?;
         self.version += 1;
         Ok(())
     }
 
     /// Takes back the last demonstrated action.
-    pub fn demo_undo(&mut self) -> anyhow::Result<()> {
+    pub fn demo_undo(&mut self) -> crate::error::Result<()> {
         if self.demonstrating()?.undo().is_none() {
-            bail!("nothing to undo: the demonstration has no actions");
+            crate::refuse!("nothing to undo: the demonstration has no actions");
         }
         self.version += 1;
         Ok(())
@@ -260,7 +262,7 @@ impl Session {
     /// `<demos>/custom/NAME/<n>` (refused when its final layout disagrees
     /// with the task's other demonstrations). Leaves Demonstrate mode and
     /// returns the folder.
-    pub fn demo_save(&mut self, overwrite: bool) -> anyhow::Result<PathBuf> {
+    pub fn demo_save(&mut self, overwrite: bool) -> crate::error::Result<PathBuf> {
         let demos = self.demos.clone();
         let recorder = self.demonstrating()?;
         let demo = recorder.finish()?;
@@ -281,7 +283,7 @@ impl Session {
     /// Starts a new trial of `task` from `seed` (loading that task's decider
     /// when the task changes). The recording goes on, on the next `trial` index.
     /// A custom task is first defined by its demonstrations in the demos folder.
-    pub fn reset(&mut self, task: TaskId, seed: u64) -> anyhow::Result<()> {
+    pub fn reset(&mut self, task: TaskId, seed: u64) -> crate::error::Result<()> {
         if let Some(c) = task.custom() {
             seespot_sim::custom::load(&self.demos.join(task.path()), c)?;
         }
@@ -327,7 +329,7 @@ impl Session {
     /// Replays a trial of an evaluation (see [`crate::review`]): its decider
     /// and resolution replace this session's, and its trial starts from the
     /// beginning. Later resets keep that decider.
-    pub fn load_replay(&mut self, r: Replay) -> anyhow::Result<()> {
+    pub fn load_replay(&mut self, r: Replay) -> crate::error::Result<()> {
         let world = r.world();
         let (decider, note) = (r.factory)(r.task, world)?;
         self.factory = r.factory;
@@ -369,18 +371,18 @@ impl Session {
     /// by the physics, and its first decision is made (the embed phase), so the
     /// page and the 3-D view show what SSR would do from there. Refused while a
     /// block is in the gripper.
-    pub fn set_blocks(&mut self, blocks: &[BlockPose]) -> anyhow::Result<()> {
+    pub fn set_blocks(&mut self, blocks: &[BlockPose]) -> crate::error::Result<()> {
         if self.trial.world().held_block().is_some() {
-            bail!("a block is in the gripper: edit the layout after the place");
+            crate::refuse!("a block is in the gripper: edit the layout after the place");
         }
         let poses: [BlockPose; NUM_BLOCKS] = blocks.try_into().map_err(|_| {
-            anyhow::anyhow!(
+            crate::error::VizError::Request(format!(
                 "{} block poses given; a layout has {NUM_BLOCKS}",
                 blocks.len()
-            )
+            ))
         })?;
         seespot_sim::scene::check_layout(&poses)
-            .map_err(|(i, m)| anyhow::anyhow!("block {i}: {m}"))?;
+            .map_err(|(i, m)| crate::error::VizError::Request(format!("block {i}: {m}")))?;
         self.set_layout(poses);
         if self.trial.end().is_none() {
             self.next_phase()?;
@@ -392,9 +394,9 @@ impl Session {
     /// it), its header saying which layout it is (the start, or the layout
     /// after action n, and how a finished trial ended); refused while a block
     /// is in the gripper, out of the workspace.
-    pub fn layout_toml(&self) -> anyhow::Result<String> {
+    pub fn layout_toml(&self) -> crate::error::Result<String> {
         if self.trial.world().held_block().is_some() {
-            bail!("a block is in the gripper: save the layout after the place");
+            crate::refuse!("a block is in the gripper: save the layout after the place");
         }
         let (t, n) = (&self.trial, self.trial.actions());
         let mut what = if n == 0 {
@@ -421,9 +423,9 @@ impl Session {
     /// Time travel: shows phase `index` of this trial's history (0 = the first
     /// phase shown) exactly as it was shown live, until [`Self::go_live`] or the
     /// next step.
-    pub fn goto(&mut self, index: usize) -> anyhow::Result<()> {
+    pub fn goto(&mut self, index: usize) -> crate::error::Result<()> {
         if index >= self.history.len() {
-            bail!(
+            crate::refuse!(
                 "history index {index} is out of range: this trial has shown {} phases",
                 self.history.len()
             );
@@ -468,13 +470,13 @@ impl Session {
     }
 
     /// Advances one phase; returns the phase now shown.
-    pub fn next_phase(&mut self) -> anyhow::Result<Phase> {
+    pub fn next_phase(&mut self) -> crate::error::Result<Phase> {
         if self.demonstration.is_some() {
-            bail!("demonstrating: save the demonstration or leave Demonstrate mode first");
+            crate::refuse!("demonstrating: save the demonstration or leave Demonstrate mode first");
         }
         self.go_live();
         if let Some(end) = self.trial.end() {
-            bail!("the trial has ended ({end:?}); reset to start another");
+            crate::refuse!("the trial has ended ({end:?}); reset to start another");
         }
         let next = match self.phase {
             None | Some(Phase::Act) => Phase::Embed,
@@ -494,7 +496,7 @@ impl Session {
                     Err(e) => {
                         self.last_error = Some(e.to_string());
                         self.version += 1;
-                        return Err(anyhow::anyhow!(e));
+                        return Err(e.into());
                     }
                 };
                 self.action = Some(choice.action);
@@ -502,7 +504,9 @@ impl Session {
                 self.decided_on = Some(hm);
             }
             Phase::Act => {
-                let action = self.action.context("no decided action to execute")?;
+                let action = self
+                    .action
+                    .required(|| "no decided action to execute".into())?;
                 self.trial.step(action);
             }
             Phase::Match | Phase::Verify => {}
@@ -547,7 +551,7 @@ impl Session {
     }
 
     /// Advances to the end of the current action (its act phase).
-    pub fn next_action(&mut self) -> anyhow::Result<()> {
+    pub fn next_action(&mut self) -> crate::error::Result<()> {
         loop {
             if self.next_phase()? == Phase::Act {
                 return Ok(());

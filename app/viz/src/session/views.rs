@@ -3,7 +3,7 @@
 //! and the embedding colours; while travelling in time, of the phase looked
 //! at.
 
-use anyhow::{Context, bail};
+use crate::error::Required as _;
 use seespot_ssr::policy::DemoQuery;
 use serde_json::Value;
 
@@ -20,17 +20,17 @@ impl Session {
     /// its policy, over the live scene of the current decision (or the
     /// current scene); while travelling in time, of the decision being
     /// looked at.
-    pub fn query(&mut self, q: PairQuery) -> anyhow::Result<QueryDoc> {
+    pub fn query(&mut self, q: PairQuery) -> crate::error::Result<QueryDoc> {
         let PairQuery { pair, policy, y, x } = q;
         let (decision, decided_on) = match self.viewed() {
             Some(snap) => (snap.decision.as_deref(), snap.decided_on.as_deref()),
             None => (self.decision.as_ref(), self.decided_on.as_ref()),
         };
-        let d = decision.context("no decision yet: step to the embed phase first")?;
+        let d = decision.required(|| "no decision yet: step to the embed phase first".into())?;
         let p = d
             .pairs
             .get(pair)
-            .with_context(|| format!("pair index {pair} is out of range 0..{}", d.pairs.len()))?;
+            .required(|| format!("pair index {pair} is out of range 0..{}", d.pairs.len()))?;
         let (demo, demo_step) = (p.demo, p.demo_step);
         let hm = match decided_on {
             Some(hm) => hm.clone(),
@@ -48,7 +48,7 @@ impl Session {
                     x,
                 },
             )?
-            .context("this decider has no embedding to query")?;
+            .required(|| "this decider has no embedding to query".into())?;
         let n = hm.grid.resolution;
         let best = map
             .iter()
@@ -79,18 +79,18 @@ impl Session {
     /// its demo step, as RGB of their joint first three principal components
     /// (base64, `H x W x 3`). Live only: while travelling in time it is refused
     /// (the live maps of earlier decisions are not kept).
-    pub fn embedding(&mut self, pair: usize) -> anyhow::Result<EmbeddingDoc> {
+    pub fn embedding(&mut self, pair: usize) -> crate::error::Result<EmbeddingDoc> {
         if self.viewing.is_some() {
-            bail!("embedding colours show the live decision; go back to live first");
+            crate::refuse!("embedding colours show the live decision; go back to live first");
         }
         let d = self
             .decision
             .as_ref()
-            .context("no decision yet: step to the embed phase first")?;
+            .required(|| "no decision yet: step to the embed phase first".into())?;
         let p = d
             .pairs
             .get(pair)
-            .with_context(|| format!("pair index {pair} is out of range 0..{}", d.pairs.len()))?;
+            .required(|| format!("pair index {pair} is out of range 0..{}", d.pairs.len()))?;
         let (task, demo, step, rotation) =
             (p.policy.clone(), p.demo, p.demo_step, p.matched.rotation);
         let n = d.resolution;
@@ -99,11 +99,11 @@ impl Session {
             .policies()
             .iter()
             .position(|t| *t == task)
-            .context("the pair's policy is not loaded")?;
+            .required(|| "the pair's policy is not loaded".into())?;
         let (live, demo_rgb) = self
             .decider
             .embedding_rgb(policy, demo, step, rotation)?
-            .context("this decider has no embedding to show")?;
+            .required(|| "this decider has no embedding to show".into())?;
         Ok(EmbeddingDoc {
             version: self.version,
             pair,
