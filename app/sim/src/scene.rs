@@ -24,6 +24,7 @@
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
+use toml::Spanned;
 
 use crate::blocks::{BLOCK_SIZE, NUM_BLOCKS};
 use crate::noise::SensorNoise;
@@ -49,7 +50,8 @@ pub struct Scene {
     pub blocks: Option<[BlockPose; NUM_BLOCKS]>,
 }
 
-/// A scene file that could not be used, naming the file and the field.
+/// A scene file that could not be used, naming the file, the line and the
+/// field.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
     #[error("{path}: cannot read: {source}")]
@@ -57,14 +59,85 @@ pub enum SceneError {
         path: PathBuf,
         source: std::io::Error,
     },
-    #[error("{path}: not valid TOML: {message}")]
-    Syntax { path: PathBuf, message: String },
-    #[error("{path}: field `{field}`: {message}")]
+    /// Not TOML, or not a scene's keys and types (an unknown key, a missing
+    /// one, a string for a number): the TOML reader's words, at the line.
+    #[error("{path}:{line}: {message}")]
+    Syntax {
+        path: PathBuf,
+        line: usize,
+        message: String,
+    },
+    /// A value of the right type that a scene cannot hold.
+    #[error("{path}:{line}: field `{field}`: {message}")]
     Field {
         path: PathBuf,
+        line: usize,
         field: String,
         message: String,
     },
+}
+
+/// A scene file as TOML holds it (the keys of the module's example; any
+/// other key is refused), each value with where it stands in the text.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SceneFile {
+    task: Spanned<String>,
+    resolution: Spanned<i64>,
+    seeds: Spanned<SeedsFile>,
+    #[serde(default)]
+    noise: Option<NoiseFile>,
+    #[serde(default)]
+    blocks: Option<Spanned<Vec<Spanned<BlockFile>>>>,
+}
+
+#[derive(Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+struct SeedsFile {
+    start: Spanned<i64>,
+    count: Spanned<i64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct NoiseFile {
+    depth_std: Option<Spanned<f64>>,
+    color_jitter: Option<Spanned<i64>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct BlockFile {
+    position: Spanned<Vec<f64>>,
+    yaw: Option<Spanned<f64>>,
+    tilt: Option<Spanned<f64>>,
+    rotation: Option<Spanned<Vec<f64>>>,
+}
+
+/// A saved layout as written (the same keys as [`SceneFile`] reads).
+#[derive(Serialize)]
+struct LayoutFile {
+    task: String,
+    resolution: usize,
+    seeds: LayoutSeeds,
+    blocks: Vec<LayoutBlock>,
+}
+
+#[derive(Serialize)]
+struct LayoutSeeds {
+    start: u64,
+    count: u64,
+}
+
+#[derive(Serialize)]
+struct LayoutBlock {
+    position: [f64; 3],
+    rotation: [f64; 4],
+}
+
+/// The line (from 1) of byte `offset` in `text`.
+fn line_of(text: &str, offset: usize) -> usize {
+    text[..offset.min(text.len())].matches('\n').count() + 1
 }
 
 impl Scene {
@@ -80,104 +153,93 @@ impl Scene {
         Self::parse(&text, path)
     }
 
-    /// Parses and validates scene text; `path` names the source in errors.
+    /// Parses and validates scene text; `path` names the source in errors,
+    /// with the line and the field.
     pub fn parse(text: &str, path: &Path) -> Result<Self, SceneError> {
-        let table: toml::Table = text
-            .parse()
-            .map_err(|e: toml::de::Error| SceneError::Syntax {
+        let file: SceneFile = toml::from_str(text).map_err(|e: toml::de::Error| {
+            let line = e.span().map_or(1, |s| line_of(text, s.start));
+            let message = e.message().trim_end();
+            // The key the line sets, when the reader's words do not name it.
+            let key = text
+                .lines()
+                .nth(line - 1)
+                .and_then(|l| l.split_once('='))
+                .map(|(k, _)| k.trim())
+                .filter(|k| !k.is_empty() && !message.contains(&format!("`{k}`")));
+            SceneError::Syntax {
                 path: path.to_owned(),
-                message: e.message().to_owned(),
-            })?;
-        let field = |field: &str, message: String| SceneError::Field {
+                line,
+                message: match key {
+                    Some(k) => format!("`{k}`: {message}"),
+                    None => message.to_owned(),
+                },
+            }
+        })?;
+        let field = |at: std::ops::Range<usize>, field: &str, message: String| SceneError::Field {
             path: path.to_owned(),
+            line: line_of(text, at.start),
             field: field.to_owned(),
             message,
         };
-        for key in table.keys() {
-            if !["task", "resolution", "seeds", "noise", "blocks"].contains(&key.as_str()) {
-                return Err(field(key, "unknown field".into()));
-            }
-        }
-        let task = match table.get("task") {
-            None => return Err(field("task", "missing".into())),
-            Some(toml::Value::String(s)) => s.parse().map_err(|e| field("task", e))?,
-            Some(_) => return Err(field("task", "must be a string".into())),
-        };
-        let resolution = int(&table, "resolution", path)?
-            .ok_or_else(|| field("resolution", "missing".into()))?;
-        let resolution = usize::try_from(resolution)
+        let task = file
+            .task
+            .get_ref()
+            .parse()
+            .map_err(|e| field(file.task.span(), "task", e))?;
+        let r = *file.resolution.get_ref();
+        let resolution = usize::try_from(r)
             .ok()
             .filter(|r| check_resolution(*r).is_ok())
             .ok_or_else(|| {
                 field(
+                    file.resolution.span(),
                     "resolution",
-                    format!("{resolution} is out of range (a multiple of 8 in 32..=448)"),
+                    format!("{r} is out of range (a multiple of 8 in 32..=448)"),
                 )
             })?;
-        let seeds = match table.get("seeds") {
-            None => return Err(field("seeds", "missing".into())),
-            Some(toml::Value::Table(t)) => t,
-            Some(_) => return Err(field("seeds", "must be a table".into())),
-        };
-        for key in seeds.keys() {
-            if !["start", "count"].contains(&key.as_str()) {
-                return Err(field(&format!("seeds.{key}"), "unknown field".into()));
-            }
-        }
-        let seed_start = int(seeds, "start", path)
-            .map_err(|e| prefix(e, "seeds."))?
-            .ok_or_else(|| field("seeds.start", "missing".into()))?;
-        let seed_count = int(seeds, "count", path)
-            .map_err(|e| prefix(e, "seeds."))?
-            .ok_or_else(|| field("seeds.count", "missing".into()))?;
-        if seed_start < 0 {
-            return Err(field("seeds.start", format!("{seed_start} is negative")));
-        }
-        let seed_count = u64::try_from(seed_count)
-            .map_err(|_| format!("{seed_count} is negative"))
+        let seeds = file.seeds.get_ref();
+        let (start, count) = (*seeds.start.get_ref(), *seeds.count.get_ref());
+        let start = u64::try_from(start).map_err(|_| {
+            field(
+                seeds.start.span(),
+                "seeds.start",
+                format!("{start} is negative"),
+            )
+        })?;
+        let count = u64::try_from(count)
+            .map_err(|_| format!("{count} is negative"))
             .and_then(|c| crate::bounds::TRIALS.check(c))
-            .map_err(|e| field("seeds.count", e))?;
+            .map_err(|e| field(seeds.count.span(), "seeds.count", e))?;
+        let seeds = Seeds::new(start, count)
+            .map_err(|e| field(file.seeds.span(), "seeds", e.to_string()))?;
         let mut noise = SensorNoise::default();
-        match table.get("noise") {
-            None => {}
-            Some(toml::Value::Table(t)) => {
-                for (key, value) in t {
-                    let name = format!("noise.{key}");
-                    match key.as_str() {
-                        "depth_std" => {
-                            let v = value
-                                .as_float()
-                                .or_else(|| value.as_integer().map(|i| i as f64))
-                                .ok_or_else(|| field(&name, "must be a number".into()))?;
-                            if !(0.0..=0.05).contains(&v) {
-                                return Err(field(
-                                    &name,
-                                    format!("{v} is out of range (0..=0.05 m)"),
-                                ));
-                            }
-                            noise.depth_std = v as f32;
-                        }
-                        "color_jitter" => {
-                            let v = value
-                                .as_integer()
-                                .ok_or_else(|| field(&name, "must be an integer".into()))?;
-                            if !(0..=64).contains(&v) {
-                                return Err(field(&name, format!("{v} is out of range (0..=64)")));
-                            }
-                            noise.color_jitter = v as u8;
-                        }
-                        _ => return Err(field(&name, "unknown field".into())),
-                    }
+        if let Some(n) = &file.noise {
+            if let Some(d) = &n.depth_std {
+                let v = *d.get_ref();
+                if !(0.0..=0.05).contains(&v) {
+                    return Err(field(
+                        d.span(),
+                        "noise.depth_std",
+                        format!("{v} is out of range (0..=0.05 m)"),
+                    ));
                 }
+                noise.depth_std = v as f32;
             }
-            Some(_) => return Err(field("noise", "must be a table".into())),
+            if let Some(c) = &n.color_jitter {
+                let v = *c.get_ref();
+                noise.color_jitter =
+                    u8::try_from(v).ok().filter(|v| *v <= 64).ok_or_else(|| {
+                        field(
+                            c.span(),
+                            "noise.color_jitter",
+                            format!("{v} is out of range (0..=64)"),
+                        )
+                    })?;
+            }
         }
-        let seeds =
-            Seeds::new(seed_start as u64, seed_count).map_err(|e| field("seeds", e.to_string()))?;
-        let blocks = match table.get("blocks") {
+        let blocks = match &file.blocks {
             None => None,
-            Some(toml::Value::Array(items)) => Some(parse_blocks(items, path)?),
-            Some(_) => return Err(field("blocks", "must be an array of tables".into())),
+            Some(b) => Some(read_blocks(b, &field)?),
         };
         Ok(Self {
             task,
@@ -199,20 +261,34 @@ impl Scene {
         poses: &[BlockPose; NUM_BLOCKS],
         what: &str,
     ) -> String {
-        let mut out = format!(
+        // Six decimals of a metre and seven of a quaternion: the start reads
+        // back within a micrometre.
+        let round = |v: f32, places: i32| {
+            let k = 10f64.powi(places);
+            (f64::from(v) * k).round() / k
+        };
+        let file = LayoutFile {
+            task: task.to_string(),
+            resolution,
+            seeds: LayoutSeeds {
+                start: seed,
+                count: 1,
+            },
+            blocks: poses
+                .iter()
+                .map(|p| LayoutBlock {
+                    position: p.position.map(|v| round(v, 6)),
+                    rotation: p.rotation.map(|v| round(v, 7)),
+                })
+                .collect(),
+        };
+        let body = toml::to_string(&file).unwrap_or_default();
+        format!(
             "# {what}, saved from seespot: `seespot view --scene FILE` starts a trial from it.\n\
              # Blocks in id order (red, blue, green, yellow): centre position in metres\n\
-             # (workspace frame, table at z = 0) and orientation (a unit quaternion).\n\
-             task = \"{task}\"\nresolution = {resolution}\n\n[seeds]\nstart = {seed}\ncount = 1\n"
-        );
-        for p in poses {
-            let [x, y, z, w] = p.rotation;
-            out.push_str(&format!(
-                "\n[[blocks]]\nposition = [{:.6}, {:.6}, {:.6}]\nrotation = [{x:.7}, {y:.7}, {z:.7}, {w:.7}]  # unit quaternion [x, y, z, w]\n",
-                p.position[0], p.position[1], p.position[2]
-            ));
-        }
-        out
+             # (workspace frame, table at z = 0) and orientation (a unit quaternion\n\
+             # [x, y, z, w]).\n{body}"
+        )
     }
 
     /// The trial of `seed` in this scene: from the explicit block poses when
@@ -253,93 +329,62 @@ impl Scene {
 /// (`[x, y]` on the table or `[x, y, z]`, metres), optional `yaw` and `tilt`
 /// (degrees) or instead `rotation` (a unit quaternion `[x, y, z, w]`, as saved
 /// layouts write it); inside the workspace and not inside one another.
-fn parse_blocks(items: &[toml::Value], path: &Path) -> Result<[BlockPose; NUM_BLOCKS], SceneError> {
-    let field = |field: String, message: String| SceneError::Field {
-        path: path.to_owned(),
-        field,
-        message,
-    };
-    if items.len() != NUM_BLOCKS {
+fn read_blocks(
+    items: &Spanned<Vec<Spanned<BlockFile>>>,
+    field: &dyn Fn(std::ops::Range<usize>, &str, String) -> SceneError,
+) -> Result<[BlockPose; NUM_BLOCKS], SceneError> {
+    let list = items.get_ref();
+    if list.len() != NUM_BLOCKS {
         return Err(field(
-            "blocks".into(),
+            items.span(),
+            "blocks",
             format!(
                 "{} blocks given; a scene holds exactly {NUM_BLOCKS}",
-                items.len()
+                list.len()
             ),
         ));
     }
-    let number = |v: &toml::Value| v.as_float().or_else(|| v.as_integer().map(|i| i as f64));
     let mut poses = [BlockPose::on_table(0.0, 0.0, 0, 0.0); NUM_BLOCKS];
-    for (i, item) in items.iter().enumerate() {
+    for (i, item) in list.iter().enumerate() {
         let name = |k: &str| format!("blocks[{i}].{k}");
-        let t = item
-            .as_table()
-            .ok_or_else(|| field(format!("blocks[{i}]"), "must be a table".into()))?;
-        for key in t.keys() {
-            if !["position", "yaw", "tilt", "rotation"].contains(&key.as_str()) {
-                return Err(field(name(key), "unknown field".into()));
-            }
-        }
-        let pos: Vec<f64> = match t.get("position") {
-            None => return Err(field(name("position"), "missing".into())),
-            Some(toml::Value::Array(a)) => a
-                .iter()
-                .map(|v| {
-                    number(v).ok_or_else(|| field(name("position"), "must hold numbers".into()))
-                })
-                .collect::<Result<_, _>>()?,
-            Some(_) => {
-                return Err(field(
-                    name("position"),
-                    "must be [x, y] or [x, y, z]".into(),
-                ));
-            }
-        };
+        let t = item.get_ref();
+        let pos = t.position.get_ref();
         if !(2..=3).contains(&pos.len()) || pos.iter().any(|v| !v.is_finite()) {
             return Err(field(
-                name("position"),
+                t.position.span(),
+                &name("position"),
                 "must be [x, y] or [x, y, z] of finite metres".into(),
             ));
         }
         let (x, y) = (pos[0] as f32, pos[1] as f32);
-        let angle = |k: &str, limit: f64| -> Result<f32, SceneError> {
-            match t.get(k) {
-                None => Ok(0.0),
-                Some(v) => {
-                    let a = number(v)
-                        .ok_or_else(|| field(name(k), "must be a number (degrees)".into()))?;
-                    if a.is_finite() && a.abs() <= limit {
-                        Ok((a as f32).to_radians())
-                    } else {
-                        Err(field(
-                            name(k),
-                            format!("{a} is out of range (-{limit}..={limit} degrees)"),
-                        ))
-                    }
-                }
+        let angle = |a: &Option<Spanned<f64>>, k: &str, limit: f64| -> Result<f32, SceneError> {
+            let Some(a) = a else { return Ok(0.0) };
+            let v = *a.get_ref();
+            if v.is_finite() && v.abs() <= limit {
+                Ok((v as f32).to_radians())
+            } else {
+                Err(field(
+                    a.span(),
+                    &name(k),
+                    format!("{v} is out of range (-{limit}..={limit} degrees)"),
+                ))
             }
         };
-        let q = match t.get("rotation") {
-            Some(v) => {
-                if t.contains_key("yaw") || t.contains_key("tilt") {
+        let q = match &t.rotation {
+            Some(r) => {
+                if t.yaw.is_some() || t.tilt.is_some() {
                     return Err(field(
-                        name("rotation"),
+                        r.span(),
+                        &name("rotation"),
                         "give either rotation or yaw/tilt".into(),
                     ));
                 }
-                let q: Vec<f64> = v
-                    .as_array()
-                    .and_then(|a| a.iter().map(number).collect::<Option<_>>())
-                    .ok_or_else(|| {
-                        field(
-                            name("rotation"),
-                            "must be an array of 4 numbers [x, y, z, w]".into(),
-                        )
-                    })?;
+                let q = r.get_ref();
                 let norm = q.iter().map(|c| c * c).sum::<f64>().sqrt();
                 if q.len() != 4 || !norm.is_finite() || (norm - 1.0).abs() > 1e-3 {
                     return Err(field(
-                        name("rotation"),
+                        r.span(),
+                        &name("rotation"),
                         "must be a unit quaternion [x, y, z, w]".into(),
                     ));
                 }
@@ -352,8 +397,8 @@ fn parse_blocks(items: &[toml::Value], path: &Path) -> Result<[BlockPose; NUM_BL
                 .normalize()
             }
             None => {
-                let yaw = angle("yaw", 360.0)?;
-                let tilt = angle("tilt", 90.0)?;
+                let yaw = angle(&t.yaw, "yaw", 360.0)?;
+                let tilt = angle(&t.tilt, "tilt", 90.0)?;
                 rapier3d::math::Rotation::from_rotation_z(yaw)
                     * rapier3d::math::Rotation::from_rotation_x(tilt)
             }
@@ -367,7 +412,13 @@ fn parse_blocks(items: &[toml::Value], path: &Path) -> Result<[BlockPose; NUM_BL
         pose.position[2] = pos.get(2).map_or(pose.half_height(), |z| *z as f32);
         poses[i] = pose;
     }
-    check_layout(&poses).map_err(|(i, message)| field(format!("blocks[{i}].position"), message))?;
+    check_layout(&poses).map_err(|(i, message)| {
+        field(
+            list[i].get_ref().position.span(),
+            &format!("blocks[{i}].position"),
+            message,
+        )
+    })?;
     Ok(poses)
 }
 
@@ -447,33 +498,6 @@ fn squares_overlap(a: &BlockPose, b: &BlockPose) -> bool {
     true
 }
 
-fn int(table: &toml::Table, key: &str, path: &Path) -> Result<Option<i64>, SceneError> {
-    match table.get(key) {
-        None => Ok(None),
-        Some(toml::Value::Integer(i)) => Ok(Some(*i)),
-        Some(_) => Err(SceneError::Field {
-            path: path.to_owned(),
-            field: key.to_owned(),
-            message: "must be an integer".into(),
-        }),
-    }
-}
-
-fn prefix(e: SceneError, p: &str) -> SceneError {
-    match e {
-        SceneError::Field {
-            path,
-            field,
-            message,
-        } => SceneError::Field {
-            path,
-            field: format!("{p}{field}"),
-            message,
-        },
-        other => other,
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -500,7 +524,7 @@ mod tests {
             ),
             (
                 "resolution = 112\n[seeds]\nstart = 1\ncount = 5\n",
-                "`task`: missing",
+                "missing field `task`",
             ),
             (
                 "task = \"row\"\nresolution = 100\n[seeds]\nstart = 1\ncount = 5\n",
@@ -508,7 +532,7 @@ mod tests {
             ),
             (
                 "task = \"row\"\nresolution = 112\n[seeds]\nstart = 1\n",
-                "`seeds.count`: missing",
+                "missing field `count`",
             ),
             (
                 "task = \"row\"\nresolution = 112\n[seeds]\nstart = 1\ncount = 5\n[noise]\ndepth_std = 1.0\n",
@@ -516,13 +540,26 @@ mod tests {
             ),
             (
                 "task = \"row\"\nresolution = 112\ncolour = 3\n[seeds]\nstart = 1\ncount = 5\n",
-                "`colour`: unknown",
+                "unknown field `colour`",
             ),
         ];
         for (text, want) in cases {
             let err = parse(text).expect_err(text).to_string();
-            assert!(err.starts_with("scenes/test.toml"), "{err}");
+            assert!(err.starts_with("scenes/test.toml:"), "{err}");
             assert!(err.contains(want), "{err} should contain {want}");
         }
+        // The line of the bad key or value.
+        let err =
+            parse("task = \"row\"\nresolution = 112\ncolour = 3\n[seeds]\nstart = 1\ncount = 5\n")
+                .expect_err("unknown key")
+                .to_string();
+        assert!(err.starts_with("scenes/test.toml:3: "), "{err}");
+        let err = parse("task = \"row\"\nresolution = 112\n[seeds]\nstart = 1\ncount = 5\n[noise]\ndepth_std = 1.0\n")
+            .expect_err("noise")
+            .to_string();
+        assert!(
+            err.starts_with("scenes/test.toml:7: field `noise.depth_std`"),
+            "{err}"
+        );
     }
 }

@@ -87,11 +87,18 @@ fn bad_layouts_name_the_file_and_the_field() {
     );
     for (bad, field) in [
         ("position = [0.0]", "blocks[3].position"),
-        ("position = [0.0, \"x\"]", "blocks[3].position"),
+        // Not a number: the reader's words, at the line and key.
+        (
+            "position = [0.0, \"x\"]",
+            "layout.toml:20: `position`: invalid type",
+        ),
         ("position = [0.0, 0.1, -1.0]", "blocks[3].position"),
         ("position = [0.0, 0.1]\nyaw = nan", "blocks[3].yaw"),
         ("position = [0.0, 0.1]\ntilt = 120", "blocks[3].tilt"),
-        ("position = [0.0, 0.1]\ncolour = 1", "blocks[3].colour"),
+        (
+            "position = [0.0, 0.1]\ncolour = 1",
+            "layout.toml:21: unknown field `colour`",
+        ),
         (
             "position = [0.0, 0.1]\nrotation = [0, 0, 0, 0]",
             "blocks[3].rotation",
@@ -99,7 +106,7 @@ fn bad_layouts_name_the_file_and_the_field() {
         // Issue 27: junk beside four numbers was dropped.
         (
             "position = [0.0, 0.1]\nrotation = [0, 0, 0, 1, \"junk\"]",
-            "blocks[3].rotation",
+            "layout.toml:21: `rotation`: invalid type",
         ),
         // Issue 27: a block on its edge at an upright block's height reaches
         // 1 cm into the table.
