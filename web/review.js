@@ -147,12 +147,19 @@ async function drawDiscordant() {
   $('discordant-body').replaceChildren(...rows);
 }
 
-function fillRuns(d) {
-  const runs = [...new Set(d.counts.map((c) => c.method))];
+// The two run boxes: the reviewed evaluation's runs, then those of the
+// evaluations given beside it (`seespot view --compare DIR`, named N:RUN).
+async function fillRuns() {
+  const r = await fetch('/api/runs');
+  if (!r.ok) { showError(await r.text()); return; }
+  const folders = await r.json();
+  review.folders = folders;
+  const runs = folders.flatMap((f) => f.runs.map((run) => ({ run, label: f.folder ? `${run} (${f.dir})` : run })));
   for (const [id, want] of [['run-a', 'ssr-ccd'], ['run-b', 'ssr-l2cd']]) {
     const sel = $(id);
-    for (const m of runs) sel.add(new Option(m, m));
-    sel.value = runs.includes(want) ? want : runs[id === 'run-a' ? 0 : Math.min(1, runs.length - 1)] || '';
+    for (const { run, label } of runs) sel.add(new Option(label, run));
+    const names = runs.map((x) => x.run);
+    sel.value = names.includes(want) ? want : names[id === 'run-a' ? 0 : Math.min(1, names.length - 1)] || '';
     sel.onchange = () => drawDiscordant().catch((e) => showError(String(e)));
   }
 }
@@ -170,7 +177,7 @@ async function load() {
   $('show-successes').onchange = drawTrials;
   drawCounts(d);
   drawTrials();
-  fillRuns(d);
+  await fillRuns();
   await drawDiscordant();
 }
 

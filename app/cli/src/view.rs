@@ -116,6 +116,12 @@ pub struct ViewArgs {
     /// this session with --models and --demos.
     #[arg(long, default_value = "results")]
     pub review: PathBuf,
+    /// Another evaluation whose runs the review's difference view can set
+    /// beside the reviewed one's (repeatable): its runs are named `1:RUN`,
+    /// `2:RUN`, ... in the order given; they replay with the same --models
+    /// and --demos.
+    #[arg(long, value_name = "DIR")]
+    pub compare: Vec<PathBuf>,
     #[command(flatten)]
     pub decider: DeciderArgs,
 }
@@ -191,6 +197,16 @@ pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
             dir: args.review.clone(),
             layout: args.decider.layout()?,
         }),
+        compare: args
+            .compare
+            .iter()
+            .map(|dir| {
+                Ok(seespot_viz::review::ReviewSource {
+                    dir: dir.clone(),
+                    layout: args.decider.layout()?,
+                })
+            })
+            .collect::<anyhow::Result<_>>()?,
         replay: replay_summary,
     };
     if !args.bind.is_loopback() && args.allow_remote {
@@ -297,7 +313,8 @@ fn record_two_runs(args: &RecordArgs, runs: &[String]) -> anyhow::Result<()> {
             seespot_viz::paths::run(&runs[1]).trim_start_matches("runs/")
         );
         let path = args.out.join(name);
-        let both = seespot_viz::difference::record_both(&src, &pairing, &path)?;
+        let both =
+            seespot_viz::difference::record_both(std::slice::from_ref(&src), &pairing, &path)?;
         let bytes = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
         bar.println(format!(
             "{}: {} ({} actions, {}) beside {} ({} actions, {}), {:.2} MB",

@@ -1,8 +1,10 @@
 //! Two runs side by side from the first decision where they part: the
 //! page's `/difference` view and the review's list of discordant seeds.
 //!
-//! Both runs are trials of the reviewed evaluation (two methods, or two
-//! embedding sets, of one folder), named by (run, task, seed). Each is
+//! Each run is a method (or an embedding set) of the reviewed evaluation,
+//! named `RUN`, or of another evaluation given beside it (`seespot view
+//! --compare DIR`), named `N:RUN` (N from 1); a pair of trials is named by
+//! (run, run, task, seed). Each is
 //! replayed in its own [`Session`], as the review's replay does, up to and
 //! including the action where the two records part
 //! ([`seespot_eval::diverge::first_difference`]); the replayed actions are
@@ -105,6 +107,27 @@ impl std::fmt::Debug for Difference {
     }
 }
 
+/// The evaluation a run name points into, and the run's name there: `RUN`
+/// is of `sources[0]` (the reviewed evaluation), `N:RUN` of `sources[N]`.
+pub fn resolve<'a, 'n>(
+    sources: &'a [ReviewSource],
+    name: &'n str,
+) -> crate::error::Result<(&'a ReviewSource, &'n str)> {
+    let (folder, run) = match name.split_once(':') {
+        Some((n, run)) if !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()) => {
+            (n.parse::<usize>().unwrap_or(usize::MAX), run)
+        }
+        _ => (0, name),
+    };
+    let src = sources.get(folder).required(|| {
+        format!(
+            "run `{name}`: there is no evaluation {folder} to compare with (seespot view --compare DIR adds one; {} given)",
+            sources.len().saturating_sub(1)
+        )
+    })?;
+    Ok((src, run))
+}
+
 /// The record of `seed` in run `run`'s records of `task`.
 fn record_of(
     src: &ReviewSource,
@@ -164,16 +187,22 @@ fn act_phase(s: &Session, action: usize) -> Option<usize> {
 impl Difference {
     /// Replays both trials of `pairing` up to the action where their records
     /// part; refused when the two never part (the same actions throughout).
-    pub fn open(src: &ReviewSource, pairing: Pairing) -> crate::error::Result<Self> {
+    pub fn open(sources: &[ReviewSource], pairing: Pairing) -> crate::error::Result<Self> {
         let Pairing { a, b, task, seed } = &pairing;
+        let ((sa, run_a), (sb, run_b)) = (resolve(sources, a)?, resolve(sources, b)?);
         let (ra, rb) = (
-            record_of(src, a, *task, *seed)?,
-            record_of(src, b, *task, *seed)?,
+            record_of(sa, run_a, *task, *seed)?,
+            record_of(sb, run_b, *task, *seed)?,
         );
         let part = first_difference(&ra.actions_log, &rb.actions_log).required(|| {
             format!("{a} and {b} took the same actions on {task} seed {seed}: nothing to compare")
         })?;
-        let (a, b) = (replay_run(src, a, ra, part)?, replay_run(src, b, rb, part)?);
+        let (mut a, mut b) = (
+            replay_run(sa, run_a, ra, part)?,
+            replay_run(sb, run_b, rb, part)?,
+        );
+        // The page names each run as it was asked for.
+        (a.name, b.name) = (pairing.a.clone(), pairing.b.clone());
         Ok(Self {
             pairing,
             first_difference: part,
@@ -293,7 +322,7 @@ pub struct RecordedRun {
 /// timelines, so that the viewer shows the two side by side
 /// ([`crate::recording::two_runs_blueprint`]).
 pub fn record_both(
-    src: &ReviewSource,
+    sources: &[ReviewSource],
     pairing: &Pairing,
     path: &std::path::Path,
 ) -> crate::error::Result<[RecordedRun; 2]> {
@@ -304,11 +333,12 @@ pub fn record_both(
         );
     }
     let stream = crate::recording::two_runs_stream([a.as_str(), b.as_str()], path)?;
-    let record = |run: &str| -> crate::error::Result<RecordedRun> {
+    let record = |name: &str| -> crate::error::Result<RecordedRun> {
+        let (src, run) = resolve(sources, name)?;
         let rec = record_of(src, run, *task, *seed)?;
         let replay = src.replay(run, *task, *seed)?;
         let world = replay.world();
-        let entities = crate::paths::run(run);
+        let entities = crate::paths::run(name);
         let recorder = crate::recording::Recorder::under(stream.clone(), entities.clone());
         let config = SessionConfig {
             task: *task,
@@ -332,7 +362,7 @@ pub fn record_both(
         }
         drop(session.take_recorder());
         Ok(RecordedRun {
-            run: run.to_owned(),
+            run: name.to_owned(),
             entities,
             actions: got.len(),
             success: session.trial().succeeded(),
@@ -348,8 +378,13 @@ pub fn record_both(
 /// For every task both runs were evaluated on, the seeds where exactly one
 /// of them succeeded and where their trials part (sorted by that action,
 /// then task and seed).
-pub fn discordant(src: &ReviewSource, a: &str, b: &str) -> crate::error::Result<Vec<Divergence>> {
-    let files = |run: &str| -> crate::error::Result<Vec<TrialRecord>> {
+pub fn discordant(
+    sources: &[ReviewSource],
+    a: &str,
+    b: &str,
+) -> crate::error::Result<Vec<Divergence>> {
+    let files = |name: &str| -> crate::error::Result<Vec<TrialRecord>> {
+        let (src, run) = resolve(sources, name)?;
         let mut out = Vec::new();
         for task in tasks_of(src, run)? {
             out.extend(read_records(&src.records_file(run, task)?)?);
@@ -358,11 +393,9 @@ pub fn discordant(src: &ReviewSource, a: &str, b: &str) -> crate::error::Result<
     };
     let (ra, rb) = (files(a)?, files(b)?);
     if ra.is_empty() || rb.is_empty() {
-        crate::refuse!(
-            "{}: no records of `{}`",
-            src.dir.display(),
-            if ra.is_empty() { a } else { b }
-        );
+        let missing = if ra.is_empty() { a } else { b };
+        let (src, run) = resolve(sources, missing)?;
+        crate::refuse!("{}: no records of `{run}`", src.dir.display());
     }
     Ok(divergences(&ra, &rb))
 }
@@ -398,7 +431,8 @@ mod tests {
     #[test]
     fn both_sides_open_where_the_runs_part() {
         let src = source();
-        let list = discordant(&src, "ssr-ccd", "ssr-l2cd").expect("discordant seeds");
+        let list = discordant(std::slice::from_ref(&src), "ssr-ccd", "ssr-l2cd")
+            .expect("discordant seeds");
         assert!(list.len() > 10, "{}", list.len());
         assert!(
             list.windows(2)
@@ -406,7 +440,7 @@ mod tests {
         );
         let d = &list[0];
         let mut diff = Difference::open(
-            &src,
+            std::slice::from_ref(&src),
             Pairing {
                 a: "ssr-ccd".into(),
                 b: "ssr-l2cd".into(),
@@ -444,9 +478,32 @@ mod tests {
         );
     }
 
+    /// A run of another evaluation (`N:RUN`, `seespot view --compare DIR`)
+    /// is read from that folder: here the same folder twice, so the seeds
+    /// and where they part are the ones of one folder.
+    #[test]
+    fn a_run_of_another_evaluation_is_named_by_its_folder() {
+        let both = [source(), source()];
+        let one = discordant(&both[..1], "ssr-ccd", "ssr-l2cd").expect("one folder");
+        let two = discordant(&both, "ssr-ccd", "1:ssr-l2cd").expect("two folders");
+        assert_eq!(one, two);
+        let d = &two[0];
+        let pairing = Pairing {
+            a: "ssr-ccd".into(),
+            b: "1:ssr-l2cd".into(),
+            task: d.task,
+            seed: d.seed,
+        };
+        let doc = Difference::open(&both, pairing).expect("open").document();
+        assert_eq!(doc.first_difference, d.action_index);
+        assert_eq!(doc.b.run, "1:ssr-l2cd");
+        let e = discordant(&both, "ssr-ccd", "2:ssr-l2cd").expect_err("no folder 2");
+        assert!(e.to_string().contains("--compare"), "{e}");
+    }
+
     #[test]
     fn a_run_without_records_is_named() {
-        let e = discordant(&source(), "ssr-ccd", "no-such-run").expect_err("refused");
+        let e = discordant(&[source()], "ssr-ccd", "no-such-run").expect_err("refused");
         assert!(format!("{e:#}").contains("no-such-run"), "{e:#}");
     }
 }

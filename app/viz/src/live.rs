@@ -50,6 +50,10 @@ pub struct ViewOptions {
     pub layout: Option<[seespot_sim::BlockPose; seespot_sim::NUM_BLOCKS]>,
     /// The evaluation the page's `/review` lists and replays.
     pub review: Option<crate::review::ReviewSource>,
+    /// Other evaluations whose runs the review's difference view can set
+    /// beside the reviewed one's (`seespot view --compare DIR`), as
+    /// `N:RUN` (N from 1, in this order).
+    pub compare: Vec<crate::review::ReviewSource>,
     /// The summary of the evaluation trial this session replays (`view
     /// --replay`), shown as the page's replay banner, as after its **Replay**
     /// button; `factory` must then be the replay's.
@@ -180,6 +184,7 @@ pub async fn serve_view(
         "block_size": seespot_sim::BLOCK_SIZE,
     });
     let state = AppState::with_review(session, info, opts.review.clone());
+    state.set_compare(opts.compare.clone());
     let listener = tokio::net::TcpListener::bind(SocketAddr::new(bind, opts.port))
         .await
         .files(|| format!("cannot bind the page server to {bind}:{}", opts.port))?;

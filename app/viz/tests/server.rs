@@ -377,6 +377,7 @@ async fn issue_10_non_loopback_bind_is_refused_without_allow_remote() {
         no_viewer: true,
         layout: None,
         review: None,
+        compare: Vec::new(),
         replay: None,
     };
     let factory = registry::factory(

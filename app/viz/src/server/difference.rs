@@ -12,6 +12,7 @@ use axum::response::{IntoResponse, Response};
 use super::{AppState, blocking_or_conflict};
 use crate::difference::{Difference, Pairing, Side};
 use crate::review::ReviewSource;
+use seespot_eval::records::records_files;
 
 type Fields = HashMap<String, String>;
 
@@ -41,9 +42,10 @@ fn pairing(q: &Fields) -> Result<Pairing, String> {
     })
 }
 
-/// The reviewed evaluation, if the server has one.
-fn source(s: &AppState) -> Option<ReviewSource> {
-    s.review.clone()
+/// The reviewed evaluation and the ones given beside it, if the server
+/// reviews one.
+fn sources(s: &AppState) -> Option<Vec<ReviewSource>> {
+    s.sources()
 }
 
 /// The 404 of a server that reviews no evaluation.
@@ -65,7 +67,7 @@ pub(super) async fn divergences(
     State(s): State<Arc<AppState>>,
     Query(q): Query<Fields>,
 ) -> Response {
-    let Some(src) = source(&s) else {
+    let Some(src) = sources(&s) else {
         return no_review();
     };
     let (a, b) = match (field(&q, "a"), field(&q, "b")) {
@@ -87,7 +89,7 @@ async fn with_difference<T: Send + 'static>(
     f: impl FnOnce(&mut Difference) -> crate::error::Result<T> + Send + 'static,
     ok: impl FnOnce(T) -> Response,
 ) -> Response {
-    let Some(src) = source(&s) else {
+    let Some(src) = sources(&s) else {
         return no_review();
     };
     blocking_or_conflict(
@@ -153,4 +155,43 @@ pub(super) async fn view(State(s): State<Arc<AppState>>, Query(q): Query<Fields>
         |v| axum::Json(v).into_response(),
     )
     .await
+}
+
+/// `GET /api/runs`: the runs of the reviewed evaluation (folder 0) and of
+/// the ones given beside it (`N:RUN`), for the review's two run boxes.
+pub(super) async fn runs(State(s): State<Arc<AppState>>) -> Response {
+    let Some(src) = sources(&s) else {
+        return no_review();
+    };
+    blocking_or_conflict(
+        move || {
+            let mut folders = Vec::new();
+            for (i, source) in src.iter().enumerate() {
+                let mut runs: Vec<String> = records_files(&source.dir)?
+                    .into_iter()
+                    .chain(seespot_eval::records::custom_records_files(&source.dir)?)
+                    .filter_map(|f| run_of(&source.dir, &f))
+                    .map(|r| if i == 0 { r } else { format!("{i}:{r}") })
+                    .collect();
+                runs.sort();
+                runs.dedup();
+                folders.push(serde_json::json!({
+                    "folder": i,
+                    "dir": source.dir.display().to_string(),
+                    "runs": runs,
+                }));
+            }
+            Ok(folders)
+        },
+        |v| axum::Json(v).into_response(),
+    )
+    .await
+}
+
+/// The run a records file of `dir` belongs to: the folder under `trials/`.
+fn run_of(dir: &std::path::Path, file: &std::path::Path) -> Option<String> {
+    let rest = file.strip_prefix(dir.join("trials")).ok()?;
+    rest.components()
+        .next()
+        .map(|c| c.as_os_str().to_string_lossy().into_owned())
 }

@@ -55,6 +55,8 @@ pub struct AppState {
     review_doc: Mutex<Option<crate::documents::ReviewDoc>>,
     /// The two trials the difference view shows, once opened.
     difference: Mutex<Option<crate::difference::Difference>>,
+    /// Other evaluations the difference view can compare with (folders 1, 2, ...).
+    compare: Mutex<Vec<ReviewSource>>,
 }
 
 impl std::fmt::Debug for AppState {
@@ -81,7 +83,28 @@ impl AppState {
             review,
             review_doc: Mutex::new(None),
             difference: Mutex::new(None),
+            compare: Mutex::new(Vec::new()),
         })
+    }
+
+    /// Other evaluations whose runs the difference view can set beside the
+    /// reviewed one's, named `N:RUN` (N from 1, in this order).
+    pub fn set_compare(&self, compare: Vec<ReviewSource>) {
+        *self
+            .compare
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner) = compare;
+    }
+
+    /// The reviewed evaluation (folder 0), then the others, if it reviews one.
+    fn sources(&self) -> Option<Vec<ReviewSource>> {
+        let first = self.review.clone()?;
+        let others = self
+            .compare
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .clone();
+        Some(std::iter::once(first).chain(others).collect())
     }
 
     /// The page's facts as of now: the static ones, with the task box's
@@ -127,6 +150,7 @@ pub fn router(state: Arc<AppState>) -> Router {
         .route("/api/review", get(api_review))
         .route("/api/replay.rrd", get(api_replay_rrd))
         .route("/api/divergences", get(difference::divergences))
+        .route("/api/runs", get(difference::runs))
         .route("/api/difference", get(difference::open))
         .route("/api/difference/view", get(difference::view))
         .route("/ws", get(ws))
