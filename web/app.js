@@ -266,7 +266,7 @@ function renderPairs(s) {
   const skipped = s.skipped || [];
   $('departures').hidden = !skipped.length;
   $('departures').textContent = skipped.map((k) => `Extension: ${act(k.action)} and the `
-    + `${Math.round(k.radius_m * 100)} cm around it skipped: ${k.why}.`).join(' ');
+    + `${+(k.radius_m * 100).toFixed(1)} cm around it skipped: ${k.why}.`).join(' ');
   if (!s.pairs.length) {
     const tr = document.createElement('tr');
     tr.innerHTML = `<td colspan="7" class="pending">${s.phase ? 'this decider gives no explanation' : 'step to the embed phase'}</td>`;

@@ -98,8 +98,7 @@ fn live_scene_identical_to_the_demo_scene_reproduces_the_demo_action() {
         let config = SsrConfig {
             method,
             correspond: CorrespondOptions::default(),
-            loop_break: false,
-            put_back_break: false,
+            ..SsrConfig::default()
         };
         let mut ssr =
             SsrPolicy::new(task, untrained_policies(task), demos.clone(), config).expect("ssr");
@@ -143,8 +142,7 @@ fn global_rematch_measures_c_from_the_live_match() {
             smoothing: Default::default(),
             rematch: Rematch::Global,
         },
-        loop_break: false,
-        put_back_break: false,
+        ..SsrConfig::default()
     };
     let mut ssr =
         SsrPolicy::new(task, untrained_policies(task), demos.clone(), config).expect("ssr");

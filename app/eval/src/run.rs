@@ -36,6 +36,10 @@ pub enum EvalMethod {
     /// block's footprint since that grasp, progress unchanged) is not taken
     /// again while progress stays ([`seespot_ssr::policy::PutBack`]).
     SsrCcdNoLoops,
+    /// seespot's extension, not the paper's: loop and put-back breaking,
+    /// and no grasp on a block whose removal would lower progress
+    /// ([`seespot_ssr::policy::guarded_blocks`]).
+    SsrCcdGuarded,
     /// The test task's own SPOT-Q policy, greedy: the ceiling row.
     SpotQ,
     /// The scripted oracle.
@@ -49,11 +53,12 @@ pub enum EvalMethod {
 }
 
 impl EvalMethod {
-    pub const ALL: [EvalMethod; 8] = [
+    pub const ALL: [EvalMethod; 9] = [
         Self::SsrCcd,
         Self::SsrL2cd,
         Self::SsrCcdLoopBreak,
         Self::SsrCcdNoLoops,
+        Self::SsrCcdGuarded,
         Self::SpotQ,
         Self::Oracle,
         Self::Random,
@@ -66,6 +71,7 @@ impl EvalMethod {
             Self::SsrL2cd => "ssr-l2cd",
             Self::SsrCcdLoopBreak => "ssr-ccd-loopbreak",
             Self::SsrCcdNoLoops => "ssr-ccd-noloops",
+            Self::SsrCcdGuarded => "ssr-ccd-guarded",
             Self::SpotQ => "spot-q",
             Self::Oracle => "oracle",
             Self::Random => "random",
@@ -88,8 +94,12 @@ impl EvalMethod {
                 seespot_ssr::explain::Method::SsrCcd
             },
             correspond,
-            loop_break: matches!(self, Self::SsrCcdLoopBreak | Self::SsrCcdNoLoops),
-            put_back_break: self == Self::SsrCcdNoLoops,
+            loop_break: matches!(
+                self,
+                Self::SsrCcdLoopBreak | Self::SsrCcdNoLoops | Self::SsrCcdGuarded
+            ),
+            put_back_break: matches!(self, Self::SsrCcdNoLoops | Self::SsrCcdGuarded),
+            reversal_guard: self == Self::SsrCcdGuarded,
         }
     }
 
@@ -97,7 +107,11 @@ impl EvalMethod {
     pub fn is_ssr(self) -> bool {
         matches!(
             self,
-            Self::SsrCcd | Self::SsrL2cd | Self::SsrCcdLoopBreak | Self::SsrCcdNoLoops
+            Self::SsrCcd
+                | Self::SsrL2cd
+                | Self::SsrCcdLoopBreak
+                | Self::SsrCcdNoLoops
+                | Self::SsrCcdGuarded
         )
     }
 
@@ -479,6 +493,9 @@ impl RunSpec {
             (EvalMethod::SsrL2cd, _) => "SSR L2CD",
             (EvalMethod::SsrCcdLoopBreak, _) => "Extension: SSR CCD + loop breaking",
             (EvalMethod::SsrCcdNoLoops, _) => "Extension: SSR CCD + loop and put-back breaking",
+            (EvalMethod::SsrCcdGuarded, _) => {
+                "Extension: SSR CCD + loop and put-back breaking + reversal guard"
+            }
             (EvalMethod::SpotQ, false) => "SPOT-Q",
             (EvalMethod::SpotQ, true) => "Good Robot finetuned",
             (EvalMethod::Transporter, false) => "TransporterNet",
@@ -617,10 +634,10 @@ mod tests {
     #[test]
     fn every_spec_round_trips_through_its_name() {
         let all = RunSpec::all();
-        // 4 SSR methods x 9 correspondences x 3 finetunings x 2 noises,
+        // 5 SSR methods x 9 correspondences x 3 finetunings x 2 noises,
         // SPOT-Q x 3 x 2, TransporterNet x 2 x 2, oracle and random x 2
         // (noise only).
-        assert_eq!(all.len(), 4 * 9 * 6 + 6 + 4 + 2 * 2);
+        assert_eq!(all.len(), 5 * 9 * 6 + 6 + 4 + 2 * 2);
         let mut names = std::collections::HashSet::new();
         for spec in &all {
             let name = spec.to_string();

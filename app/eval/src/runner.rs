@@ -111,7 +111,8 @@ pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalE
             EvalMethod::SsrCcd
             | EvalMethod::SsrL2cd
             | EvalMethod::SsrCcdLoopBreak
-            | EvalMethod::SsrCcdNoLoops,
+            | EvalMethod::SsrCcdNoLoops
+            | EvalMethod::SsrCcdGuarded,
             _,
         ) => {
             for (_, path) in config.layout.policy_files(task) {
@@ -607,7 +608,8 @@ pub fn make_actor(
         EvalMethod::SsrCcd
         | EvalMethod::SsrL2cd
         | EvalMethod::SsrCcdLoopBreak
-        | EvalMethod::SsrCcdNoLoops => Box::new(ssr_policy(config, task)?),
+        | EvalMethod::SsrCcdNoLoops
+        | EvalMethod::SsrCcdGuarded => Box::new(ssr_policy(config, task)?),
         EvalMethod::SpotQ => Box::new(spot_q_actor(config, task)?),
         EvalMethod::Transporter => Box::new(TransporterActor::new(transporter_net(config, task)?)),
         EvalMethod::Oracle => Box::new(Oracle::new(task)),

@@ -90,22 +90,35 @@ pub struct Decision {
     /// the paper's method and absent from older records.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub put_back: Vec<Action>,
+    /// Reversal guard (seespot's extension): the centres of the blocks whose
+    /// grasps were masked because taking them would lower progress; empty
+    /// for the paper's method and absent from older records.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub guarded: Vec<Action>,
 }
 
 /// Why an extension of SSR masked an action ([`Decision::departures`]).
 pub const LEFT_UNCHANGED: &str = "it left the scene unchanged";
 pub const PUT_BACK: &str = "its block was put back where it was, progress unchanged";
+pub const GUARDED: &str = "its block is part of what is built: taking it would lower progress";
 
 impl Decision {
     /// Where an extension departed from SSR CCD in this decision: each
-    /// action whose neighbourhood (within
-    /// [`crate::policy::LOOP_BREAK_RADIUS`]) it masked, and why; empty for
-    /// the paper's methods. The page and recordings show these words.
-    pub fn departures(&self) -> Vec<(Action, &'static str)> {
+    /// action whose neighbourhood it masked, why, and the neighbourhood's
+    /// half side in metres ([`crate::policy::LOOP_BREAK_RADIUS`], or
+    /// [`crate::policy::GUARD_RADIUS`] for a guarded block); empty for the
+    /// paper's methods. The page and recordings show these words.
+    pub fn departures(&self) -> Vec<(Action, &'static str, f32)> {
+        use crate::policy::{GUARD_RADIUS, LOOP_BREAK_RADIUS};
         self.excluded
             .iter()
-            .map(|a| (*a, LEFT_UNCHANGED))
-            .chain(self.put_back.iter().map(|a| (*a, PUT_BACK)))
+            .map(|a| (*a, LEFT_UNCHANGED, LOOP_BREAK_RADIUS))
+            .chain(
+                self.put_back
+                    .iter()
+                    .map(|a| (*a, PUT_BACK, LOOP_BREAK_RADIUS)),
+            )
+            .chain(self.guarded.iter().map(|a| (*a, GUARDED, GUARD_RADIUS)))
             .collect()
     }
 }
@@ -132,12 +145,22 @@ mod tests {
             l2cd_choice: 0,
             excluded: vec![a],
             put_back: vec![b],
+            guarded: vec![a],
         };
-        assert_eq!(d.departures(), vec![(a, LEFT_UNCHANGED), (b, PUT_BACK)]);
+        let r = crate::policy::LOOP_BREAK_RADIUS;
+        assert_eq!(
+            d.departures(),
+            vec![
+                (a, LEFT_UNCHANGED, r),
+                (b, PUT_BACK, r),
+                (a, GUARDED, crate::policy::GUARD_RADIUS)
+            ]
+        );
         // The paper's methods depart from nothing.
         let plain = Decision {
             excluded: Vec::new(),
             put_back: Vec::new(),
+            guarded: Vec::new(),
             ..d
         };
         assert!(plain.departures().is_empty());

@@ -640,10 +640,12 @@ impl Recorder {
                 ));
             }
             // Where an extension departed from SSR CCD, as the page says it.
-            for (a, why) in d.departures() {
+            for (a, why, radius) in d.departures() {
+                // Centimetres as the page shows them: 2, 2.5.
+                let cm = format!("{:.1}", radius * 100.0);
+                let cm = cm.trim_end_matches(".0");
                 s.push_str(&format!(
-                    "\nExtension: {a} and the {:.0} cm around it skipped: {why}.\n",
-                    seespot_ssr::policy::LOOP_BREAK_RADIUS * 100.0
+                    "\nExtension: {a} and the {cm} cm around it skipped: {why}.\n"
                 ));
             }
         }

@@ -88,6 +88,7 @@ impl Actor for SpotQDecider {
             l2cd_choice: 0,
             excluded: Vec::new(),
             put_back: Vec::new(),
+            guarded: Vec::new(),
         });
         Ok(action.into())
     }

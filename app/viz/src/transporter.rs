@@ -131,6 +131,7 @@ impl TransporterDecider {
             l2cd_choice: 0,
             excluded: Vec::new(),
             put_back: Vec::new(),
+            guarded: Vec::new(),
         })
     }
 }

@@ -62,6 +62,10 @@ pub struct SsrConfig {
     /// seespot's put-back-breaking extension ([`PutBack`]), on top of loop
     /// breaking; off for the paper's method.
     pub put_back_break: bool,
+    /// seespot's reversal guard ([`guarded_blocks`]), on top of loop and
+    /// put-back breaking: no grasp on a block whose removal would lower
+    /// progress; off for the paper's method.
+    pub reversal_guard: bool,
 }
 
 impl Default for SsrConfig {
@@ -71,6 +75,7 @@ impl Default for SsrConfig {
             correspond: CorrespondOptions::default(),
             loop_break: false,
             put_back_break: false,
+            reversal_guard: false,
         }
     }
 }
@@ -121,6 +126,9 @@ pub struct SsrPolicy {
     excluded: Vec<Action>,
     /// Put-back breaking: the grasps whose blocks were put back.
     put_back: PutBack,
+    /// Reversal guard: the centres of the blocks a grasp must leave alone in
+    /// the current scene (as grasps at rotation 0).
+    guarded: Vec<Action>,
 }
 
 impl SsrPolicy {
@@ -179,6 +187,7 @@ impl SsrPolicy {
             last: None,
             excluded: Vec::new(),
             put_back: PutBack::default(),
+            guarded: Vec::new(),
         })
     }
 
@@ -362,7 +371,8 @@ impl SsrPolicy {
                 live.set_pixel_mask(&mask);
             }
         }
-        let (excluded, put_back) = self.exclude_repeats(primitive, n, hm.grid.pixel_size());
+        let (excluded, put_back, guarded) =
+            self.exclude_repeats(primitive, n, hm.grid.pixel_size());
         let embed_ms = t.elapsed().as_secs_f64() * 1e3;
         let steps: Vec<usize> = (0..self.demos.len())
             .map(|d| {
@@ -492,6 +502,7 @@ impl SsrPolicy {
             l2cd_choice,
             excluded,
             put_back,
+            guarded,
         })
     }
 
@@ -504,7 +515,7 @@ impl SsrPolicy {
         primitive: Primitive,
         n: usize,
         pixel: f32,
-    ) -> (Vec<Action>, Vec<Action>) {
+    ) -> (Vec<Action>, Vec<Action>, Vec<Action>) {
         let excluded: Vec<Action> = self
             .excluded
             .iter()
@@ -520,31 +531,56 @@ impl SsrPolicy {
         } else {
             Vec::new()
         };
-        if excluded.is_empty() && put_back.is_empty() {
-            return (excluded, put_back);
+        let guarded: Vec<Action> = self
+            .guarded
+            .iter()
+            .copied()
+            .filter(|a| a.primitive == primitive)
+            .collect();
+        if excluded.is_empty() && put_back.is_empty() && guarded.is_empty() {
+            return (excluded, put_back, guarded);
         }
-        let r = (LOOP_BREAK_RADIUS / pixel).round() as usize;
-        let mut forbid = vec![false; n * n];
-        for a in excluded.iter().chain(&put_back) {
-            for y in a.y.saturating_sub(r)..=(a.y + r).min(n - 1) {
-                for x in a.x.saturating_sub(r)..=(a.x + r).min(n - 1) {
-                    forbid[y * n + x] = true;
+        let forbid_of = |guard: &[Action]| {
+            let mut forbid = vec![false; n * n];
+            let mut square = |a: &Action, radius: f32| {
+                let r = (radius / pixel).round() as usize;
+                for y in a.y.saturating_sub(r)..=(a.y + r).min(n - 1) {
+                    for x in a.x.saturating_sub(r)..=(a.x + r).min(n - 1) {
+                        forbid[y * n + x] = true;
+                    }
                 }
+            };
+            for a in excluded.iter().chain(&put_back) {
+                square(a, LOOP_BREAK_RADIUS);
             }
-        }
-        let leaves_some = self.live.iter().all(|m| {
-            m.mask
-                .iter()
-                .enumerate()
-                .any(|(i, &ok)| ok && !forbid[i % (n * n)])
-        });
-        if !leaves_some {
-            return (Vec::new(), Vec::new());
+            for a in guard {
+                square(a, GUARD_RADIUS);
+            }
+            forbid
+        };
+        let leaves_some = |forbid: &[bool]| {
+            self.live.iter().all(|m| {
+                m.mask
+                    .iter()
+                    .enumerate()
+                    .any(|(i, &ok)| ok && !forbid[i % (n * n)])
+            })
+        };
+        // Every mask if some action is left; else without the guard (the
+        // repeats stay forbidden); else none.
+        let mut forbid = forbid_of(&guarded);
+        let mut guarded = guarded;
+        if !leaves_some(&forbid) {
+            guarded.clear();
+            forbid = forbid_of(&[]);
+            if !leaves_some(&forbid) {
+                return (Vec::new(), Vec::new(), Vec::new());
+            }
         }
         for live in &mut self.live {
             live.forbid_pixels(&forbid);
         }
-        (excluded, put_back)
+        (excluded, put_back, guarded)
     }
 
     /// Click-to-query: the ASE of the demo pixel `q` names (at the demo step's
@@ -645,11 +681,50 @@ pub fn demo_step(demo: &Demo, progress: u8, primitive: Primitive) -> Option<usiz
         .copied()
 }
 
+/// Half the side of the square a guarded block masks around its centre: half
+/// a block, so that no grasp on its top face remains. Fixed before any run.
+pub const GUARD_RADIUS: f32 = seespot_sim::blocks::BLOCK_SIZE / 2.0;
+
+/// **Reversal guard (seespot's extension, not the paper's):** the blocks a
+/// grasp must leave alone in `trial`'s scene, as grasps at their centres:
+/// those whose removal from the table would lower the progress SSR already
+/// reads (the task's measure of the blocks on the table, as the trial computes
+/// it). Taking one of them is a progress reversal before it happens: a block
+/// lifted out of the stack, the row or the square built so far. Unlike the
+/// paper's method, it asks the progress measure about a scene it has not
+/// seen (the scene without that block); the records name it as its own method.
+pub fn guarded_blocks(trial: &Trial, task: TaskId) -> Vec<Action> {
+    let world = trial.world();
+    let poses = world.block_poses();
+    let held = world.held_block();
+    let on_table: Vec<(usize, seespot_sim::BlockPose)> = poses
+        .iter()
+        .copied()
+        .enumerate()
+        .filter(|(i, _)| Some(*i) != held)
+        .collect();
+    let now = task.progress_of(&on_table);
+    let grid = world.grid();
+    on_table
+        .iter()
+        .filter(|(i, _)| {
+            let without: Vec<_> = on_table.iter().copied().filter(|(j, _)| j != i).collect();
+            task.progress_of(&without) < now
+        })
+        .filter_map(|(_, p)| grid.world_to_pixel(p.position[0], p.position[1]))
+        .map(|(y, x)| Action::new(Primitive::Grasp, 0, y, x))
+        .collect()
+}
+
 /// See-SPOT-Run as an [`Actor`]: each choice is a full [`SsrPolicy::decide`],
 /// whose explanation record stays available as [`SsrPolicy::last_decision`].
 impl Actor for SsrPolicy {
     fn name(&self) -> String {
         match self.config.method {
+            Method::SsrCcd if self.config.reversal_guard => {
+                "See-SPOT-Run CCD + loop and put-back breaking + reversal guard (seespot's extension)"
+                    .to_owned()
+            }
             Method::SsrCcd if self.config.put_back_break => {
                 "See-SPOT-Run CCD + loop and put-back breaking (seespot's extension)".to_owned()
             }
@@ -666,6 +741,7 @@ impl Actor for SsrPolicy {
     fn begin_trial(&mut self, _trial: &Trial) {
         self.excluded.clear();
         self.put_back = PutBack::default();
+        self.guarded.clear();
     }
 
     fn act(&mut self, trial: &Trial, hm: &Heightmaps) -> Result<Choice, ActorError> {
@@ -686,6 +762,11 @@ impl Actor for SsrPolicy {
             if self.config.put_back_break {
                 self.put_back.observe(hm, progress, primitive);
             }
+            self.guarded = if self.config.reversal_guard && primitive == Primitive::Grasp {
+                guarded_blocks(trial, self.task)
+            } else {
+                Vec::new()
+            };
             let d = self.decide_fresh(hm, progress, primitive, repeat.is_some())?;
             if self.config.put_back_break {
                 self.put_back.chose(hm, progress, d.action);
@@ -753,4 +834,43 @@ pub fn choose(pairs: &[PairExplanation], method: Method, mode: Correspondence) -
         }
     }
     best
+}
+
+#[cfg(test)]
+mod guard_tests {
+    use super::*;
+    use seespot_sim::{BlockPose, World, WorldConfig};
+
+    /// In a stack of two, the block on top is guarded (lifting it lowers the
+    /// stack's progress); the two blocks on the table beside it are not.
+    #[test]
+    fn the_block_on_top_of_a_stack_is_guarded_and_free_blocks_are_not() {
+        let poses = [
+            BlockPose::on_table(0.0, 0.0, 0, 0.0),
+            BlockPose::on_table(0.0, 0.0, 1, 0.0),
+            BlockPose::on_table(0.12, 0.1, 0, 0.0),
+            BlockPose::on_table(-0.12, -0.1, 0, 0.0),
+        ];
+        let config = WorldConfig::default();
+        let trial = Trial::from_world(
+            World::from_poses(config, &poses, 1),
+            TaskId::Stack,
+            1,
+            seespot_sim::task::MAX_TRIAL_ACTIONS,
+        );
+        assert_eq!(trial.progress(), 2);
+        let guarded = guarded_blocks(&trial, TaskId::Stack);
+        let grid = config.grid;
+        let pixel = |p: &BlockPose| grid.world_to_pixel(p.position[0], p.position[1]);
+        let at = |p: &BlockPose| {
+            let (y, x) = pixel(p).expect("on the grid");
+            guarded
+                .iter()
+                .any(|a| a.y.abs_diff(y) <= 2 && a.x.abs_diff(x) <= 2)
+        };
+        assert!(at(&poses[1]), "the top of the stack: {guarded:?}");
+        assert!(!at(&poses[2]) && !at(&poses[3]), "free blocks: {guarded:?}");
+        // Unstack's progress rises as the tower comes down: nothing guarded.
+        assert!(guarded_blocks(&trial, TaskId::Unstack).is_empty());
+    }
 }

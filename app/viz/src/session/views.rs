@@ -214,9 +214,9 @@ impl Session {
                 .map(|d| {
                     d.departures()
                         .into_iter()
-                        .map(|(action, why)| SkipDoc {
+                        .map(|(action, why, radius_m)| SkipDoc {
                             action,
-                            radius_m: seespot_ssr::policy::LOOP_BREAK_RADIUS,
+                            radius_m,
                             why,
                         })
                         .collect()
