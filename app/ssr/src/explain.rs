@@ -97,6 +97,16 @@ pub struct Decision {
     pub guarded: Vec<Action>,
 }
 
+/// Around an action that left the scene unchanged, the loop-breaking extension
+/// masks the pixels within this distance (Chebyshev, metres): the gripper
+/// finger window's half side, so the next action is not the same grasp again.
+/// Fixed before any run, not tuned.
+pub const LOOP_BREAK_RADIUS: f32 = 0.02;
+
+/// Half the side of the square a guarded block masks around its centre: half
+/// a block, so that no grasp on its top face remains. Fixed before any run.
+pub const GUARD_RADIUS: f32 = seespot_sim::blocks::BLOCK_SIZE / 2.0;
+
 /// Why an extension of SSR masked an action ([`Decision::departures`]).
 pub const LEFT_UNCHANGED: &str = "it left the scene unchanged";
 pub const PUT_BACK: &str = "its block was put back where it was, progress unchanged";
@@ -105,11 +115,10 @@ pub const GUARDED: &str = "its block is part of what is built: taking it would l
 impl Decision {
     /// Where an extension departed from SSR CCD in this decision: each
     /// action whose neighbourhood it masked, why, and the neighbourhood's
-    /// half side in metres ([`crate::policy::LOOP_BREAK_RADIUS`], or
-    /// [`crate::policy::GUARD_RADIUS`] for a guarded block); empty for the
+    /// half side in metres ([`LOOP_BREAK_RADIUS`], or [`GUARD_RADIUS`] for
+    /// a guarded block); empty for the
     /// paper's methods. The page and recordings show these words.
     pub fn departures(&self) -> Vec<(Action, &'static str, f32)> {
-        use crate::policy::{GUARD_RADIUS, LOOP_BREAK_RADIUS};
         self.excluded
             .iter()
             .map(|a| (*a, LEFT_UNCHANGED, LOOP_BREAK_RADIUS))
@@ -147,13 +156,13 @@ mod tests {
             put_back: vec![b],
             guarded: vec![a],
         };
-        let r = crate::policy::LOOP_BREAK_RADIUS;
+        let r = LOOP_BREAK_RADIUS;
         assert_eq!(
             d.departures(),
             vec![
                 (a, LEFT_UNCHANGED, r),
                 (b, PUT_BACK, r),
-                (a, GUARDED, crate::policy::GUARD_RADIUS)
+                (a, GUARDED, GUARD_RADIUS)
             ]
         );
         // The paper's methods depart from nothing.

@@ -45,11 +45,9 @@ use crate::explain::{Decision, Method, PairExplanation};
 pub use crate::layout::DEMO_SEEDS;
 use crate::layout::Layout;
 
-/// Around an action that left the scene unchanged, the loop-breaking extension
-/// masks the pixels within this distance (Chebyshev, metres): the gripper
-/// finger window's half side, so the next action is not the same grasp again.
-/// Fixed before any run, not tuned.
-pub const LOOP_BREAK_RADIUS: f32 = 0.02;
+/// The extensions' mask radii (defined beside the decision record, whose
+/// departures name them).
+pub use crate::explain::{GUARD_RADIUS, LOOP_BREAK_RADIUS};
 
 /// How SSR runs.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -680,10 +678,6 @@ pub fn demo_step(demo: &Demo, progress: u8, primitive: Primitive) -> Option<usiz
         .or(same.first())
         .copied()
 }
-
-/// Half the side of the square a guarded block masks around its centre: half
-/// a block, so that no grasp on its top face remains. Fixed before any run.
-pub const GUARD_RADIUS: f32 = seespot_sim::blocks::BLOCK_SIZE / 2.0;
 
 /// **Reversal guard (seespot's extension, not the paper's):** the blocks a
 /// grasp must leave alone in `trial`'s scene, as grasps at their centres:
