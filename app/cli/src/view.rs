@@ -316,23 +316,15 @@ fn record_two_runs(args: &RecordArgs, runs: &[String]) -> anyhow::Result<()> {
         let both =
             seespot_viz::difference::record_both(std::slice::from_ref(&src), &pairing, &path)?;
         let bytes = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
+        let words = |r: &seespot_viz::difference::RecordedRun| {
+            let outcome = if r.success { "success" } else { "failure" };
+            format!("{} ({} actions, {outcome})", r.run, r.actions)
+        };
         bar.println(format!(
-            "{}: {} ({} actions, {}) beside {} ({} actions, {}), {:.2} MB",
+            "{}: {} beside {}, {:.2} MB",
             path.display(),
-            both[0].run,
-            both[0].actions,
-            if both[0].success {
-                "success"
-            } else {
-                "failure"
-            },
-            both[1].run,
-            both[1].actions,
-            if both[1].success {
-                "success"
-            } else {
-                "failure"
-            },
+            words(&both[0]),
+            words(&both[1]),
             bytes as f64 / 1e6
         ));
         bar.inc(1);

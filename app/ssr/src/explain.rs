@@ -56,6 +56,34 @@ pub struct PairExplanation {
     pub rematch_map: Vec<f32>,
 }
 
+impl PairExplanation {
+    /// A pair of a method that is not See-SPOT-Run: `map` (its own scores
+    /// as a distance, 0 at the action) as the match map, `l` its value at
+    /// `action`, no rematch and C = 0.
+    pub fn of_map(
+        policy: String,
+        (demo, demo_step, demo_action): (usize, usize, Action),
+        action: Action,
+        l: f32,
+        map: Vec<f32>,
+    ) -> Self {
+        Self {
+            policy,
+            demo,
+            demo_step,
+            demo_action,
+            l,
+            matched: action,
+            rematch: action,
+            rematch_l: 0.0,
+            c: 0.0,
+            c_unit: CUnit::Pixels,
+            match_map: map,
+            rematch_map: Vec::new(),
+        }
+    }
+}
+
 /// One SSR decision.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Decision {
@@ -113,6 +141,35 @@ pub const PUT_BACK: &str = "its block was put back where it was, progress unchan
 pub const GUARDED: &str = "its block is part of what is built: taking it would lower progress";
 
 impl Decision {
+    /// The decision of a method that is not See-SPOT-Run, shown in SSR's
+    /// views (the debugger's TransporterNet and SPOT-Q deciders): one pair,
+    /// `pair`, acted on; its action is the pair's `matched`.
+    pub fn one_pair(
+        method: Method,
+        progress: u8,
+        resolution: usize,
+        pair: PairExplanation,
+        embed_ms: f64,
+    ) -> Self {
+        let action = pair.matched;
+        Self {
+            method,
+            primitive: action.primitive,
+            progress,
+            resolution,
+            pairs: vec![pair],
+            chosen: 0,
+            action,
+            embed_ms,
+            correspond_ms: 0.0,
+            ccd_choice: 0,
+            l2cd_choice: 0,
+            excluded: Vec::new(),
+            put_back: Vec::new(),
+            guarded: Vec::new(),
+        }
+    }
+
     /// Where an extension departed from SSR CCD in this decision: each
     /// action whose neighbourhood it masked, why, and the neighbourhood's
     /// half side in metres ([`LOOP_BREAK_RADIUS`], or [`GUARD_RADIUS`] for

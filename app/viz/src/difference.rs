@@ -414,16 +414,7 @@ fn tasks_of(src: &ReviewSource, run: &str) -> crate::error::Result<Vec<TaskId>> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use seespot_ssr::Layout;
-    use std::path::Path;
-
-    fn source() -> ReviewSource {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-        ReviewSource {
-            dir: root.join("results"),
-            layout: Layout::new(root.join("models"), root.join("demos")),
-        }
-    }
+    use crate::review::shipped_source as source;
 
     /// The earliest-parting discordant seed of CCD against L2CD opens on both
     /// sides at the same action, where the two chose differently, after the

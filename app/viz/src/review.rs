@@ -223,16 +223,23 @@ impl ReviewSource {
     }
 }
 
+/// The shipped evaluation (`results/`) with the shipped models and
+/// demonstrations, for the tests of this crate.
+#[cfg(test)]
+pub(crate) fn shipped_source() -> ReviewSource {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    ReviewSource {
+        dir: root.join("results"),
+        layout: Layout::new(root.join("models"), root.join("demos")),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     fn source() -> ReviewSource {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-        ReviewSource {
-            dir: root.join("results"),
-            layout: Layout::new(root.join("models"), root.join("demos")),
-        }
+        shipped_source()
     }
 
     #[test]

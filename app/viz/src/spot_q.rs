@@ -61,35 +61,16 @@ impl Actor for SpotQDecider {
                 }
             })
             .collect();
-        self.decision = Some(Decision {
-            method: Method::SpotQ,
-            primitive,
-            progress: trial.progress(),
-            resolution: h,
-            pairs: vec![PairExplanation {
-                policy: self.policy.name(),
-                demo: 0,
-                demo_step: 0,
-                demo_action: action,
-                l: 0.0,
-                matched: action,
-                rematch: action,
-                rematch_l: 0.0,
-                c: 0.0,
-                c_unit: seespot_ssr::correspond::CUnit::Pixels,
-                match_map,
-                rematch_map: Vec::new(),
-            }],
-            chosen: 0,
-            action,
-            embed_ms: t0.elapsed().as_secs_f64() * 1e3,
-            correspond_ms: 0.0,
-            ccd_choice: 0,
-            l2cd_choice: 0,
-            excluded: Vec::new(),
-            put_back: Vec::new(),
-            guarded: Vec::new(),
-        });
+        let pair =
+            PairExplanation::of_map(self.policy.name(), (0, 0, action), action, 0.0, match_map);
+        let ms = t0.elapsed().as_secs_f64() * 1e3;
+        self.decision = Some(Decision::one_pair(
+            Method::SpotQ,
+            trial.progress(),
+            h,
+            pair,
+            ms,
+        ));
         Ok(action.into())
     }
 }

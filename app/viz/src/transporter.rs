@@ -104,35 +104,20 @@ impl TransporterDecider {
             Primitive::Place => (maps.place.1, maps.place.2),
         };
         let at = match_map[from_grid(gy, h) * h + from_grid(gx, h)];
-        Some(Decision {
-            method: Method::Transporter,
-            primitive: action.primitive,
-            progress,
-            resolution: h,
-            pairs: vec![PairExplanation {
-                policy: self.task.to_string(),
-                demo,
-                demo_step: step,
-                demo_action: self.demos[demo].steps[step].meta.action,
-                l: at,
-                matched: action,
-                rematch: action,
-                rematch_l: 0.0,
-                c: 0.0,
-                c_unit: seespot_ssr::correspond::CUnit::Pixels,
-                match_map,
-                rematch_map: Vec::new(),
-            }],
-            chosen: 0,
+        let pair = PairExplanation::of_map(
+            self.task.to_string(),
+            (demo, step, self.demos[demo].steps[step].meta.action),
             action,
-            embed_ms: ms,
-            correspond_ms: 0.0,
-            ccd_choice: 0,
-            l2cd_choice: 0,
-            excluded: Vec::new(),
-            put_back: Vec::new(),
-            guarded: Vec::new(),
-        })
+            at,
+            match_map,
+        );
+        Some(Decision::one_pair(
+            Method::Transporter,
+            progress,
+            h,
+            pair,
+            ms,
+        ))
     }
 }
 

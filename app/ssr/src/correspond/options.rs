@@ -11,6 +11,30 @@ use serde::{Deserialize, Serialize};
 
 use super::CUnit;
 
+/// A named choice of Correspond, with its derives: serde's names for
+/// records, strum's for the command line and errors (the same lowercase
+/// words), and the reference's choice as its `Default`.
+macro_rules! choice {
+    ($(#[$meta:meta])* pub enum $name:ident { $($body:tt)* }) => {
+        $(#[$meta])*
+        #[derive(
+            Clone,
+            Copy,
+            Debug,
+            Default,
+            PartialEq,
+            Eq,
+            Serialize,
+            Deserialize,
+            strum::IntoStaticStr,
+            strum::VariantArray,
+        )]
+        #[serde(rename_all = "lowercase")]
+        #[strum(serialize_all = "lowercase")]
+        pub enum $name { $($body)* }
+    };
+}
+
 /// A named choice of Correspond: its name (the records', the command
 /// line's) and parsing from it, both from the enum's derive.
 pub trait Named: Copy + Into<&'static str> + strum::VariantArray + 'static {
@@ -51,33 +75,21 @@ named!(
     DemoFeatures => "demo features",
 );
 
-/// Which formulation of Correspond SSR uses.
-#[derive(
-    Clone,
-    Copy,
-    Debug,
-    Default,
-    PartialEq,
-    Eq,
-    Serialize,
-    Deserialize,
-    strum::IntoStaticStr,
-    strum::VariantArray,
-)]
-#[serde(rename_all = "lowercase")]
-#[strum(serialize_all = "lowercase")]
-pub enum Correspondence {
-    /// The reference code's choices ([`mod@super::reference`]): test-time masks per task,
-    /// squared distances smoothed at 6 mm, the rematch unmasked in a 3 cm window
-    /// at the demo's rotation, C in squared 2 mm pixels, ties to the first pair.
-    /// The faithful default, named `ssr-ccd` / `ssr-l2cd` in records.
-    #[default]
-    Reference,
-    /// seespot's first formulation, kept for comparison (records `ssr-ccd-plain`,
-    /// `ssr-l2cd-plain`): the training-time common-sense masks, unsquared
-    /// distances (smoothed only with `smooth_sigma`), the rematch over the whole
-    /// masked demo rotation plane, C in pixels, ties broken by the other distance.
-    Plain,
+choice! {
+    /// Which formulation of Correspond SSR uses.
+    pub enum Correspondence {
+        /// The reference code's choices ([`mod@super::reference`]): test-time masks per task,
+        /// squared distances smoothed at 6 mm, the rematch unmasked in a 3 cm window
+        /// at the demo's rotation, C in squared 2 mm pixels, ties to the first pair.
+        /// The faithful default, named `ssr-ccd` / `ssr-l2cd` in records.
+        #[default]
+        Reference,
+        /// seespot's first formulation, kept for comparison (records `ssr-ccd-plain`,
+        /// `ssr-l2cd-plain`): the training-time common-sense masks, unsquared
+        /// distances (smoothed only with `smooth_sigma`), the rematch over the whole
+        /// masked demo rotation plane, C in pixels, ties broken by the other distance.
+        Plain,
+    }
 }
 
 /// Options of the Correspond step: each formulation with only its own
@@ -157,95 +169,59 @@ impl CorrespondOptions {
     }
 }
 
-/// Where the reference rematch searches, and what C measures.
-///
-/// The reference's `compute_cc_dist` has both: its default (and the paper's
-/// Eq. 7) searches a window around the demonstrated action and measures C
-/// from it; the authors' trial runner (`main.py`) called it with
-/// `neighborhood_match=False`, which searches the whole demo plane and
-/// measures C from the live match F. The default follows the paper.
-#[derive(
-    Clone,
-    Copy,
-    Debug,
-    Default,
-    PartialEq,
-    Eq,
-    Serialize,
-    Deserialize,
-    strum::IntoStaticStr,
-    strum::VariantArray,
-)]
-#[serde(rename_all = "lowercase")]
-#[strum(serialize_all = "lowercase")]
-pub enum Rematch {
-    /// Eq. 7 as the paper writes it (the faithful default): the rematch in
-    /// the window of +/- 3 cm around the demonstrated pixel at the demo
-    /// action's rotation; C is the squared pixel distance from the
-    /// demonstrated action to the rematch.
-    #[default]
-    Window,
-    /// The reference trial runner's pair (records `<method>-global-rematch`):
-    /// the rematch over the whole demo plane at the demo action's rotation
-    /// (smoothed with wrap-around edges); C is the squared pixel distance
-    /// from the live match F to the rematch.
-    Global,
+choice! {
+    /// Where the reference rematch searches, and what C measures.
+    ///
+    /// The reference's `compute_cc_dist` has both: its default (and the paper's
+    /// Eq. 7) searches a window around the demonstrated action and measures C
+    /// from it; the authors' trial runner (`main.py`) called it with
+    /// `neighborhood_match=False`, which searches the whole demo plane and
+    /// measures C from the live match F. The default follows the paper.
+    pub enum Rematch {
+        /// Eq. 7 as the paper writes it (the faithful default): the rematch in
+        /// the window of +/- 3 cm around the demonstrated pixel at the demo
+        /// action's rotation; C is the squared pixel distance from the
+        /// demonstrated action to the rematch.
+        #[default]
+        Window,
+        /// The reference trial runner's pair (records `<method>-global-rematch`):
+        /// the rematch over the whole demo plane at the demo action's rotation
+        /// (smoothed with wrap-around edges); C is the squared pixel distance
+        /// from the live match F to the rematch.
+        Global,
+    }
 }
 
-/// How the reference Correspond smooths its distance maps.
-#[derive(
-    Clone,
-    Copy,
-    Debug,
-    Default,
-    PartialEq,
-    Eq,
-    Serialize,
-    Deserialize,
-    strum::IntoStaticStr,
-    strum::VariantArray,
-)]
-#[serde(rename_all = "lowercase")]
-#[strum(serialize_all = "lowercase")]
-pub enum Smoothing {
-    /// As the reference did ([`mod@super::reference`]): masked actions take part as
-    /// zero embeddings, scipy's kernel and edges, the rematch window cut out
-    /// and wrapped (the faithful default).
-    #[default]
-    Reference,
-    /// seespot's earlier smoothing, a departure kept for comparison (records
-    /// `<method>-normalized`): masked actions left out of their neighbours'
-    /// averages (normalized convolution, radius 3 sigma), and the rematch on
-    /// the demo's real embeddings, its whole plane smoothed before the
-    /// window's argmin.
-    Normalized,
+choice! {
+    /// How the reference Correspond smooths its distance maps.
+    pub enum Smoothing {
+        /// As the reference did ([`mod@super::reference`]): masked actions take part as
+        /// zero embeddings, scipy's kernel and edges, the rematch window cut out
+        /// and wrapped (the faithful default).
+        #[default]
+        Reference,
+        /// seespot's earlier smoothing, a departure kept for comparison (records
+        /// `<method>-normalized`): masked actions left out of their neighbours'
+        /// averages (normalized convolution, radius 3 sigma), and the rematch on
+        /// the demo's real embeddings, its whole plane smoothed before the
+        /// window's argmin.
+        Normalized,
+    }
 }
 
-/// What the reference rematch reads at demo actions outside the demo's
-/// test-time mask.
-#[derive(
-    Clone,
-    Copy,
-    Debug,
-    Default,
-    PartialEq,
-    Eq,
-    Serialize,
-    Deserialize,
-    strum::IntoStaticStr,
-    strum::VariantArray,
-)]
-#[serde(rename_all = "lowercase")]
-#[strum(serialize_all = "lowercase")]
-pub enum DemoFeatures {
-    /// Zero embeddings, as the reference's masked features were (the
-    /// faithful default).
-    #[default]
-    Zeroed,
-    /// The actions' real embeddings (a departure, recorded as
-    /// `<method>-demo-real`): a demonstrated action outside its own mask
-    /// can still be returned to.
-    Real,
+choice! {
+    /// What the reference rematch reads at demo actions outside the demo's
+    /// test-time mask.
+    pub enum DemoFeatures {
+        /// Zero embeddings, as the reference's masked features were (the
+        /// faithful default).
+        #[default]
+        Zeroed,
+        /// The actions' real embeddings (a departure, recorded as
+        /// `<method>-demo-real`): a demonstrated action outside its own mask
+        /// can still be returned to.
+        Real,
+    }
 }
 
 /// Correspond's options as records' settings, `seespot eval`'s flags and
