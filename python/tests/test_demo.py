@@ -39,7 +39,7 @@ def test_a_list_of_actions_remakes_the_shipped_custom_demonstrations(tmp_path: P
 def test_bad_demonstrations_name_what_is_wrong(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="holds no path"):
         seespot.record_demo("custom:../up", 0, [("grasp", 0, 5, 5)], tmp_path / "x")
-    with pytest.raises(ValueError, match="'push' is not 'grasp' or 'place'"):
+    with pytest.raises(ValueError, match="unknown primitive 'push' \\(expected grasp or place\\)"):
         seespot.record_demo("stack", 0, [("push", 0, 5, 5)], tmp_path / "x")
     with pytest.raises(ValueError, match="action 0: .*outside the 224 x 224 workspace"):
         seespot.record_demo("stack", 0, [("grasp", 0, 500, 5)], tmp_path / "x")

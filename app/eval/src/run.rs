@@ -21,8 +21,21 @@ use std::sync::OnceLock;
 use seespot_policy::finetune::FinetuneProcedure;
 use seespot_ssr::correspond::{CUnit, CorrespondOptions, DemoFeatures, Rematch, Smoothing};
 
-/// A method of the evaluation table.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+/// A method of the evaluation table; its name (`ssr-ccd`, ...) is the
+/// records' and the command line's.
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    PartialEq,
+    Eq,
+    Hash,
+    PartialOrd,
+    Ord,
+    strum::IntoStaticStr,
+    strum::VariantArray,
+)]
+#[strum(serialize_all = "kebab-case")]
 pub enum EvalMethod {
     /// SSR acting on the smallest cycle consistency distance (Eq. 8).
     SsrCcd,
@@ -30,11 +43,13 @@ pub enum EvalMethod {
     SsrL2cd,
     /// seespot's extension, not the paper's: SSR CCD that does not repeat an
     /// action which left the scene unchanged ([`seespot_ssr::policy::LOOP_BREAK_RADIUS`]).
+    #[strum(serialize = "ssr-ccd-loopbreak")]
     SsrCcdLoopBreak,
     /// seespot's extension, not the paper's: loop breaking, and a grasp whose
     /// block was put back where it was (the scene changed by less than one
     /// block's footprint since that grasp, progress unchanged) is not taken
     /// again while progress stays ([`seespot_ssr::policy::PutBack`]).
+    #[strum(serialize = "ssr-ccd-noloops")]
     SsrCcdNoLoops,
     /// seespot's extension, not the paper's: loop and put-back breaking,
     /// and no grasp on a block whose removal would lower progress
@@ -65,22 +80,9 @@ impl EvalMethod {
         Self::Transporter,
     ];
 
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::SsrCcd => "ssr-ccd",
-            Self::SsrL2cd => "ssr-l2cd",
-            Self::SsrCcdLoopBreak => "ssr-ccd-loopbreak",
-            Self::SsrCcdNoLoops => "ssr-ccd-noloops",
-            Self::SsrCcdGuarded => "ssr-ccd-guarded",
-            Self::SpotQ => "spot-q",
-            Self::Oracle => "oracle",
-            Self::Random => "random",
-            Self::Transporter => "transporter",
-        }
-    }
-
+    /// The method named `s`, if any.
     pub fn parse(s: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|m| m.as_str() == s)
+        s.parse().ok()
     }
 
     /// How See-SPOT-Run runs as this method with `correspond`: CCD (also
@@ -122,19 +124,7 @@ impl EvalMethod {
     }
 }
 
-impl std::str::FromStr for EvalMethod {
-    type Err = String;
-
-    /// A method's id, or an error listing every method's.
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Self::parse(s).ok_or_else(|| {
-            format!(
-                "unknown method '{s}' (expected {})",
-                Self::ALL.map(|m| m.as_str()).join(", ")
-            )
-        })
-    }
-}
+seespot_sim::named_choice!(EvalMethod, "method");
 
 /// How SSR's correspondence departs from the reference code's Correspond, as
 /// far as it makes a run different (settings that do not, such as the plain

@@ -53,9 +53,21 @@ pub const SNAPSHOT_WINDOW: usize = 5;
 
 /// How a policy is finetuned on demonstrations (see the module docs).
 #[derive(
-    Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize,
+    Clone,
+    Copy,
+    Debug,
+    PartialEq,
+    Eq,
+    Hash,
+    PartialOrd,
+    Ord,
+    serde::Serialize,
+    serde::Deserialize,
+    strum::IntoStaticStr,
+    strum::VariantArray,
 )]
 #[serde(rename_all = "kebab-case")]
+#[strum(serialize_all = "kebab-case")]
 pub enum FinetuneProcedure {
     /// The reference code's: SGD, one transition per step, bootstrapped
     /// labels, the best 25-step snapshot.
@@ -66,27 +78,9 @@ pub enum FinetuneProcedure {
 
 impl FinetuneProcedure {
     pub const ALL: [Self; 2] = [Self::Reference, Self::Adam];
-
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Reference => "reference",
-            Self::Adam => "adam",
-        }
-    }
 }
 
-impl std::str::FromStr for FinetuneProcedure {
-    type Err = String;
-
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Self::ALL
-            .into_iter()
-            .find(|p| p.as_str() == s)
-            .ok_or_else(|| {
-                format!("unknown finetuning procedure '{s}' (expected reference or adam)")
-            })
-    }
-}
+seespot_sim::named_choice!(FinetuneProcedure, "finetuning procedure");
 
 /// The label of a demonstrated transition in the reference procedure.
 #[derive(

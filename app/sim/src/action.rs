@@ -6,32 +6,31 @@ use serde::{Deserialize, Serialize};
 pub const NUM_ROTATIONS: usize = 16;
 
 /// The two motion primitives.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, PartialOrd, Ord)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    PartialEq,
+    Eq,
+    Hash,
+    Serialize,
+    Deserialize,
+    PartialOrd,
+    Ord,
+    strum::IntoStaticStr,
+    strum::VariantArray,
+)]
 #[serde(rename_all = "kebab-case")]
+#[strum(serialize_all = "kebab-case")]
 pub enum Primitive {
     Grasp,
     Place,
 }
 
-impl std::str::FromStr for Primitive {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Self::ALL
-            .into_iter()
-            .find(|p| p.as_str() == s)
-            .ok_or_else(|| format!("'{s}' is not 'grasp' or 'place'"))
-    }
-}
+crate::named_choice!(Primitive, "primitive");
 
 impl Primitive {
     pub const ALL: [Primitive; 2] = [Primitive::Grasp, Primitive::Place];
-
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Primitive::Grasp => "grasp",
-            Primitive::Place => "place",
-        }
-    }
 
     /// Index into per-primitive arrays: grasp 0, place 1.
     pub fn index(self) -> usize {

@@ -271,6 +271,36 @@ fn human_bytes(n: u64) -> String {
     }
 }
 
+/// A named choice's `as_str` and `FromStr`, from its strum derives
+/// (`strum::IntoStaticStr` and `strum::VariantArray`, with the names its
+/// `#[strum(...)]` attributes give): the name records and the command line
+/// use, and parsing with an error that names `what` was looked for and the
+/// choices ([`parse_named`]).
+#[macro_export]
+macro_rules! named_choice {
+    ($t:ty, $what:literal) => {
+        impl $t {
+            /// The choice's name, as records and the command line spell it.
+            pub fn as_str(self) -> &'static str {
+                self.into()
+            }
+        }
+
+        impl std::str::FromStr for $t {
+            type Err = String;
+
+            fn from_str(s: &str) -> Result<Self, String> {
+                $crate::bounds::parse_named(
+                    s,
+                    <$t as strum::VariantArray>::VARIANTS,
+                    |v| v.into(),
+                    $what,
+                )
+            }
+        }
+    };
+}
+
 /// The one of `all` called `s` by `name`, or an error that names `what` was
 /// looked for and the choices (a named setting's `FromStr`).
 pub fn parse_named<T: Copy>(

@@ -23,8 +23,20 @@ pub const VALIDATION_START: u64 = 10_001;
 pub const SEED_STEP: u64 = 2;
 
 /// Which purpose a seed serves.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    PartialEq,
+    Eq,
+    Hash,
+    Serialize,
+    Deserialize,
+    strum::IntoStaticStr,
+    strum::VariantArray,
+)]
 #[serde(rename_all = "kebab-case")]
+#[strum(serialize_all = "kebab-case")]
 pub enum Split {
     /// Even seeds: training trials and the recorded demonstrations.
     Train,
@@ -54,31 +66,13 @@ impl Split {
             Self::Validation => VALIDATION_START,
         }
     }
-
-    /// The kebab-case name used on the command line and in files.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Train => "train",
-            Self::Test => "test",
-            Self::Validation => "validation",
-        }
-    }
 }
+
+crate::named_choice!(Split, "split");
 
 impl std::fmt::Display for Split {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.as_str())
-    }
-}
-
-impl std::str::FromStr for Split {
-    type Err = String;
-
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        [Self::Train, Self::Test, Self::Validation]
-            .into_iter()
-            .find(|x| x.as_str() == s)
-            .ok_or_else(|| format!("unknown split '{s}' (expected train, test or validation)"))
     }
 }
 

@@ -4,8 +4,20 @@
 use serde::Serialize;
 
 /// One phase of an SSR decision.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    PartialEq,
+    Eq,
+    PartialOrd,
+    Ord,
+    Serialize,
+    strum::IntoStaticStr,
+    strum::VariantArray,
+)]
 #[serde(rename_all = "kebab-case")]
+#[strum(serialize_all = "kebab-case")]
 pub enum Phase {
     Embed,
     Match,
@@ -15,13 +27,6 @@ pub enum Phase {
 
 impl Phase {
     pub const ALL: [Phase; 4] = [Phase::Embed, Phase::Match, Phase::Verify, Phase::Act];
-
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Phase::Embed => "embed",
-            Phase::Match => "match",
-            Phase::Verify => "verify",
-            Phase::Act => "act",
-        }
-    }
 }
+
+seespot_sim::named_choice!(Phase, "phase");

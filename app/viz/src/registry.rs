@@ -17,8 +17,11 @@ pub type DeciderFactory =
     Box<dyn Fn(TaskId, WorldConfig) -> crate::error::Result<(Box<dyn Decider>, String)> + Send>;
 
 /// Which decider drives the trial.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, Serialize, strum::IntoStaticStr, strum::VariantArray,
+)]
 #[serde(rename_all = "kebab-case")]
+#[strum(serialize_all = "kebab-case")]
 pub enum DeciderKind {
     /// See-SPOT-Run with the shipped policies (`<models>/<task>.safetensors`)
     /// and demonstrations; an error naming the file if one is missing.
@@ -34,8 +37,6 @@ pub enum DeciderKind {
 }
 
 impl DeciderKind {
-    pub const ALL: [Self; 4] = [Self::Ssr, Self::Features, Self::Oracle, Self::Transporter];
-
     /// The decider that runs an evaluation method's trials in the debugger
     /// (replays, `eval --record failed`); `None` for the methods it cannot
     /// run (SPOT-Q, random).
@@ -47,30 +48,9 @@ impl DeciderKind {
             _ => None,
         }
     }
-
-    /// The kebab-case name used on the command line.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Ssr => "ssr",
-            Self::Features => "features",
-            Self::Oracle => "oracle",
-            Self::Transporter => "transporter",
-        }
-    }
 }
 
-impl std::str::FromStr for DeciderKind {
-    type Err = String;
-
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Self::ALL
-            .into_iter()
-            .find(|k| k.as_str() == s)
-            .ok_or_else(|| {
-                format!("unknown decider '{s}' (expected ssr, features, oracle or transporter)")
-            })
-    }
-}
+seespot_sim::named_choice!(DeciderKind, "decider");
 
 /// The decider factory for `kind`, reading models and demos from `layout`.
 pub fn factory(kind: DeciderKind, layout: Layout) -> DeciderFactory {

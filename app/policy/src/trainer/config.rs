@@ -4,7 +4,6 @@
 use super::*;
 use crate::net::Trunk;
 use seespot_sim::TaskId;
-use seespot_sim::bounds::parse_named;
 use serde::{Deserialize, Serialize};
 
 /// Everything that defines a training run.
@@ -55,8 +54,20 @@ pub struct TrainConfig {
 }
 
 /// How a run's exploration epsilon decays with its actions.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    Serialize,
+    Deserialize,
+    strum::IntoStaticStr,
+    strum::VariantArray,
+)]
 #[serde(rename_all = "kebab-case")]
+#[strum(serialize_all = "kebab-case")]
 pub enum EpsilonDecay {
     /// Linearly from `epsilon_start` to `epsilon_end` over `decay_actions`,
     /// then `epsilon_end`: seespot's own schedule.
@@ -68,31 +79,24 @@ pub enum EpsilonDecay {
     Reference,
 }
 
-impl EpsilonDecay {
-    pub const ALL: [Self; 2] = [Self::Linear, Self::Reference];
-
-    /// Its name on the command line and in a run's state.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Linear => "linear",
-            Self::Reference => "reference",
-        }
-    }
-}
-
-impl std::str::FromStr for EpsilonDecay {
-    type Err = String;
-
-    /// A schedule's name, or an error listing every schedule's.
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        parse_named(s, &Self::ALL, Self::as_str, "epsilon decay")
-    }
-}
+seespot_sim::named_choice!(EpsilonDecay, "epsilon decay");
 
 /// What the last action of a training trial is worth in its SPOT trial
 /// reward ([`crate::reward::trial_rewards`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    Serialize,
+    Deserialize,
+    strum::IntoStaticStr,
+    strum::VariantArray,
+)]
 #[serde(rename_all = "kebab-case")]
+#[strum(serialize_all = "kebab-case")]
 pub enum TrialRewardEnd {
     /// Its own step reward: seespot's.
     #[default]
@@ -103,32 +107,15 @@ pub enum TrialRewardEnd {
     Reference,
 }
 
+seespot_sim::named_choice!(TrialRewardEnd, "trial reward end");
+
 impl TrialRewardEnd {
-    pub const ALL: [Self; 2] = [Self::Once, Self::Reference];
-
-    /// Its name on the command line and in a run's state.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Once => "once",
-            Self::Reference => "reference",
-        }
-    }
-
     /// How many times the last action's step reward counts.
     pub fn last_weight(self) -> f32 {
         match self {
             Self::Once => 1.0,
             Self::Reference => 2.0,
         }
-    }
-}
-
-impl std::str::FromStr for TrialRewardEnd {
-    type Err = String;
-
-    /// A setting's name, or an error listing every setting's.
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        parse_named(s, &Self::ALL, Self::as_str, "trial reward end")
     }
 }
 

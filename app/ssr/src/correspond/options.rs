@@ -6,7 +6,6 @@
 //! formulation) once. The options' names come from one derive (serde for
 //! records, strum for the names the command line and errors use).
 
-use seespot_sim::bounds::parse_named;
 use serde::{Deserialize, Serialize};
 
 use super::CUnit;
@@ -35,45 +34,10 @@ macro_rules! choice {
     };
 }
 
-/// A named choice of Correspond: its name (the records', the command
-/// line's) and parsing from it, both from the enum's derive.
-pub trait Named: Copy + Into<&'static str> + strum::VariantArray + 'static {
-    /// What the choice is called in errors ("rematch", ...).
-    const WHAT: &'static str;
-
-    fn as_str(self) -> &'static str {
-        self.into()
-    }
-
-    /// The choice called `s`, or an error naming the choices.
-    fn parse(s: &str) -> Result<Self, String> {
-        parse_named(s, Self::VARIANTS, |v| v.into(), Self::WHAT)
-    }
-}
-
-/// `FromStr` (for the command line) and [`Named`] of a choice.
-macro_rules! named {
-    ($($t:ty => $what:literal),+ $(,)?) => {$(
-        impl Named for $t {
-            const WHAT: &'static str = $what;
-        }
-
-        impl std::str::FromStr for $t {
-            type Err = String;
-
-            fn from_str(s: &str) -> Result<Self, String> {
-                <Self as Named>::parse(s)
-            }
-        }
-    )+};
-}
-
-named!(
-    Correspondence => "correspondence",
-    Rematch => "rematch",
-    Smoothing => "smoothing",
-    DemoFeatures => "demo features",
-);
+seespot_sim::named_choice!(Correspondence, "correspondence");
+seespot_sim::named_choice!(Rematch, "rematch");
+seespot_sim::named_choice!(Smoothing, "smoothing");
+seespot_sim::named_choice!(DemoFeatures, "demo features");
 
 choice! {
     /// Which formulation of Correspond SSR uses.
