@@ -23,13 +23,17 @@
 //! By default Correspond is computed as the reference code did
 //! ([`correspond::reference`]: test-time masks per task, smoothed squared
 //! distances, a windowed unmasked rematch, C in squared 2 mm pixels, ties to the
-//! first pair); [`Correspondence::Plain`] keeps seespot's first formulation (ties
+//! first pair); [`crate::correspond::Correspondence::Plain`] keeps seespot's first formulation (ties
 //! broken by the other distance). Pairs are ordered by policy (in `TaskId::ALL`
 //! order) then demo. Masked actions never match. Embeddings are kept at the
 //! trunk's cells ([`CellAse`]); the plain formulation rebuilds full
 //! [`seespot_policy::AseMap`]s from them.
 
+mod choose;
+mod guard;
 mod put_back;
+pub use choose::{choose, chosen_pair};
+pub use guard::guarded_blocks;
 pub use put_back::PutBack;
 
 use std::collections::HashMap;
@@ -37,10 +41,10 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use seespot_policy::{CellAse, Embedder, PolicyError};
-use seespot_sim::actor::{Actor, ActorError, Choice, ChosenPair};
+use seespot_sim::actor::{Actor, ActorError, Choice};
 use seespot_sim::{Action, Demo, DemoError, Heightmaps, Primitive, TaskId, Trial};
 
-use crate::correspond::{self, CorrespondOptions, Correspondence};
+use crate::correspond::{self, CorrespondOptions};
 use crate::explain::{Decision, Method, PairExplanation};
 pub use crate::layout::DEMO_SEEDS;
 use crate::layout::Layout;
@@ -679,37 +683,6 @@ pub fn demo_step(demo: &Demo, progress: u8, primitive: Primitive) -> Option<usiz
         .copied()
 }
 
-/// **Reversal guard (seespot's extension, not the paper's):** the blocks a
-/// grasp must leave alone in `trial`'s scene, as grasps at their centres:
-/// those whose removal from the table would lower the progress SSR already
-/// reads (the task's measure of the blocks on the table, as the trial computes
-/// it). Taking one of them is a progress reversal before it happens: a block
-/// lifted out of the stack, the row or the square built so far. Unlike the
-/// paper's method, it asks the progress measure about a scene it has not
-/// seen (the scene without that block); the records name it as its own method.
-pub fn guarded_blocks(trial: &Trial, task: TaskId) -> Vec<Action> {
-    let world = trial.world();
-    let poses = world.block_poses();
-    let held = world.held_block();
-    let on_table: Vec<(usize, seespot_sim::BlockPose)> = poses
-        .iter()
-        .copied()
-        .enumerate()
-        .filter(|(i, _)| Some(*i) != held)
-        .collect();
-    let now = task.progress_of(&on_table);
-    let grid = world.grid();
-    on_table
-        .iter()
-        .filter(|(i, _)| {
-            let without: Vec<_> = on_table.iter().copied().filter(|(j, _)| j != i).collect();
-            task.progress_of(&without) < now
-        })
-        .filter_map(|(_, p)| grid.world_to_pixel(p.position[0], p.position[1]))
-        .map(|(y, x)| Action::new(Primitive::Grasp, 0, y, x))
-        .collect()
-}
-
 /// See-SPOT-Run as an [`Actor`]: each choice is a full [`SsrPolicy::decide`],
 /// whose explanation record stays available as [`SsrPolicy::last_decision`].
 impl Actor for SsrPolicy {
@@ -779,92 +752,5 @@ impl Actor for SsrPolicy {
                 self.config.correspond.mode(),
             )),
         })
-    }
-}
-
-/// What a record keeps of the pair `chosen` that `method` acted on: its policy,
-/// demonstration, L and C, and the action the other distance would have taken
-/// in the same state (for counting how often SSR CCD and SSR L2CD differ).
-pub fn chosen_pair(
-    pairs: &[PairExplanation],
-    chosen: usize,
-    method: Method,
-    mode: Correspondence,
-) -> ChosenPair {
-    let other = match method {
-        Method::SsrCcd => Method::SsrL2cd,
-        Method::SsrL2cd => Method::SsrCcd,
-        Method::Transporter => Method::Transporter,
-        Method::SpotQ => Method::SpotQ,
-    };
-    let p = &pairs[chosen];
-    ChosenPair {
-        policy: p.policy.clone(),
-        demo: p.demo,
-        l: p.l,
-        c: p.c,
-        other_method_action: pairs.get(choose(pairs, other, mode)).map(|o| o.matched),
-    }
-}
-
-/// The pair SSR acts on (Eq. 8 for CCD, Eq. 9 for L2CD). Ties: with the
-/// reference correspondence the first pair in (policy, demo) order (numpy's
-/// argmin); with the plain one the other distance first, then the first pair.
-pub fn choose(pairs: &[PairExplanation], method: Method, mode: Correspondence) -> usize {
-    let second = |x: f32| match mode {
-        Correspondence::Reference => 0.0,
-        Correspondence::Plain => x,
-    };
-    let key = |p: &PairExplanation| match method {
-        Method::SsrCcd => (p.c, second(p.l)),
-        Method::SsrL2cd | Method::Transporter | Method::SpotQ => (p.l, second(p.c)),
-    };
-    let mut best = 0;
-    for (i, p) in pairs.iter().enumerate() {
-        let (a, b) = key(p);
-        let (ba, bb) = key(&pairs[best]);
-        if a.total_cmp(&ba).then(b.total_cmp(&bb)).is_lt() {
-            best = i;
-        }
-    }
-    best
-}
-
-#[cfg(test)]
-mod guard_tests {
-    use super::*;
-    use seespot_sim::{BlockPose, World, WorldConfig};
-
-    /// In a stack of two, the block on top is guarded (lifting it lowers the
-    /// stack's progress); the two blocks on the table beside it are not.
-    #[test]
-    fn the_block_on_top_of_a_stack_is_guarded_and_free_blocks_are_not() {
-        let poses = [
-            BlockPose::on_table(0.0, 0.0, 0, 0.0),
-            BlockPose::on_table(0.0, 0.0, 1, 0.0),
-            BlockPose::on_table(0.12, 0.1, 0, 0.0),
-            BlockPose::on_table(-0.12, -0.1, 0, 0.0),
-        ];
-        let config = WorldConfig::default();
-        let trial = Trial::from_world(
-            World::from_poses(config, &poses, 1),
-            TaskId::Stack,
-            1,
-            seespot_sim::task::MAX_TRIAL_ACTIONS,
-        );
-        assert_eq!(trial.progress(), 2);
-        let guarded = guarded_blocks(&trial, TaskId::Stack);
-        let grid = config.grid;
-        let pixel = |p: &BlockPose| grid.world_to_pixel(p.position[0], p.position[1]);
-        let at = |p: &BlockPose| {
-            let (y, x) = pixel(p).expect("on the grid");
-            guarded
-                .iter()
-                .any(|a| a.y.abs_diff(y) <= 2 && a.x.abs_diff(x) <= 2)
-        };
-        assert!(at(&poses[1]), "the top of the stack: {guarded:?}");
-        assert!(!at(&poses[2]) && !at(&poses[3]), "free blocks: {guarded:?}");
-        // Unstack's progress rises as the tower comes down: nothing guarded.
-        assert!(guarded_blocks(&trial, TaskId::Unstack).is_empty());
     }
 }
