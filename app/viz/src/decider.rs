@@ -5,7 +5,7 @@
 //! ([`seespot_ssr::SsrPolicy`], the default), the scripted oracle (no
 //! explanation), and [`FeatureDecider`], SSR's loop over handcrafted features.
 
-use crate::error::{FilesContext as _, Required as _};
+use crate::error::{Context as _, Required as _};
 use std::time::Instant;
 
 use seespot_policy::AseMap;

@@ -13,7 +13,7 @@
 //! that one: the state and the frame of that action's Act phase (the decision
 //! with its pairs, L and C, on the scene it was made on).
 
-use crate::error::{FilesContext as _, Required as _};
+use crate::error::{Context as _, Required as _};
 use seespot_eval::diverge::{Divergence, divergences, first_difference};
 use seespot_eval::records::read_records;
 use seespot_sim::{Action, TaskId, TrialRecord};
@@ -143,18 +143,21 @@ fn record_of(
 }
 
 /// Replays `record` of `run` through action `upto` (or its end), checking
-/// each replayed action against the recorded one.
+/// each replayed action against the recorded one; logged to `recorder`
+/// when given.
 fn replay_run(
     src: &ReviewSource,
     run: &str,
     record: TrialRecord,
     upto: usize,
+    recorder: Option<crate::recording::Recorder>,
 ) -> crate::error::Result<Run> {
     let (task, seed) = (record.task, record.seed);
     let replay = src.replay(run, task, seed)?;
     let world = replay.world();
     let summary = replay.summary.clone();
-    let mut session = Session::new(replay.factory, SessionConfig { task, seed, world }, None)?;
+    let config = SessionConfig { task, seed, world };
+    let mut session = Session::new(replay.factory, config, recorder)?;
     session.mark_replay(summary);
     while !session.ended() && session.trial().steps().len() <= upto {
         let i = session.trial().steps().len();
@@ -176,12 +179,9 @@ fn replay_run(
     })
 }
 
-/// The history index of action `action`'s Act phase in `s`, if kept.
+/// The history index of action `action`'s (from 0) Act phase in `s`, if kept.
 fn act_phase(s: &Session, action: usize) -> Option<usize> {
-    let h = s.state().history?;
-    h.phases
-        .iter()
-        .position(|p| p.action_number == action + 1 && p.phase == Phase::Act)
+    s.phase_index(action + 1, Phase::Act)
 }
 
 impl Difference {
@@ -198,8 +198,8 @@ impl Difference {
             format!("{a} and {b} took the same actions on {task} seed {seed}: nothing to compare")
         })?;
         let (mut a, mut b) = (
-            replay_run(sa, run_a, ra, part)?,
-            replay_run(sb, run_b, rb, part)?,
+            replay_run(sa, run_a, ra, part, None)?,
+            replay_run(sb, run_b, rb, part, None)?,
         );
         // The page names each run as it was asked for.
         (a.name, b.name) = (pairing.a.clone(), pairing.b.clone());
@@ -214,13 +214,6 @@ impl Difference {
     /// Which two trials these are.
     pub fn pairing(&self) -> &Pairing {
         &self.pairing
-    }
-
-    fn run(&self, side: Side) -> &Run {
-        match side {
-            Side::A => &self.a,
-            Side::B => &self.b,
-        }
     }
 
     fn run_mut(&mut self, side: Side) -> &mut Run {
@@ -241,7 +234,7 @@ impl Difference {
                 .actions_log
                 .get(self.first_difference)
                 .map(|l| l.action),
-            decider: r.session.state().decider,
+            decider: r.session.decider_name(),
         };
         let kept = |r: &Run| {
             (0..=self.first_difference)
@@ -295,15 +288,6 @@ impl Difference {
             frame,
         })
     }
-
-    /// The actions both sides took before they part (the same on each).
-    pub fn common_actions(&self) -> Vec<Action> {
-        let r = self.run(Side::A);
-        r.session.trial().steps()[..self.first_difference]
-            .iter()
-            .map(|s| s.action)
-            .collect()
-    }
 }
 
 /// One run's trial as [`record_both`] recorded it.
@@ -336,36 +320,16 @@ pub fn record_both(
     let record = |name: &str| -> crate::error::Result<RecordedRun> {
         let (src, run) = resolve(sources, name)?;
         let rec = record_of(src, run, *task, *seed)?;
-        let replay = src.replay(run, *task, *seed)?;
-        let world = replay.world();
         let entities = crate::paths::run(name);
         let recorder = crate::recording::Recorder::under(stream.clone(), entities.clone());
-        let config = SessionConfig {
-            task: *task,
-            seed: *seed,
-            world,
-        };
-        let mut session = Session::new(replay.factory, config, Some(recorder))?;
-        while !session.ended() {
-            session.next_phase()?;
-        }
-        let got: Vec<Action> = session.trial().steps().iter().map(|s| s.action).collect();
-        let want: Vec<Action> = rec.actions_log.iter().map(|l| l.action).collect();
-        if got != want {
-            let at = (0..got.len().max(want.len()))
-                .find(|&k| got.get(k) != want.get(k))
-                .unwrap_or(0);
-            crate::refuse!(
-                "the replay of {run} on {task} seed {seed} parts from its record at action {}: the models or demonstrations changed since the evaluation",
-                at + 1
-            );
-        }
-        drop(session.take_recorder());
+        let mut replayed = replay_run(src, run, rec, usize::MAX, Some(recorder))?;
+        drop(replayed.session.take_recorder());
+        let trial = replayed.session.trial();
         Ok(RecordedRun {
             run: name.to_owned(),
             entities,
-            actions: got.len(),
-            success: session.trial().succeeded(),
+            actions: trial.steps().len(),
+            success: trial.succeeded(),
         })
     };
     let both = [record(a)?, record(b)?];
@@ -383,11 +347,16 @@ pub fn discordant(
     a: &str,
     b: &str,
 ) -> crate::error::Result<Vec<Divergence>> {
+    // Every task's records of the run: the folder is listed once.
     let files = |name: &str| -> crate::error::Result<Vec<TrialRecord>> {
         let (src, run) = resolve(sources, name)?;
+        let listed = src.listed_files()?;
         let mut out = Vec::new();
-        for task in tasks_of(src, run)? {
-            out.extend(read_records(&src.records_file(run, task)?)?);
+        for task in TaskId::ALL.into_iter().chain(src.layout.custom_tasks()) {
+            let file = seespot_ssr::layout::records_path(&src.dir, run, task);
+            if listed.contains(&file) {
+                out.extend(read_records(&file)?);
+            }
         }
         Ok(out)
     };
@@ -398,17 +367,6 @@ pub fn discordant(
         crate::refuse!("{}: no records of `{run}`", src.dir.display());
     }
     Ok(divergences(&ra, &rb))
-}
-
-/// The tasks `run` has records of in the review's folder.
-fn tasks_of(src: &ReviewSource, run: &str) -> crate::error::Result<Vec<TaskId>> {
-    let mut tasks: Vec<TaskId> = TaskId::ALL
-        .into_iter()
-        .chain(src.layout.custom_tasks())
-        .filter(|&t| src.records_file(run, t).is_ok())
-        .collect();
-    tasks.dedup();
-    Ok(tasks)
 }
 
 #[cfg(test)]
@@ -459,7 +417,12 @@ mod tests {
                 .collect::<Vec<_>>()
         };
         assert_eq!(before(&va), before(&vb));
-        assert_eq!(before(&va), diff.common_actions());
+        let recorded = record_of(&src, "ssr-ccd", d.task, d.seed).expect("record");
+        let recorded: Vec<Action> = recorded.actions_log[..d.action_index]
+            .iter()
+            .map(|l| l.action)
+            .collect();
+        assert_eq!(before(&va), recorded);
         let err = diff
             .view(Side::A, d.action_index + 1, None)
             .expect_err("past");

@@ -94,23 +94,17 @@ fn join(outer: &str, inner: &str) -> String {
 /// `Result` with [`VizError`].
 pub type Result<T, E = VizError> = std::result::Result<T, E>;
 
-/// Reading files: an error of another crate becomes [`VizError::Files`]
-/// with a context; a [`VizError`] keeps its kind and gets the context.
-pub trait FilesContext<T> {
+/// An error of any crate under a context, as the kind the method names
+/// (`files` for reading models, demonstrations and records, `deciding` for
+/// a decision or an action, `recording` for rerun); a [`VizError`] keeps its
+/// own kind and gets the context.
+pub trait Context<T> {
     fn files(self, context: impl FnOnce() -> String) -> Result<T>;
-}
-
-/// Deciding and acting: an error becomes [`VizError::Decide`].
-pub trait DecideContext<T> {
     fn deciding(self, context: impl FnOnce() -> String) -> Result<T>;
-}
-
-/// Recording: an error becomes [`VizError::Recording`].
-pub trait RecordingContext<T> {
     fn recording(self, context: impl FnOnce() -> String) -> Result<T>;
 }
 
-impl<T, E: Into<Source>> FilesContext<T> for std::result::Result<T, E> {
+impl<T, E: Into<Source>> Context<T> for std::result::Result<T, E> {
     fn files(self, context: impl FnOnce() -> String) -> Result<T> {
         self.map_err(|e| {
             wrap(e.into(), context(), |context, source| VizError::Files {
@@ -119,9 +113,7 @@ impl<T, E: Into<Source>> FilesContext<T> for std::result::Result<T, E> {
             })
         })
     }
-}
 
-impl<T, E: Into<Source>> DecideContext<T> for std::result::Result<T, E> {
     fn deciding(self, context: impl FnOnce() -> String) -> Result<T> {
         self.map_err(|e| {
             wrap(e.into(), context(), |context, source| VizError::Decide {
@@ -130,9 +122,7 @@ impl<T, E: Into<Source>> DecideContext<T> for std::result::Result<T, E> {
             })
         })
     }
-}
 
-impl<T, E: Into<Source>> RecordingContext<T> for std::result::Result<T, E> {
     fn recording(self, context: impl FnOnce() -> String) -> Result<T> {
         self.map_err(|e| {
             wrap(e.into(), context(), |context, source| VizError::Recording {

@@ -2,7 +2,7 @@
 //! the rerun web viewer), `record` (one `.rrd` per trial) and the latency and
 //! size benchmarks.
 
-use crate::error::{FilesContext as _, Required as _};
+use crate::error::{Context as _, Required as _};
 use std::net::{IpAddr, Ipv4Addr, SocketAddr, TcpListener as StdListener};
 use std::path::PathBuf;
 use std::sync::Arc;

@@ -6,7 +6,7 @@
 //! to `u16` (`DepthImage` with a `meter` scale and a colormap); depth heightmaps
 //! are `u16` in units of 0.1 mm. A 224 px trial of ~10 actions is a few MB.
 
-use crate::error::RecordingContext as _;
+use crate::error::Context as _;
 use std::path::{Path, PathBuf};
 
 use rerun::blueprint::{

@@ -9,7 +9,7 @@
 //! looked up among the files the review lists, so no path from a request ever
 //! reaches the file system.
 
-use crate::error::{FilesContext as _, Required as _};
+use crate::error::{Context as _, Required as _};
 use std::path::{Path, PathBuf};
 
 use seespot_eval::records::records_files;
@@ -159,12 +159,18 @@ pub struct ReviewSource {
 }
 
 impl ReviewSource {
+    /// Every records file the review lists (built-in and custom tasks').
+    pub fn listed_files(&self) -> crate::error::Result<Vec<PathBuf>> {
+        let mut files = records_files(&self.dir)?;
+        files.extend(seespot_eval::records::custom_records_files(&self.dir)?);
+        Ok(files)
+    }
+
     /// The records file of `method` on `task`, if the review lists one.
     pub fn records_file(&self, method: &str, task: TaskId) -> crate::error::Result<PathBuf> {
         let want = seespot_ssr::layout::records_path(&self.dir, method, task);
-        records_files(&self.dir)?
+        self.listed_files()?
             .into_iter()
-            .chain(seespot_eval::records::custom_records_files(&self.dir)?)
             .find(|f| *f == want)
             .required(|| {
                 format!(

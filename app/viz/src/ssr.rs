@@ -1,7 +1,7 @@
 //! Loading See-SPOT-Run for the debugger (the [`crate::decider::Decider`]
 //! implementation of [`SsrPolicy`] is in `decider.rs`).
 
-use crate::error::FilesContext as _;
+use crate::error::Context as _;
 use seespot_sim::{TaskId, WorldConfig};
 use seespot_ssr::{Layout, SsrConfig, SsrPolicy};
 

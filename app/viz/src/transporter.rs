@@ -8,7 +8,7 @@
 //! `L` is that map's value at the action (0) and `C` is 0. There is no
 //! rematch: the rematch map stays empty.
 
-use crate::error::FilesContext as _;
+use crate::error::Context as _;
 use std::time::Instant;
 
 use seespot_policy::transporter::{TransporterMaps, from_grid, to_grid};

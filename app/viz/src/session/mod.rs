@@ -420,6 +420,20 @@ impl Session {
         ))
     }
 
+    /// The history index of the kept phase `phase` of action `action_number`
+    /// (counted from 1, as the state's `action_number`), if still kept: the
+    /// index [`Self::goto`] takes.
+    pub fn phase_index(&self, action_number: usize, phase: Phase) -> Option<usize> {
+        self.history
+            .iter()
+            .position(|h| h.state.action_number == action_number && h.phase == phase)
+    }
+
+    /// The decider's name, as the state names it.
+    pub fn decider_name(&self) -> String {
+        self.decider.name()
+    }
+
     /// Time travel: shows phase `index` of this trial's history (0 = the first
     /// phase shown) exactly as it was shown live, until [`Self::go_live`] or the
     /// next step.
