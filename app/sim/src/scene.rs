@@ -91,7 +91,7 @@ struct SceneFile {
     blocks: Option<Spanned<Vec<Spanned<BlockFile>>>>,
 }
 
-#[derive(Deserialize, Serialize)]
+#[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SeedsFile {
     start: Spanned<i64>,
