@@ -97,7 +97,7 @@ def _png(data: bytes) -> np.ndarray:
 def demo_dirs(demos: Path) -> list[Path]:
     """Every demonstration folder of a demonstrations folder, in path order:
     ``<task>/<seed>/`` and ``custom/NAME/<n>/`` (other sets kept inside it,
-    such as ``paper-scale/``, are demonstrations folders of their own)."""
+    such as ``112px/``, are demonstrations folders of their own)."""
     builtin = [p.parent for p in demos.glob("*/*/meta.json") if p.parent.parent.name != "custom"]
     custom = [p.parent for p in demos.glob("custom/*/*/meta.json")]
     found = sorted(builtin + custom)

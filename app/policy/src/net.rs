@@ -43,9 +43,8 @@ pub struct ConvSpec {
 }
 
 /// Which trunk a Q-network has: the five convolutions above, conv5 dilated
-/// by `conv5_dilation` (8 in the shipped policies, 1 in the earlier sets:
-/// `models/oracle-guided/`, `models/pure-rl/`, the two standard paper-scale
-/// sets). A policy file names it in its `architecture`
+/// by `conv5_dilation` (8 in the shipped policies, 1 in the earlier sets,
+/// such as `models/oracle-guided/`). A policy file names it in its `architecture`
 /// field ([`Trunk::architecture`]); the wider the dilation, the more of the
 /// scene one Q-value sees ([`Trunk::receptive_field`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]

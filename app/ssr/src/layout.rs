@@ -13,10 +13,8 @@
 //! runs/models/, runs/demos/                what training and recording write by default
 //! ```
 //!
-//! The shipped set is `models/` and `demos/`; the paper-scale sets are
-//! `models/paper-scale-reload/` (trained with the reference's reloads, its
-//! best snapshots kept), `models/paper-scale/` (the same runs' settings
-//! without them, last weights kept) and `demos/paper-scale/`.
+//! The shipped set is `models/` and `demos/`; `models/oracle-guided/` and
+//! `demos/112px/` are the earlier 112 px set, which the tests use.
 
 use std::path::{Path, PathBuf};
 
