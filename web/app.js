@@ -131,7 +131,10 @@ function onInfo(info) {
   const dl = $('demo-tasks');
   if (!dl.options.length) for (const t of info.tasks) dl.appendChild(new Option(t, t));
   if (info.viewer_url) { $('viewer-link').href = info.viewer_url; }
-  else { $('viewer-link').hidden = true; $('toggle-viewer').hidden = true; }
+  else {
+    $('viewer-link').hidden = true; $('toggle-viewer').hidden = true;
+    if (!info.recordings) $('viewer-note').hidden = false;
+  }
 }
 
 /** Adds a task (a custom one) to the task box, once. */

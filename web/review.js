@@ -86,7 +86,7 @@ function drawTrials() {
     b.onclick = () => replay(t);
     const a = document.createElement('a');
     a.textContent = '.rrd'; a.className = 'button'; a.dataset.testid = 'rrd';
-    if (r.ok) {
+    if (r.ok && review.data.recordings) {
       const q = new URLSearchParams({ method: t.method, task: t.task, seed: String(t.seed) });
       a.href = `/api/replay.rrd?${q}`;
       a.download = `${t.method}-${t.task.replace(":", "-")}-${t.seed}.rrd`;

@@ -119,6 +119,9 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
     // A bad embedding model is refused before any trial.
     config.check_embeddings(&tasks)?;
     let name = config.spec().to_string();
+    if args.record.is_some() {
+        check_record(&config, &name)?;
+    }
     // Holds the output folder's lock until the report is written.
     let jobs = args.jobs.map_or_else(
         || std::thread::available_parallelism().map_or(1, |n| n.get()),
@@ -200,9 +203,32 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// `eval --record failed` is refused before any trial runs where this build
+/// or run cannot record: without rerun, finetuned or noisy runs, and
+/// methods the debugger cannot replay.
+#[cfg(feature = "viewer")]
+fn check_record(config: &EvalConfig, name: &str) -> anyhow::Result<()> {
+    if !seespot_viz::recording::AVAILABLE {
+        anyhow::bail!("--record: {}", seespot_viz::recording::MISSING);
+    }
+    if config.method != EvalMethod::Oracle
+        && (config.finetune_steps > 0 || !config.world.noise.is_none())
+    {
+        anyhow::bail!(
+            "--record failed records trials that are not finetuned and noiseless, not {name} ({})",
+            config.method.as_str()
+        );
+    }
+    seespot_viz::registry::DeciderKind::of_method(config.method).with_context(|| {
+        format!("--record failed records SSR, TransporterNet and oracle trials, not {name}")
+    })?;
+    Ok(())
+}
+
 /// `eval --record failed`: a rerun recording of each failed trial in
 /// `records` that has none yet, made by running the trial again in the
-/// debugger's session with the evaluation's decider settings.
+/// debugger's session with the evaluation's decider settings (the run was
+/// checked by [`check_record`]).
 #[cfg(feature = "viewer")]
 fn record_failed(
     config: &EvalConfig,
@@ -212,14 +238,6 @@ fn record_failed(
 ) -> anyhow::Result<()> {
     use seespot_viz::live::{self, RecordOptions};
     use seespot_viz::registry::{DeciderKind, factory_with};
-    if config.method != EvalMethod::Oracle
-        && (config.finetune_steps > 0 || !config.world.noise.is_none())
-    {
-        anyhow::bail!(
-            "--record failed records trials that are not finetuned and noiseless, not {name} ({})",
-            config.method.as_str()
-        );
-    }
     let kind = DeciderKind::of_method(config.method).with_context(|| {
         format!("--record failed records SSR, TransporterNet and oracle trials, not {name}")
     })?;
@@ -260,13 +278,18 @@ fn record_failed(
 }
 
 #[cfg(not(feature = "viewer"))]
+fn check_record(_: &EvalConfig, _: &str) -> anyhow::Result<()> {
+    anyhow::bail!("--record needs seespot built with the `rerun` feature")
+}
+
+#[cfg(not(feature = "viewer"))]
 fn record_failed(
     _: &EvalConfig,
     _: &str,
     _: &[seespot_sim::TrialRecord],
     _: &indicatif::ProgressBar,
 ) -> anyhow::Result<()> {
-    anyhow::bail!("--record needs seespot built with the `viewer` feature")
+    anyhow::bail!("--record needs seespot built with the `rerun` feature")
 }
 
 /// SSR's Correspond options on the command line: the flags of

@@ -230,6 +230,8 @@ pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
             );
             if let Some(v) = &urls.viewer {
                 text += &format!("rerun web viewer:   {v}\n");
+            } else if !args.no_viewer && !seespot_viz::recording::AVAILABLE {
+                text += "rerun web viewer:   not in this build (`cargo run --release -p seespot --features rerun -- view`)\n";
             }
             if let Some(s) = &args.save {
                 text += &format!("recording to:       {}\n", s.display());

@@ -57,6 +57,7 @@ fn issue_27_a_full_disk_is_an_error_not_a_panic() {
 
 /// SIGHUP (the terminal closed) finishes the recording: `view` exits 0 and
 /// says it wrote the file.
+#[cfg(feature = "rerun")]
 #[test]
 fn issue_27_sighup_finishes_a_view_save_recording() {
     let dir = tempfile::tempdir().expect("tempdir");

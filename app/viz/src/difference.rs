@@ -304,7 +304,7 @@ pub struct RecordedRun {
 /// run replayed (and checked against its record at every action) with its
 /// entities under [`crate::paths::run`], on the same `action` and `phase`
 /// timelines, so that the viewer shows the two side by side
-/// ([`crate::recording::two_runs_blueprint`]).
+/// (the layout of `recording::two_runs_blueprint`).
 pub fn record_both(
     sources: &[ReviewSource],
     pairing: &Pairing,
@@ -316,12 +316,12 @@ pub fn record_both(
             "the two runs `{a}` and `{b}` would share one place in the recording: name two different runs"
         );
     }
-    let stream = crate::recording::two_runs_stream([a.as_str(), b.as_str()], path)?;
+    let shared = crate::recording::SharedRecording::two_runs([a.as_str(), b.as_str()], path)?;
     let record = |name: &str| -> crate::error::Result<RecordedRun> {
         let (src, run) = resolve(sources, name)?;
         let rec = record_of(src, run, *task, *seed)?;
         let entities = crate::paths::run(name);
-        let recorder = crate::recording::Recorder::under(stream.clone(), entities.clone());
+        let recorder = crate::recording::Recorder::under(&shared, entities.clone());
         let mut replayed = replay_run(src, run, rec, usize::MAX, Some(recorder))?;
         drop(replayed.session.take_recorder());
         let trial = replayed.session.trial();
@@ -333,9 +333,7 @@ pub fn record_both(
         })
     };
     let both = [record(a)?, record(b)?];
-    stream
-        .flush_blocking()
-        .files(|| "cannot finish the recording".into())?;
+    shared.flush()?;
     Ok(both)
 }
 

@@ -261,6 +261,9 @@ pub struct ReviewDoc {
     pub kinds: Vec<KindDoc>,
     pub counts: Vec<CountRow>,
     pub trials: Vec<ReviewedTrial>,
+    /// Whether this build can make a trial's rerun recording (the `.rrd`
+    /// downloads; the `rerun` feature).
+    pub recordings: bool,
 }
 
 /// A failure kind: its key in `counts[].failures` and `trials[].failure`, and

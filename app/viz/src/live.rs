@@ -14,7 +14,7 @@ use serde::Serialize;
 use serde_json::json;
 
 use crate::documents::to_text;
-use crate::recording::Recorder;
+use crate::recording::{Recorder, WebViewer};
 use crate::registry::DeciderFactory;
 use crate::server::{self, AppState};
 use crate::session::{Phase, Session, SessionConfig};
@@ -105,7 +105,8 @@ pub async fn serve_view(
         noise: opts.noise,
     };
     let mut viewer_server = None;
-    let (recorder, grpc_url) = if opts.no_viewer {
+    // Built without rerun, the page is served alone (`--save` is refused).
+    let (recorder, grpc_url) = if opts.no_viewer || !crate::recording::AVAILABLE {
         (
             opts.save
                 .as_deref()
@@ -136,17 +137,7 @@ pub async fn serve_view(
     let viewer_url = match &grpc_url {
         None => None,
         Some(g) => {
-            let cfg = rerun::web_viewer::WebViewerConfig {
-                bind_ip: rerun_bind.to_string(),
-                web_port: opts.viewer_port.into(),
-                connect_to: vec![g.clone()],
-                open_browser: false,
-                ..Default::default()
-            };
-            let srv = cfg
-                .host_web_viewer()
-                .files(|| "cannot start the rerun web viewer".into())?;
-            let url = format!("{}/?url={}", srv.server_url(), percent_encode(g));
+            let (srv, url) = WebViewer::serve(&rerun_bind.to_string(), opts.viewer_port, g)?;
             viewer_server = Some(srv);
             Some(url)
         }
@@ -177,6 +168,7 @@ pub async fn serve_view(
         "viewer_url": viewer_url,
         "grpc_url": grpc_url,
         "rerun_version": "0.36.3",
+        "recordings": crate::recording::AVAILABLE,
         "seespot_version": seespot_sim::VERSION,
         "tasks": TaskId::ALL.iter().map(|t| t.as_str()).collect::<Vec<_>>(),
         "workspace_size": seespot_sim::workspace::WORKSPACE_SIZE,
@@ -215,19 +207,6 @@ pub async fn serve_view(
     .await?;
     drop(viewer_server);
     Ok(())
-}
-
-/// `rerun+http://…` as a query-string value.
-fn percent_encode(s: &str) -> String {
-    s.bytes()
-        .map(|b| {
-            if b.is_ascii_alphanumeric() || b"-._~".contains(&b) {
-                (b as char).to_string()
-            } else {
-                format!("%{b:02X}")
-            }
-        })
-        .collect()
 }
 
 /// One recorded trial.
@@ -368,8 +347,14 @@ pub fn bench_view(
         grid: Grid::new(resolution),
         ..WorldConfig::default()
     };
-    let (recorder, storage) = Recorder::memory(task)?;
-    let mut s = Session::new(factory, SessionConfig { task, seed, world }, Some(recorder))?;
+    // Built without rerun, the benchmark times the session alone.
+    let (recorder, storage) = if crate::recording::AVAILABLE {
+        let (r, s) = Recorder::memory(task)?;
+        (Some(r), Some(s))
+    } else {
+        (None, None)
+    };
+    let mut s = Session::new(factory, SessionConfig { task, seed, world }, recorder)?;
     let decider = s.state().decider;
     let mut phases = Vec::new();
     while !s.ended() && s.trial().actions() < max_actions {
@@ -393,7 +378,9 @@ pub fn bench_view(
         });
     }
     drop(s.take_recorder());
-    let recording_bytes = storage.drain_as_bytes().map(|b| b.len()).unwrap_or(0);
+    let recording_bytes = storage
+        .and_then(|s| s.into_bytes().ok())
+        .map_or(0, |b| b.len());
     let mut all: Vec<f64> = phases.iter().map(|p| p.ms).collect();
     all.sort_by(f64::total_cmp);
     let mut overhead: Vec<f64> = phases.iter().map(|p| p.ms - p.decide_ms).collect();

@@ -204,6 +204,7 @@ impl ReviewSource {
                 })
                 .collect(),
             counts: count_rows(&trials, &replays),
+            recordings: crate::recording::AVAILABLE,
             trials,
         })
     }
@@ -223,9 +224,7 @@ impl ReviewSource {
             s.next_action()?;
         }
         drop(s.take_recorder());
-        storage
-            .drain_as_bytes()
-            .files(|| "cannot encode the recording".into())
+        storage.into_bytes()
     }
 }
 

@@ -1,5 +1,6 @@
-//! Logging trials to rerun: the 3-D scene, the heightmaps, every (policy, demo)
-//! pair's match and rematch, and the metrics, on the timelines of [`crate::paths`].
+//! Logging trials to rerun (the `rerun` feature): the 3-D scene, the
+//! heightmaps, every (policy, demo) pair's match and rematch, and the
+//! metrics, on the timelines of [`crate::paths`].
 //!
 //! Size: distance heatmaps are logged at full resolution but only at the
 //! matched rotation (match) and the demo action's rotation (rematch), quantized
@@ -17,14 +18,9 @@ use rerun::{RecordingStream, RecordingStreamBuilder};
 use seespot_sim::{BLOCK_COLORS, BLOCK_SIZE, Demo, Heightmaps, TaskId, Trial};
 use seespot_ssr::Decision;
 
+use super::{APPLICATION_ID, DEPTH_UNITS_PER_METRE};
 use crate::paths;
 use crate::phase::Phase;
-
-/// rerun application id of every seespot recording.
-pub const APPLICATION_ID: &str = "seespot";
-
-/// Depth heightmaps are logged as `u16` in these units per metre (0.1 mm).
-pub const DEPTH_UNITS_PER_METRE: f32 = 10_000.0;
 
 /// Largest quantized heatmap value.
 const HEAT_LEVELS: f32 = 65_000.0;
@@ -182,13 +178,61 @@ pub fn two_runs_blueprint(runs: [&str; 2]) -> Blueprint {
         .with_time_panel(TimePanel::new().with_timeline(paths::TIMELINE_ACTION))
 }
 
-/// A recording of two runs side by side written to `path`, laid out by
+/// A recording of two runs side by side written to a file, laid out by
 /// [`two_runs_blueprint`]; one [`Recorder::under`] per run logs into it.
-pub fn two_runs_stream(runs: [&str; 2], path: &Path) -> crate::error::Result<RecordingStream> {
-    RecordingStreamBuilder::new(APPLICATION_ID)
-        .with_blueprint(two_runs_blueprint(runs))
-        .save(path)
-        .recording(|| format!("cannot create the recording {}", path.display()))
+pub struct SharedRecording(RecordingStream);
+
+impl SharedRecording {
+    /// The recording of `runs` at `path`.
+    pub fn two_runs(runs: [&str; 2], path: &Path) -> crate::error::Result<Self> {
+        RecordingStreamBuilder::new(APPLICATION_ID)
+            .with_blueprint(two_runs_blueprint(runs))
+            .save(path)
+            .recording(|| format!("cannot create the recording {}", path.display()))
+            .map(Self)
+    }
+
+    /// Writes what the runs logged to the file.
+    pub fn flush(&self) -> crate::error::Result<()> {
+        self.0
+            .flush_blocking()
+            .recording(|| "cannot finish the recording".into())
+    }
+}
+
+/// A recording kept in memory, for a download.
+pub struct MemoryRecording(rerun::sink::MemorySinkStorage);
+
+impl MemoryRecording {
+    /// The `.rrd` bytes of everything logged (drop the recorder first).
+    pub fn into_bytes(self) -> crate::error::Result<Vec<u8>> {
+        self.0
+            .drain_as_bytes()
+            .recording(|| "cannot encode the recording".into())
+    }
+}
+
+/// rerun's web viewer, served while this lives.
+/// (rerun does not name its server's type: it is kept alive as it is.)
+pub struct WebViewer(#[allow(dead_code)] Box<dyn Send>);
+
+impl WebViewer {
+    /// rerun's web viewer on `bind:port` (0: any free port), showing the
+    /// gRPC stream at `grpc_url`, and the address that opens it.
+    pub fn serve(bind: &str, port: u16, grpc_url: &str) -> crate::error::Result<(Self, String)> {
+        let cfg = rerun::web_viewer::WebViewerConfig {
+            bind_ip: bind.to_owned(),
+            web_port: port.into(),
+            connect_to: vec![grpc_url.to_owned()],
+            open_browser: false,
+            ..Default::default()
+        };
+        let srv = cfg
+            .host_web_viewer()
+            .files(|| "cannot start the rerun web viewer".into())?;
+        let url = format!("{}/?url={}", srv.server_url(), percent_encode(grpc_url));
+        Ok((Self(Box::new(srv)), url))
+    }
 }
 
 /// The stream of a recording, laid out for the shipped policies of fold
@@ -240,11 +284,11 @@ impl Recorder {
     }
 
     /// An in-memory recording (tests and benchmarks).
-    pub fn memory(task: TaskId) -> crate::error::Result<(Self, rerun::sink::MemorySinkStorage)> {
+    pub fn memory(task: TaskId) -> crate::error::Result<(Self, MemoryRecording)> {
         let (rec, storage) = builder(task)
             .memory()
             .recording(|| "cannot start an in-memory recording".into())?;
-        Ok((Self::from_stream(rec, None), storage))
+        Ok((Self::from_stream(rec, None), MemoryRecording(storage)))
     }
 
     fn from_stream(rec: RecordingStream, save_path: Option<PathBuf>) -> Self {
@@ -253,8 +297,8 @@ impl Recorder {
 
     /// A recorder on `rec` whose entity paths all lie under `prefix` (one of
     /// [`paths::run`]), for several runs in one recording.
-    pub fn under(rec: RecordingStream, prefix: String) -> Self {
-        Self::with_prefix(rec, None, prefix)
+    pub fn under(shared: &SharedRecording, prefix: String) -> Self {
+        Self::with_prefix(shared.0.clone(), None, prefix)
     }
 
     fn with_prefix(rec: RecordingStream, save_path: Option<PathBuf>, prefix: String) -> Self {
@@ -294,10 +338,6 @@ impl Recorder {
     /// Where the recording is being written, if anywhere.
     pub fn save_path(&self) -> Option<&Path> {
         self.save_path.as_deref()
-    }
-
-    pub fn stream(&self) -> &RecordingStream {
-        &self.rec
     }
 
     /// Flushes pending data to the sinks.
@@ -740,4 +780,17 @@ fn heat_image(map: &[f32], n: usize) -> rerun::DepthImage {
     .with_meter(scale)
     .with_colormap(rerun::components::Colormap::Turbo)
     .with_draw_order(10.0)
+}
+
+/// `rerun+http://…` as a query-string value.
+fn percent_encode(s: &str) -> String {
+    s.bytes()
+        .map(|b| {
+            if b.is_ascii_alphanumeric() || b"-._~".contains(&b) {
+                (b as char).to_string()
+            } else {
+                format!("%{b:02X}")
+            }
+        })
+        .collect()
 }
