@@ -166,9 +166,22 @@ pub fn model_paths(config: &EvalConfig, fold: TaskId) -> Vec<PathBuf> {
 /// What a finetuned model file was made from: its base's and demonstrations'
 /// checksums and the recipe. A file is reused only where these are equal.
 fn inputs(config: &EvalConfig, fold: TaskId, base: TaskId) -> Result<String, EvalError> {
+    let recipe = reference_recipe(base, config.finetune_steps);
+    let inputs = finetune_inputs(config, fold, &config.layout.model(base), &recipe)?;
+    serde_json::to_string(&inputs)
+        .map_err(|e| EvalError::Invalid(format!("finetuning inputs: {e}")))
+}
+
+/// The inputs of a finetune of the model file `base` on `fold`'s
+/// demonstrations by `recipe`: their checksums and the recipe, as JSON.
+pub fn finetune_inputs(
+    config: &EvalConfig,
+    fold: TaskId,
+    base: &Path,
+    recipe: &impl serde::Serialize,
+) -> Result<serde_json::Value, EvalError> {
     let mut files = BTreeMap::new();
-    let base_path = config.layout.model(base);
-    files.insert("base".to_owned(), sha256_file(&base_path)?);
+    files.insert("base".to_owned(), sha256_file(base)?);
     for (i, dir) in config.layout.demo_dirs(fold).iter().enumerate() {
         for p in demo_dir_files(dir)? {
             let name = p
@@ -177,9 +190,7 @@ fn inputs(config: &EvalConfig, fold: TaskId, base: TaskId) -> Result<String, Eva
             files.insert(format!("demo{i}/{name}"), sha256_file(&p)?);
         }
     }
-    let recipe = reference_recipe(base, config.finetune_steps);
-    serde_json::to_string(&serde_json::json!({ "files": files, "recipe": recipe }))
-        .map_err(|e| EvalError::Invalid(format!("finetuning inputs: {e}")))
+    Ok(serde_json::json!({ "files": files, "recipe": recipe }))
 }
 
 /// Makes sure every finetuned model file of `config` on `fold` exists and was
@@ -268,20 +279,19 @@ pub fn existing_model_paths(config: &EvalConfig, fold: TaskId) -> Result<Vec<Pat
     Ok(paths)
 }
 
-/// The Adam variant's models of `config` on `fold`, finetuned in memory:
-/// each SSR policy with its index as seed, "Good Robot" for three times the
-/// steps with seed 0 (as the `-finetuned-adam` records were made).
+/// The Adam variant's models of `config` on `fold`, finetuned in memory
+/// (once: [`crate::memo`]) from the bases' model files: each SSR policy with
+/// its index as seed, "Good Robot" for three times the steps with seed 0 (as
+/// the `-finetuned-adam` records were made).
 pub fn adam_models(
     config: &EvalConfig,
     fold: TaskId,
-    policies: Vec<(TaskId, PolicyNet)>,
 ) -> Result<Vec<(TaskId, PolicyNet)>, EvalError> {
-    let demos = read_demos(config, fold)?;
     let ssr = config.method.is_ssr();
-    policies
+    bases(config, fold)
         .into_iter()
         .enumerate()
-        .map(|(i, (t, p))| {
+        .map(|(i, t)| {
             let recipe = FinetuneRecipe {
                 procedure: FinetuneProcedure::Adam,
                 steps: if ssr {
@@ -292,7 +302,19 @@ pub fn adam_models(
                 seed: if ssr { i as u64 } else { 0 },
                 labels: Labels::TrialReward,
             };
-            Ok((t, finetune(p, &demos, &recipe)?.policy))
+            let base = config.layout.model(t);
+            let inputs = finetune_inputs(config, fold, &base, &recipe)?;
+            let policy = crate::memo::get_or_make(
+                "spot-q-adam",
+                &inputs,
+                |p| Ok(PolicyNet::load(p)?),
+                |m, p| Ok(m.save(p)?),
+                || {
+                    let demos = read_demos(config, fold)?;
+                    Ok(finetune(PolicyNet::load(&base)?, &demos, &recipe)?.policy)
+                },
+            )?;
+            Ok((t, policy))
         })
         .collect()
 }

@@ -14,12 +14,14 @@
 //! - [`report`]: `summary.md`, `summary.csv` and `figure4.png` from every
 //!   record of an output folder;
 //! - [`lock`]: one run per output folder;
+//! - [`memo`]: the finetunes made in memory, made once and kept in a cache;
 //! - [`review`]: why the failed trials failed.
 
 pub mod config;
 pub mod diverge;
 pub mod finetuned;
 pub mod lock;
+pub mod memo;
 pub mod metrics;
 pub mod records;
 pub mod report;

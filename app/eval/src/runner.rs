@@ -672,30 +672,35 @@ fn finetuned_policies(
 ) -> Result<Vec<(TaskId, PolicyNet)>, EvalError> {
     match config.finetune_procedure {
         FinetuneProcedure::Reference => finetuned::load_models(config, task),
-        FinetuneProcedure::Adam => {
-            let bases = finetuned::bases(config, task)
-                .into_iter()
-                .map(|b| Ok((b, PolicyNet::load(&config.layout.model(b))?)))
-                .collect::<Result<Vec<_>, EvalError>>()?;
-            finetuned::adam_models(config, task, bases)
-        }
+        FinetuneProcedure::Adam => finetuned::adam_models(config, task),
     }
 }
 
 /// The TransporterNet `config` runs on `task`: the task's own, or with
 /// finetuning steps another task's finetuned on the demonstrations (in
-/// memory, deterministic).
+/// memory, deterministic, once: [`crate::memo`]).
 pub fn transporter_net(config: &EvalConfig, task: TaskId) -> Result<TransporterNet, EvalError> {
     if config.finetune_steps == 0 {
         return Ok(TransporterNet::load(&config.layout.transporter(task))?);
     }
-    let base = TransporterNet::load(&config.layout.transporter(finetune_base(task)))?;
-    Ok(finetune_transporter(
-        &base,
-        &read_demos(config, task)?,
-        config.finetune_steps,
-        0,
-    )?)
+    let base_path = config.layout.transporter(finetune_base(task));
+    let recipe = serde_json::json!({ "iterations": config.finetune_steps, "seed": 0 });
+    let inputs = finetuned::finetune_inputs(config, task, &base_path, &recipe)?;
+    crate::memo::get_or_make(
+        "transporter",
+        &inputs,
+        |p| Ok(TransporterNet::load(p)?),
+        |m, p| Ok(m.save(p)?),
+        || {
+            let base = TransporterNet::load(&base_path)?;
+            Ok(finetune_transporter(
+                &base,
+                &read_demos(config, task)?,
+                config.finetune_steps,
+                0,
+            )?)
+        },
+    )
 }
 
 /// The other task whose TransporterNet the finetuned TransporterNet row

@@ -1,0 +1,102 @@
+//! The finetunes an evaluation makes in memory (the Adam variant's SPOT-Q
+//! policies, the finetuned TransporterNets), made once.
+//!
+//! Each is a deterministic function of its base model's bytes, the fold's
+//! demonstrations and its recipe. The first run that needs one makes it and
+//! keeps it in the cache folder ([`cache_dir`]) under the sha256 of those
+//! inputs; every later need with the same inputs loads it: the other parallel
+//! jobs of the run (which wait for the first instead of finetuning beside
+//! it), the next row or evaluation, the validation seeds, the debugger's
+//! replays. The records name the inputs (base and demonstrations) as before,
+//! so the cache changes no record; a cache that cannot be written is a
+//! warning, and the model is used as made.
+//!
+//! The key holds seespot's version and [`FORMAT`], not the finetuning code:
+//! after a change to how a finetune is made, clear the folder
+//! (`rm -r ~/.cache/seespot/finetuned`).
+
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+use crate::config::EvalError;
+
+/// Raised when what a cached file holds, or how its key is made, changes.
+pub const FORMAT: u32 = 1;
+
+/// One finetune at a time in this process: a parallel job that needs the
+/// model another is making waits for it and loads it.
+static MAKING: Mutex<()> = Mutex::new(());
+
+/// Where finetunes are kept: `$SEESPOT_CACHE/finetuned`, else
+/// `$XDG_CACHE_HOME/seespot/finetuned`, else `~/.cache/seespot/finetuned`
+/// (`None` without a home).
+pub fn cache_dir() -> Option<PathBuf> {
+    let var = |k: &str| {
+        std::env::var_os(k)
+            .filter(|v| !v.is_empty())
+            .map(PathBuf::from)
+    };
+    let root = var("SEESPOT_CACHE")
+        .or_else(|| var("XDG_CACHE_HOME").map(|d| d.join("seespot")))
+        .or_else(|| var("HOME").map(|h| h.join(".cache").join("seespot")))?;
+    Some(root.join("finetuned"))
+}
+
+/// The cache file of a finetune of `kind` made from `inputs` (checksums and
+/// recipe, as JSON).
+pub fn path_of(dir: &Path, kind: &str, inputs: &serde_json::Value) -> PathBuf {
+    use sha2::{Digest, Sha256};
+    let text = serde_json::json!({
+        "seespot": seespot_sim::VERSION,
+        "format": FORMAT,
+        "kind": kind,
+        "inputs": inputs,
+    })
+    .to_string();
+    let hex: String = Sha256::digest(text.as_bytes())
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect();
+    dir.join(format!("{kind}-{}.safetensors", &hex[..32]))
+}
+
+/// The finetune of `kind` from `inputs`: loaded from the cache where it is
+/// there (`load`), else made (`make`), kept (`save`) and returned.
+pub fn get_or_make<T>(
+    kind: &str,
+    inputs: &serde_json::Value,
+    load: impl Fn(&Path) -> Result<T, EvalError>,
+    save: impl FnOnce(&T, &Path) -> Result<(), EvalError>,
+    make: impl FnOnce() -> Result<T, EvalError>,
+) -> Result<T, EvalError> {
+    let Some(dir) = cache_dir() else {
+        return make();
+    };
+    let path = path_of(&dir, kind, inputs);
+    let _making = MAKING
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    if path.is_file() {
+        match load(&path) {
+            Ok(model) => return Ok(model),
+            Err(e) => eprintln!(
+                "warning: the cached finetune {} cannot be read ({e}); making it again",
+                path.display()
+            ),
+        }
+    }
+    let model = make()?;
+    let tmp = path.with_extension(format!("{}.tmp", std::process::id()));
+    let kept = std::fs::create_dir_all(&dir)
+        .map_err(|e| EvalError::Invalid(format!("{}: {e}", dir.display())))
+        .and_then(|()| save(&model, &tmp))
+        .and_then(|()| {
+            std::fs::rename(&tmp, &path)
+                .map_err(|e| EvalError::Invalid(format!("{}: {e}", path.display())))
+        });
+    if let Err(e) = kept {
+        let _ = std::fs::remove_file(&tmp);
+        eprintln!("warning: the finetune could not be kept in the cache ({e}); using it as made");
+    }
+    Ok(model)
+}
