@@ -78,6 +78,9 @@ function drawTrials() {
     cell(tr, t.method); cell(tr, t.task); cell(tr, String(t.seed));
     cell(tr, t.success ? 'success' : kindLabel.get(t.failure) || 'failed', t.success ? 'ok' : 'refused');
     cell(tr, String(t.actions)); cell(tr, `${t.max_progress} / 4`);
+    const dep = cell(tr, t.departures.length ? String(t.departures.length) : '');
+    dep.dataset.testid = 'departures';
+    if (t.departures.length) dep.title = t.departures.join('\n');
     const td = cell(tr, '');
     const r = replayable(t);
     const b = document.createElement('button');

@@ -52,3 +52,20 @@ test('the extension\'s departure from SSR CCD is explained beside the pairs', as
   assert.notDeepEqual([b.rotation, b.y, b.x], [a.rotation, a.y, a.x]);
   assert.deepEqual(view.errors, []);
 });
+
+test('the review lists the extension\'s departures of a trial, each with its action and why', async () => {
+  const want = record.actions_log.flatMap((a, i) => (a.departures || []).map((d) =>
+    `action ${i + 1}: ${d.action.primitive} r${d.action.rotation} (${d.action.y}, ${d.action.x}) and the 2 cm around it skipped: ${d.why}`));
+  assert.ok(want.length > 0, 'the record carries its departures');
+  await page.goto(new URL('/review', view.pageUrl).href);
+  await page.waitForFunction(() => window.seespotReview.data, null, { timeout: 120_000 });
+  await page.getByTestId('method-filter').selectOption('ssr-ccd-noloops@raw-patches');
+  await page.getByTestId('show-successes').check();
+  const row = page.getByTestId('trial').filter({ has: page.locator('td', { hasText: /^stack$/ }) })
+    .filter({ has: page.locator('td', { hasText: new RegExp(`^${SEED}$`) }) });
+  assert.equal(await row.count(), 1);
+  const cell = row.getByTestId('departures');
+  assert.equal(await cell.textContent(), String(want.length));
+  assert.deepEqual((await cell.getAttribute('title')).split('\n'), want);
+  assert.match(want[0], /^action 2: grasp .* it left the scene unchanged$/);
+});

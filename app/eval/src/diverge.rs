@@ -124,6 +124,7 @@ mod tests {
             other_method_action: None,
             decide_ms: 1.0,
             primitive_success: Some(true),
+            departures: Vec::new(),
         }
     }
 

@@ -231,6 +231,7 @@ pub(crate) mod tests {
             other_method_action: Some(Action::new(seespot_sim::Primitive::Grasp, 0, 11, 21)),
             decide_ms: 12.5,
             primitive_success: Some(true),
+            departures: Vec::new(),
         });
         for x in &r[..2] {
             append_record(&path, x).expect("append");

@@ -112,6 +112,23 @@ pub struct ReviewedTrial {
     pub failure: Option<FailureKind>,
     /// The records file it came from (for `seespot view --replay`).
     pub file: PathBuf,
+    /// Where an SSR extension departed from SSR CCD, one line per masked
+    /// action ("action 7: grasp r5 (32, 122) and the 2 cm around it
+    /// skipped: it left the scene unchanged"), from the record.
+    pub departures: Vec<String>,
+}
+
+/// The departures of `r`'s actions, one line each, actions counted from 1.
+pub fn departure_lines(r: &TrialRecord) -> Vec<String> {
+    r.actions_log
+        .iter()
+        .enumerate()
+        .flat_map(|(i, a)| {
+            a.departures
+                .iter()
+                .map(move |d| format!("action {}: {d}", i + 1))
+        })
+        .collect()
 }
 
 /// Every trial of every records file under `<out>/trials/` (custom tasks'
@@ -122,7 +139,9 @@ pub fn review_dir(out: &Path) -> Result<Vec<ReviewedTrial>, RecordError> {
     let mut out = Vec::new();
     for f in files {
         for r in read_records(&f)? {
+            let departures = departure_lines(&r);
             out.push(ReviewedTrial {
+                departures,
                 failure: classify(&r),
                 method: r.method,
                 task: r.task,
@@ -237,6 +256,7 @@ mod tests {
             other_method_action: None,
             decide_ms: 0.0,
             primitive_success: Some(ok),
+            departures: Vec::new(),
         }
     }
 

@@ -43,6 +43,8 @@ pub struct ChosenPair {
     /// L2CD's when CCD acts, CCD's when L2CD acts): the two methods differ on
     /// this state when it is not the executed action.
     pub other_method_action: Option<Action>,
+    /// What an SSR extension masked out of this decision, and why.
+    pub departures: Vec<crate::record::Departure>,
 }
 
 /// An actor's choice of the next action.
@@ -109,6 +111,11 @@ pub fn act_once(trial: &mut Trial, actor: &mut dyn Actor) -> Result<ActionLog, A
         l: choice.pair.as_ref().map(|p| p.l),
         c: choice.pair.as_ref().map(|p| p.c),
         other_method_action: choice.pair.as_ref().and_then(|p| p.other_method_action),
+        departures: choice
+            .pair
+            .as_ref()
+            .map(|p| p.departures.clone())
+            .unwrap_or_default(),
         chosen_policy: choice.pair.map(|p| p.policy),
         decide_ms,
         primitive_success: Some(step.outcome.success),

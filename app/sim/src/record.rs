@@ -35,6 +35,36 @@ pub struct ActionLog {
     /// released after a place); `None` when not recorded.
     #[serde(default)]
     pub primitive_success: Option<bool>,
+    /// For seespot's SSR extensions: the actions masked out of this decision,
+    /// each with why, where the extension departs from SSR CCD (empty for
+    /// SSR CCD itself and other methods, and in older records).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub departures: Vec<Departure>,
+}
+
+/// An action an SSR extension masked out of a decision, with the actions
+/// within `radius_m` metres of it, and why: for example a grasp that left
+/// the scene unchanged. Shown as the page, recordings and the review say it:
+/// "grasp r5 (32, 122) and the 2 cm around it skipped: it left the scene
+/// unchanged".
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Departure {
+    pub action: Action,
+    pub radius_m: f32,
+    pub why: String,
+}
+
+impl std::fmt::Display for Departure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        // Centimetres as the page shows them: 2, 2.5.
+        let cm = format!("{:.1}", self.radius_m * 100.0);
+        let cm = cm.trim_end_matches(".0");
+        write!(
+            f,
+            "{} and the {cm} cm around it skipped: {}",
+            self.action, self.why
+        )
+    }
 }
 
 /// One finished trial: a JSON line of a run's `<task>.jsonl`.

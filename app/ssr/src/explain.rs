@@ -1,6 +1,7 @@
 //! The explanation record of one SSR decision: everything the visual debugger
 //! needs to show why the robot chose its action.
 
+use seespot_sim::record::Departure;
 use seespot_sim::{Action, Primitive};
 
 use crate::correspond::CUnit;
@@ -175,16 +176,23 @@ impl Decision {
     /// half side in metres ([`LOOP_BREAK_RADIUS`], or [`GUARD_RADIUS`] for
     /// a guarded block); empty for the
     /// paper's methods. The page and recordings show these words.
-    pub fn departures(&self) -> Vec<(Action, &'static str, f32)> {
+    pub fn departures(&self) -> Vec<Departure> {
+        fn departure(why: &'static str, radius_m: f32) -> impl Fn(&Action) -> Departure {
+            move |a| Departure {
+                action: *a,
+                radius_m,
+                why: why.to_owned(),
+            }
+        }
         self.excluded
             .iter()
-            .map(|a| (*a, LEFT_UNCHANGED, LOOP_BREAK_RADIUS))
+            .map(departure(LEFT_UNCHANGED, LOOP_BREAK_RADIUS))
             .chain(
                 self.put_back
                     .iter()
-                    .map(|a| (*a, PUT_BACK, LOOP_BREAK_RADIUS)),
+                    .map(departure(PUT_BACK, LOOP_BREAK_RADIUS)),
             )
-            .chain(self.guarded.iter().map(|a| (*a, GUARDED, GUARD_RADIUS)))
+            .chain(self.guarded.iter().map(departure(GUARDED, GUARD_RADIUS)))
             .collect()
     }
 }
@@ -214,13 +222,22 @@ mod tests {
             guarded: vec![a],
         };
         let r = LOOP_BREAK_RADIUS;
+        let said: Vec<(Action, String, f32)> = d
+            .departures()
+            .into_iter()
+            .map(|x| (x.action, x.why, x.radius_m))
+            .collect();
         assert_eq!(
-            d.departures(),
+            said,
             vec![
-                (a, LEFT_UNCHANGED, r),
-                (b, PUT_BACK, r),
-                (a, GUARDED, GUARD_RADIUS)
+                (a, LEFT_UNCHANGED.to_owned(), r),
+                (b, PUT_BACK.to_owned(), r),
+                (a, GUARDED.to_owned(), GUARD_RADIUS)
             ]
+        );
+        assert_eq!(
+            d.departures()[0].to_string(),
+            format!("{a} and the 2 cm around it skipped: it left the scene unchanged")
         );
         // The paper's methods depart from nothing.
         let plain = Decision {

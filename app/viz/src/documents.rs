@@ -76,7 +76,7 @@ pub struct StateDoc {
     /// Where an extension departed from SSR CCD in this decision: the
     /// actions whose neighbourhood it masked, and why (empty for the
     /// paper's methods).
-    pub skipped: Vec<SkipDoc>,
+    pub skipped: Vec<seespot_sim::record::Departure>,
     pub timing_ms: Option<TimingDoc>,
     /// Every executed action of the trial.
     pub steps: Vec<StepDoc>,
@@ -109,15 +109,6 @@ pub struct DemonstrateDoc {
     pub progress: Option<u8>,
     /// Where the last demonstration of this session was saved.
     pub saved: Option<String>,
-}
-
-/// An action an extension of SSR masked (with the pixels within
-/// `radius_m` of it), and why.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct SkipDoc {
-    pub action: Action,
-    pub radius_m: f32,
-    pub why: &'static str,
 }
 
 /// One (policy, demo) pair's row of the L / C table: L and the match from

@@ -249,6 +249,7 @@ mod tests {
             other_method_action: other,
             decide_ms: 1.0,
             primitive_success: Some(true),
+            departures: Vec::new(),
         };
         rs[0].actions_log = vec![
             log(Some(Action::new(Primitive::Grasp, 0, 1, 1))),

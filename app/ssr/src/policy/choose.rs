@@ -28,6 +28,7 @@ pub fn chosen_pair(
         l: p.l,
         c: p.c,
         other_method_action: pairs.get(choose(pairs, other, mode)).map(|o| o.matched),
+        departures: Vec::new(),
     }
 }
 

@@ -743,14 +743,16 @@ impl Actor for SsrPolicy {
         } else {
             self.decide(hm, progress, primitive)?
         };
+        let mut pair = chosen_pair(
+            &d.pairs,
+            d.chosen,
+            self.config.method,
+            self.config.correspond.mode(),
+        );
+        pair.departures = d.departures();
         Ok(Choice {
             action: d.action,
-            pair: Some(chosen_pair(
-                &d.pairs,
-                d.chosen,
-                self.config.method,
-                self.config.correspond.mode(),
-            )),
+            pair: Some(pair),
         })
     }
 }

@@ -680,13 +680,8 @@ impl Recorder {
                 ));
             }
             // Where an extension departed from SSR CCD, as the page says it.
-            for (a, why, radius) in d.departures() {
-                // Centimetres as the page shows them: 2, 2.5.
-                let cm = format!("{:.1}", radius * 100.0);
-                let cm = cm.trim_end_matches(".0");
-                s.push_str(&format!(
-                    "\nExtension: {a} and the {cm} cm around it skipped: {why}.\n"
-                ));
+            for departure in d.departures() {
+                s.push_str(&format!("\nExtension: {departure}.\n"));
             }
         }
         if let Some(end) = trial.end() {

@@ -10,7 +10,7 @@ use serde_json::Value;
 use crate::b64;
 use crate::documents::{
     DemoFrameDoc, DemonstrateDoc, EmbeddingDoc, FrameDoc, HeightmapDoc, HistoryDoc, HistoryEntry,
-    PairDoc, QueryBest, QueryDoc, SkipDoc, StateDoc, StepDoc, TimingDoc,
+    PairDoc, QueryBest, QueryDoc, StateDoc, StepDoc, TimingDoc,
 };
 
 use super::{PairQuery, Phase, Session};
@@ -210,18 +210,7 @@ impl Session {
                 .filter(|_| shown(Phase::Verify))
                 .map(|d| d.ccd_choice),
             action: if phase.is_some() { self.action } else { None },
-            skipped: decision
-                .map(|d| {
-                    d.departures()
-                        .into_iter()
-                        .map(|(action, why, radius_m)| SkipDoc {
-                            action,
-                            radius_m,
-                            why,
-                        })
-                        .collect()
-                })
-                .unwrap_or_default(),
+            skipped: decision.map(|d| d.departures()).unwrap_or_default(),
             timing_ms: decision.map(|d| TimingDoc {
                 embed: d.embed_ms,
                 correspond: d.correspond_ms,
