@@ -59,10 +59,15 @@ impl std::fmt::Display for Departure {
         // Centimetres as the page shows them: 2, 2.5.
         let cm = format!("{:.1}", self.radius_m * 100.0);
         let cm = cm.trim_end_matches(".0");
+        let a = &self.action;
         write!(
             f,
-            "{} and the {cm} cm around it skipped: {}",
-            self.action, self.why
+            "{} r{} ({}, {}) and the {cm} cm around it skipped: {}",
+            a.primitive.as_str(),
+            a.rotation,
+            a.y,
+            a.x,
+            self.why
         )
     }
 }

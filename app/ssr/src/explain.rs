@@ -237,7 +237,7 @@ mod tests {
         );
         assert_eq!(
             d.departures()[0].to_string(),
-            format!("{a} and the 2 cm around it skipped: it left the scene unchanged")
+            "grasp r3 (40, 50) and the 2 cm around it skipped: it left the scene unchanged"
         );
         // The paper's methods depart from nothing.
         let plain = Decision {
