@@ -2,7 +2,6 @@
 //! an error or quietly, never a panic (exit 101); SIGHUP finishes a `view
 //! --save` recording as SIGTERM and Ctrl-C do.
 
-use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Command, Stdio};
 
@@ -60,6 +59,7 @@ fn issue_27_a_full_disk_is_an_error_not_a_panic() {
 #[cfg(feature = "rerun")]
 #[test]
 fn issue_27_sighup_finishes_a_view_save_recording() {
+    use std::io::{BufRead, BufReader};
     let dir = tempfile::tempdir().expect("tempdir");
     let rrd = dir.path().join("trial.rrd");
     let mut child = seespot()
