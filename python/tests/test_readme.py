@@ -71,7 +71,7 @@ def _readme_commands() -> list[list[str]]:
     out = []
     for cmd in found:
         cmd = cmd.split("#")[0].strip().replace("cargo run --release -p seespot --", "seespot")
-        if re.search(r"\.\.\.|…|\||\$|\bFILE\b|\bN\b|\bDIR\b|\bARGS\b|\bCOMMAND\b|\bTASK\b|<", cmd):
+        if re.search(r"\.\.\.|…|\||\$|\bFILE\b|\bN\b|\bDIR\b|\bARGS\b|\bCOMMAND\b|\bTASK\b|\bPORT\b|<", cmd):
             continue
         out.append(shlex.split(cmd)[1:])
     return out
