@@ -103,8 +103,13 @@ pub fn run(args: ReviewArgs) -> anyhow::Result<()> {
                 Some(Err(why)) => format!("no replay: {why}"),
                 None => "no replay".to_owned(),
             };
+            // An extension's departures from SSR CCD (`--json` lists each).
+            let departed = match t.departures.len() {
+                0 => String::new(),
+                n => format!(", {n} departures from SSR CCD"),
+            };
             outln!(
-                "  {} {} seed {} ({} actions, max progress {}): {how}",
+                "  {} {} seed {} ({} actions, max progress {}{departed}): {how}",
                 t.method,
                 t.task,
                 t.seed,

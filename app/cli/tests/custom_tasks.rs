@@ -76,6 +76,29 @@ fn review_lists_the_custom_tasks_trials() {
     for task in ["custom:l-shape", "custom:pyramid"] {
         assert!(text.contains(task), "{task} missing from the review");
     }
+    // An extension's trials carry their departures from SSR CCD, each with
+    // its action and why; SSR CCD's carry none.
+    let trials = v["trials"].as_array().expect("trials");
+    let departures = |method: &str| -> Vec<String> {
+        trials
+            .iter()
+            .filter(|t| t["method"] == method)
+            .flat_map(|t| t["departures"].as_array().expect("departures").clone())
+            .map(|d| d.as_str().expect("a line").to_owned())
+            .collect()
+    };
+    assert!(departures("ssr-ccd").is_empty());
+    let lines = departures("ssr-ccd-loopbreak");
+    assert!(!lines.is_empty());
+    assert!(
+        lines
+            .iter()
+            .all(|l| l.starts_with("action ") && l.contains(" cm around it skipped: ")),
+        "{lines:?}"
+    );
+    let (code, text, err) = run_in(&root(), &["review", "results/custom", "--list", "500"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(text.contains("departures from SSR CCD)"), "{text}");
 }
 
 #[test]
