@@ -238,14 +238,8 @@ pub fn prepare_models(
                 .collect::<Vec<_>>()
                 .join(","),
         );
-        if let Some(dir) = path.parent() {
-            std::fs::create_dir_all(dir)
-                .map_err(|e| EvalError::Invalid(format!("{}: {e}", dir.display())))?;
-        }
-        let tmp = path.with_extension("safetensors.tmp");
-        policy.save(&tmp)?;
-        std::fs::rename(&tmp, &path)
-            .map_err(|e| EvalError::Invalid(format!("{}: {e}", path.display())))?;
+        // Written whole or not at all, its folder made (`tensor_file::write`).
+        policy.save(&path)?;
         // What a later run loads: the file's own metadata.
         out.push((base, PolicyNet::load(&path)?));
     }

@@ -61,7 +61,8 @@ pub fn path_of(dir: &Path, kind: &str, inputs: &serde_json::Value) -> PathBuf {
 }
 
 /// The finetune of `kind` from `inputs`: loaded from the cache where it is
-/// there (`load`), else made (`make`), kept (`save`) and returned.
+/// there (`load`), else made (`make`), kept (`save`, to the path it is
+/// given) and returned.
 pub fn get_or_make<T>(
     kind: &str,
     inputs: &serde_json::Value,
@@ -86,16 +87,9 @@ pub fn get_or_make<T>(
         }
     }
     let model = make()?;
-    let tmp = path.with_extension(format!("{}.tmp", std::process::id()));
-    let kept = std::fs::create_dir_all(&dir)
-        .map_err(|e| EvalError::Invalid(format!("{}: {e}", dir.display())))
-        .and_then(|()| save(&model, &tmp))
-        .and_then(|()| {
-            std::fs::rename(&tmp, &path)
-                .map_err(|e| EvalError::Invalid(format!("{}: {e}", path.display())))
-        });
-    if let Err(e) = kept {
-        let _ = std::fs::remove_file(&tmp);
+    // `save` writes a weights file whole or not at all, its folder made
+    // (`seespot_policy::tensor_file`).
+    if let Err(e) = save(&model, &path) {
         eprintln!("warning: the finetune could not be kept in the cache ({e}); using it as made");
     }
     Ok(model)
