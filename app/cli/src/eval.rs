@@ -119,9 +119,11 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
     // A bad embedding model is refused before any trial.
     config.check_embeddings(&tasks)?;
     let name = config.spec().to_string();
-    if args.record.is_some() {
-        check_record(&config, &name)?;
-    }
+    let record = args
+        .record
+        .as_ref()
+        .map(|_| check_record(&config, &name))
+        .transpose()?;
     // Holds the output folder's lock until the report is written.
     let jobs = args.jobs.map_or_else(
         || std::thread::available_parallelism().map_or(1, |n| n.get()),
@@ -139,8 +141,8 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
                 bar.inc(1);
             })
             .with_context(|| format!("evaluating {name} on {task}"))?;
-        if args.record.is_some() {
-            record_failed(evaluation.config(), &name, &records, &bar)?;
+        if let Some(kind) = record {
+            record_failed(evaluation.config(), kind, &name, &records, &bar)?;
         }
     }
     bar.finish_and_clear();
@@ -203,11 +205,18 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The debugger's decider that records a run's failed trials again.
+#[cfg(feature = "viewer")]
+type RecordKind = seespot_viz::registry::DeciderKind;
+/// None without the debugger: [`check_record`] refuses.
+#[cfg(not(feature = "viewer"))]
+type RecordKind = std::convert::Infallible;
+
 /// `eval --record failed` is refused before any trial runs where this build
 /// or run cannot record: without rerun, finetuned or noisy runs, and
-/// methods the debugger cannot replay.
+/// methods the debugger cannot replay. Returns the decider that records.
 #[cfg(feature = "viewer")]
-fn check_record(config: &EvalConfig, name: &str) -> anyhow::Result<()> {
+fn check_record(config: &EvalConfig, name: &str) -> anyhow::Result<RecordKind> {
     if !seespot_viz::recording::AVAILABLE {
         anyhow::bail!("--record: {}", seespot_viz::recording::MISSING);
     }
@@ -219,28 +228,25 @@ fn check_record(config: &EvalConfig, name: &str) -> anyhow::Result<()> {
             config.method.as_str()
         );
     }
-    seespot_viz::registry::DeciderKind::of_method(config.method).with_context(|| {
+    RecordKind::of_method(config.method).with_context(|| {
         format!("--record failed records SSR, TransporterNet and oracle trials, not {name}")
-    })?;
-    Ok(())
+    })
 }
 
 /// `eval --record failed`: a rerun recording of each failed trial in
 /// `records` that has none yet, made by running the trial again in the
-/// debugger's session with the evaluation's decider settings (the run was
-/// checked by [`check_record`]).
+/// debugger's session with the evaluation's decider settings, by `kind`
+/// (from [`check_record`]).
 #[cfg(feature = "viewer")]
 fn record_failed(
     config: &EvalConfig,
+    kind: RecordKind,
     name: &str,
     records: &[seespot_sim::TrialRecord],
     bar: &indicatif::ProgressBar,
 ) -> anyhow::Result<()> {
     use seespot_viz::live::{self, RecordOptions};
-    use seespot_viz::registry::{DeciderKind, factory_with};
-    let kind = DeciderKind::of_method(config.method).with_context(|| {
-        format!("--record failed records SSR, TransporterNet and oracle trials, not {name}")
-    })?;
+    use seespot_viz::registry::factory_with;
     let ssr = config.ssr_config();
     let factory = factory_with(kind, config.layout.clone(), ssr);
     let out = config.out_dir.join("recordings").join(name);
@@ -278,18 +284,19 @@ fn record_failed(
 }
 
 #[cfg(not(feature = "viewer"))]
-fn check_record(_: &EvalConfig, _: &str) -> anyhow::Result<()> {
+fn check_record(_: &EvalConfig, _: &str) -> anyhow::Result<RecordKind> {
     anyhow::bail!("--record needs seespot built with the `rerun` feature")
 }
 
 #[cfg(not(feature = "viewer"))]
 fn record_failed(
     _: &EvalConfig,
+    kind: RecordKind,
     _: &str,
     _: &[seespot_sim::TrialRecord],
     _: &indicatif::ProgressBar,
 ) -> anyhow::Result<()> {
-    anyhow::bail!("--record needs seespot built with the `rerun` feature")
+    match kind {}
 }
 
 /// SSR's Correspond options on the command line: the flags of
