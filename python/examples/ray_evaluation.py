@@ -2,7 +2,7 @@
 # # The leave-one-out evaluation on Ray
 #
 # `seespot.dist.evaluate` runs trials on Ray actors (one policy set per actor)
-# and appends each record to `<out>/trials/<method>/<task>.jsonl`, the file
+# and appends each record to `<out>/trials/<method>/<task>.jsonl.gz`, the file
 # `seespot eval` writes: rerunning resumes, and `seespot eval` with the same
 # arguments then only writes the report. On one machine it starts Ray on
 # 127.0.0.1 (no dashboard, no usage statistics); pass `address=` for a cluster.

@@ -2,7 +2,7 @@
 
 Each Ray actor loads one policy set per (method, task) it is given (an
 :class:`seespot.Evaluator`) and runs trials with it; the driver alone appends
-the records, as they come, to ``<out>/trials/<method>/<task>.jsonl``, the file
+the records, as they come, to ``<out>/trials/<method>/<task>.jsonl.gz``, the file
 ``seespot eval`` writes and reads, in the same format with the same provenance.
 A rerun skips the seeds already recorded, so an interrupted evaluation resumes,
 and ``seespot eval`` with the same arguments then only writes the report.

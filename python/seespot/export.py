@@ -4,7 +4,7 @@ v3.0), for the Hugging Face dataset tools.
 Each demonstration folder (``demos/<task>/<seed>/``, ``demos/custom/NAME/<n>/``)
 becomes one episode, and each of its steps one frame: the scene before the
 action and the action taken in it. From a records folder (``results/trials``
-or one ``.jsonl`` file of ``seespot eval``), each trial becomes one episode:
+or one ``.jsonl.gz`` file of ``seespot eval``), each trial becomes one episode:
 it is re-simulated from its seed and its logged actions (the simulator is
 deterministic), checking every action's progress against the record, so the
 frames are the scenes the method acted on (without a noisy run's sensor noise,
@@ -182,13 +182,13 @@ def _demo_episode(d: Path, meta: dict[str, Any]) -> _Episode:
 
 
 def records_files(records: Path) -> list[Path]:
-    """The ``.jsonl`` records files of ``records`` (itself when it is one), in
+    """The ``.jsonl.gz`` records files of ``records`` (itself when it is one), in
     path order."""
     if records.is_file():
         return [records]
-    found = sorted(records.rglob("*.jsonl"))
+    found = sorted(records.rglob("*.jsonl.gz"))
     if not found:
-        raise ValueError(f"{records}: holds no records file (*.jsonl)")
+        raise ValueError(f"{records}: holds no records file (*.jsonl.gz)")
     return found
 
 

@@ -5,6 +5,7 @@ with only the built wheel (and its declared dependencies) runs `seespot
 
 from __future__ import annotations
 
+import gzip
 import json
 import os
 import re
@@ -55,7 +56,7 @@ def test_the_wheel_runs_help_and_an_oracle_evaluation(wheel_seespot: Path, tmp_p
         text=True,
     )
     assert run.returncode == 0, run.stderr
-    records = [json.loads(line) for line in (out / "trials" / "oracle" / "stack.jsonl").read_text().splitlines()]
+    records = [json.loads(line) for line in gzip.decompress((out / "trials" / "oracle" / "stack.jsonl.gz").read_bytes()).decode().splitlines()]
     assert [r["trial"] for r in records] == [0, 1]
     assert all(r["method"] == "oracle" and r["task"] == "stack" for r in records)
 
@@ -74,8 +75,8 @@ def test_export_lerobot_resimulates_trial_records(wheel_seespot: Path, tmp_path:
     """`seespot export lerobot --records`: each trial one episode, re-simulated
     from its seed and actions; the frames' actions are the records'."""
     pq = pytest.importorskip("pyarrow.parquet")
-    records = ROOT / "results" / "trials" / "oracle" / "stack.jsonl"
-    want = [json.loads(line) for line in records.read_text().splitlines()]
+    records = ROOT / "results" / "trials" / "oracle" / "stack.jsonl.gz"
+    want = [json.loads(line) for line in gzip.decompress(records.read_bytes()).decode().splitlines()]
     out = tmp_path / "lerobot"
     run = subprocess.run(
         [str(wheel_seespot), "export", "lerobot", "--records", str(records), "--out", str(out)],
@@ -104,9 +105,9 @@ def test_export_lerobot_resimulates_trial_records(wheel_seespot: Path, tmp_path:
     bad = dict(want[0])
     bad["actions_log"] = [dict(a) for a in want[0]["actions_log"]]
     bad["actions_log"][0]["progress_after"] += 1
-    bad_file = tmp_path / "bad" / "oracle" / "stack.jsonl"
+    bad_file = tmp_path / "bad" / "oracle" / "stack.jsonl.gz"
     bad_file.parent.mkdir(parents=True)
-    bad_file.write_text(json.dumps(bad) + "\n")
+    bad_file.write_bytes(gzip.compress((json.dumps(bad) + "\n").encode()))
     run = subprocess.run(
         [str(wheel_seespot), "export", "lerobot", "--records", str(bad_file), "--out", str(tmp_path / "x")],
         cwd=ROOT,

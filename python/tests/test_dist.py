@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import gzip
 import json
 import os
 from pathlib import Path
@@ -50,7 +51,7 @@ def test_ray_records_equal_serial(tmp_path: Path) -> None:
     for m in methods:
         for t in tasks:
             path = Path(seespot.records_path(tmp_path, m, t))
-            on_disk = sorted((json.loads(x) for x in path.read_text().splitlines()), key=lambda r: r["seed"])
+            on_disk = sorted((json.loads(x) for x in gzip.decompress(path.read_bytes()).decode().splitlines()), key=lambda r: r["seed"])
             assert [r["seed"] for r in on_disk] == seeds
             assert [without_timing(r) for r in result[(m, t)]] == [without_timing(r) for r in on_disk]
             serial_ev = seespot.Evaluator(m, t)
@@ -68,7 +69,7 @@ def test_resume_skips_recorded_seeds(tmp_path: Path) -> None:
         dist.evaluate(["oracle"], ["stack"], seed=1, trials=2, out_dir=tmp_path, num_workers=1)
     finally:
         ray.shutdown()
-    seeds = [json.loads(x)["seed"] for x in path.read_text().splitlines()]
+    seeds = [json.loads(x)["seed"] for x in gzip.decompress(path.read_bytes()).decode().splitlines()]
     assert seeds == [1, 3]
 
 
@@ -90,13 +91,15 @@ def test_a_seed_recorded_twice_is_refused(tmp_path: Path) -> None:
     line = seespot.Evaluator("oracle", "stack").run(1, 0)
     dist.append(path, line)
     dist.append(path, line)
-    with pytest.raises(ValueError, match="stack.jsonl, line 2.*again"):
+    with pytest.raises(ValueError, match="stack.jsonl.gz, line 2.*again"):
         dist.recorded(path)
-    # A line cut short by a kill is dropped, and the next append cuts it off.
-    path.write_text(line + "\n" + line[:20])
+    # A record cut short by a kill (half its gzip member) is dropped, and the
+    # next append cuts it off.
+    member = gzip.compress((line + "\n").encode())
+    path.write_bytes(member + member[: len(member) // 2])
     assert list(dist.recorded(path)) == [1]
     dist.append(path, seespot.Evaluator("oracle", "stack").run(3, 1))
-    assert [json.loads(x)["seed"] for x in path.read_text().splitlines()] == [1, 3]
+    assert [json.loads(x)["seed"] for x in gzip.decompress(path.read_bytes()).decode().splitlines()] == [1, 3]
 
 
 def test_ray_runs_an_embedding_set_into_its_named_records(tmp_path: Path) -> None:
@@ -109,7 +112,7 @@ def test_ray_runs_an_embedding_set_into_its_named_records(tmp_path: Path) -> Non
     finally:
         ray.shutdown()
     path = Path(seespot.records_path(tmp_path, "ssr-ccd@raw-patches", "unstack"))
-    on_disk = [json.loads(x) for x in path.read_text().splitlines()]
+    on_disk = [json.loads(x) for x in gzip.decompress(path.read_bytes()).decode().splitlines()]
     assert {r["method"] for r in on_disk} == {"ssr-ccd@raw-patches"}
     serial = seespot.Evaluator("ssr-ccd", "unstack", embeddings=[patches])
     want = [without_timing(json.loads(serial.run(s, i))) for i, s in enumerate(seespot.test_seeds(1, 2))]
@@ -139,6 +142,6 @@ def test_ray_runs_the_finetuned_noisy_and_custom_rows_as_the_serial_run(tmp_path
         serial = seespot.Evaluator(method, task, out_dir=str(out), **options)
         want = [without_timing(json.loads(serial.run(s, i))) for i, s in enumerate(seeds)]
         path = Path(seespot.records_path(out, serial.record_name, task))
-        on_disk = sorted((json.loads(x) for x in path.read_text().splitlines()), key=lambda r: r["seed"])
+        on_disk = sorted((json.loads(x) for x in gzip.decompress(path.read_bytes()).decode().splitlines()), key=lambda r: r["seed"])
         assert [without_timing(r) for r in on_disk] == want, (method, task, options)
         assert [without_timing(r) for r in result[(method, task)]] == want

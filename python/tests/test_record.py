@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gzip
 import json
 import subprocess
 from pathlib import Path
@@ -24,7 +25,7 @@ def cli_eval(seespot_bin: Path, out: Path, method: str, task: str, trials: int) 
 def test_oracle_record_equals_cli(tmp_path: Path, seespot_bin: Path) -> None:
     cli_eval(seespot_bin, tmp_path, "oracle", "stack", 2)
     path = seespot.records_path(tmp_path, "oracle", "stack")
-    cli = [json.loads(line) for line in Path(path).read_text().splitlines()]
+    cli = [json.loads(line) for line in gzip.decompress(Path(path).read_bytes()).decode().splitlines()]
     assert [r["seed"] for r in cli] == [1, 3]
     for index, r in enumerate(cli):
         py = seespot.run_trial("oracle", "stack", r["seed"], index=index)
@@ -35,7 +36,7 @@ def test_transporter_record_equals_cli(tmp_path: Path, seespot_bin: Path) -> Non
     assert "transporter" in seespot.METHODS
     cli_eval(seespot_bin, tmp_path, "transporter", "unstack", 1)
     path = seespot.records_path(tmp_path, "transporter", "unstack")
-    (r,) = [json.loads(line) for line in Path(path).read_text().splitlines()]
+    (r,) = [json.loads(line) for line in gzip.decompress(Path(path).read_bytes()).decode().splitlines()]
     assert r["provenance"]["files"]["models/transporter/unstack.safetensors"]
     py = seespot.run_trial("transporter", "unstack", 1, index=0)
     assert without_timing(py) == without_timing(r)

@@ -423,7 +423,7 @@ fn evaluation_writes_records_and_resumes_after_interruption() {
     let first = run_task(&config, TaskId::Row, &mut |_| {}).expect("eval");
     assert_eq!(first.len(), 3);
     let path = records_path(out.path(), "oracle", TaskId::Row);
-    let text = std::fs::read_to_string(&path).expect("records");
+    let text = seespot_eval::records::read_text(&path).expect("records");
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(lines.len(), 3);
     for (i, line) in lines.iter().enumerate() {
@@ -435,12 +435,10 @@ fn evaluation_writes_records_and_resumes_after_interruption() {
             v["actions_log"].as_array().expect("log").len()
         );
     }
-    // Interrupt: keep one full record and half of the next line.
-    std::fs::write(
-        &path,
-        format!("{}\n{}", lines[0], &lines[1][..lines[1].len() / 2]),
-    )
-    .expect("truncate");
+    // Interrupt: keep one full record and half of the next.
+    let member = |i: usize| seespot_eval::records::record_member(&first[i]).expect("member");
+    let (one, two) = (member(0), member(1));
+    std::fs::write(&path, [&one[..], &two[..two.len() / 2]].concat()).expect("truncate");
     let mut seen_new = 0;
     let resumed = run_task(&config, TaskId::Row, &mut |_| seen_new += 1).expect("resume");
     assert_eq!(resumed.len(), 3);
@@ -454,7 +452,7 @@ fn evaluation_writes_records_and_resumes_after_interruption() {
     };
     assert_eq!(untimed(&resumed), untimed(&first));
     assert_eq!(
-        std::fs::read_to_string(&path)
+        seespot_eval::records::read_text(&path)
             .expect("records")
             .lines()
             .count(),
@@ -578,8 +576,8 @@ fn the_review_of_the_committed_results_counts_every_record() {
     for m in std::fs::read_dir(results.join("trials")).expect("trials") {
         for f in std::fs::read_dir(m.expect("method").path()).expect("method dir") {
             let f = f.expect("file").path();
-            if f.extension().is_some_and(|e| e == "jsonl") {
-                lines += std::fs::read_to_string(&f)
+            if f.extension().is_some_and(|e| e == "gz") {
+                lines += seespot_eval::records::read_text(&f)
                     .expect("records")
                     .lines()
                     .filter(|l| l.trim_end().ends_with('}'))

@@ -6,6 +6,7 @@
 //
 // Server: $SEESPOT_BIN (default ../target/release/seespot), reviewing
 // results/. SEESPOT_SCREENSHOTS=DIR saves difference.png there.
+import { gunzipSync } from 'node:zlib';
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import { existsSync, readFileSync, mkdtempSync, rmSync } from 'node:fs';
@@ -17,8 +18,8 @@ import { root, BIN, openView } from './serve.js';
 let view;
 
 function record(run, task, seed) {
-  const f = join(root, 'results', 'trials', run, `${task}.jsonl`);
-  return readFileSync(f, 'utf8').split('\n').filter(Boolean).map((l) => JSON.parse(l)).find((r) => r.seed === seed);
+  const f = join(root, 'results', 'trials', run, `${task}.jsonl.gz`);
+  return gunzipSync(readFileSync(f)).toString('utf8').split('\n').filter(Boolean).map((l) => JSON.parse(l)).find((r) => r.seed === seed);
 }
 
 const key = (a) => `${a.primitive} ${a.rotation} ${a.y} ${a.x}`;

@@ -11,6 +11,7 @@
 // --decider and --models; $RERUN_BIN (pip rerun-sdk==0.36.3) verifies the .rrd.
 // SEESPOT_WEB_FROM_DISK=1 serves web/'s files from disk (the binary embeds the
 // ones it was built with; serve.js `pageFromDisk`).
+import { gunzipSync } from 'node:zlib';
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import { spawnSync } from 'node:child_process';
@@ -404,9 +405,9 @@ function committedRecords() {
   const out = new Map();
   for (const m of readdirSync(dir)) {
     for (const f of readdirSync(join(dir, m))) {
-      if (!f.endsWith('.jsonl')) continue;
-      const recs = readFileSync(join(dir, m, f), 'utf8').split('\n').filter((l) => l.trim()).map((l) => JSON.parse(l));
-      out.set(`${m}/${f.slice(0, -'.jsonl'.length)}`, recs);
+      if (!f.endsWith('.jsonl.gz')) continue;
+      const recs = gunzipSync(readFileSync(join(dir, m, f))).toString('utf8').split('\n').filter((l) => l.trim()).map((l) => JSON.parse(l));
+      out.set(`${m}/${f.slice(0, -'.jsonl.gz'.length)}`, recs);
     }
   }
   return out;
@@ -507,7 +508,7 @@ test('the review lists the evaluation with the JSONL\'s counts, sorted by failur
 test('view --replay opens the trial marked as a replay, as the review\'s Replay button does', async () => {
   if (process.env.SEESPOT_MODELS) return; // the records were made with the shipped models
   const [rec] = committedRecords().get('ssr-ccd/unstack');
-  const file = join('results', 'trials', 'ssr-ccd', 'unstack.jsonl');
+  const file = join('results', 'trials', 'ssr-ccd', 'unstack.jsonl.gz');
   const { server: child, page: served } = await startView(
     ['view', '--port', '0', '--no-viewer', '--replay', file, '--seed', String(rec.seed)]);
   const front = await pageFromDisk(served);

@@ -12,7 +12,7 @@ use seespot_sim::TrialRecord;
 
 #[derive(clap::Args, Debug)]
 pub struct CompareArgs {
-    /// An evaluation's output folder (holding `trials/<run>/<task>.jsonl`,
+    /// An evaluation's output folder (holding `trials/<run>/<task>.jsonl.gz`,
     /// custom tasks' in `trials/<run>/custom/`).
     first: PathBuf,
     /// The evaluation to compare it with.

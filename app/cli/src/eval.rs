@@ -35,7 +35,7 @@ pub struct EvalArgs {
     /// (never for a reported result).
     #[arg(long)]
     training_seeds: bool,
-    /// Where trial records (`trials/<method>/<task>.jsonl`) and the report go.
+    /// Where trial records (`trials/<method>/<task>.jsonl.gz`) and the report go.
     #[arg(long, default_value = "results")]
     out: PathBuf,
     #[arg(long, default_value = "models")]

@@ -10,7 +10,7 @@ use seespot_eval::review::{FailureKind, count_rows, counts, review_dir};
 
 #[derive(clap::Args, Debug)]
 pub struct ReviewArgs {
-    /// An evaluation's output folder (holding `trials/<method>/<task>.jsonl`).
+    /// An evaluation's output folder (holding `trials/<method>/<task>.jsonl.gz`).
     #[arg(default_value = "results")]
     dir: PathBuf,
     /// Only this method's records (e.g. `ssr-ccd`).

@@ -100,7 +100,7 @@ pub struct ViewArgs {
     #[arg(long)]
     pub no_viewer: bool,
     /// Replay a trial of an evaluation: its records file
-    /// (`<out>/trials/<method>/<task>.jsonl`, see `seespot review`) and --seed.
+    /// (`<out>/trials/<method>/<task>.jsonl.gz`, see `seespot review`) and --seed.
     /// Task, method, correspondence and resolution come from the record; the
     /// replay is refused when today's models or demonstrations differ from the
     /// ones the record was made with (trials are deterministic given those).
@@ -112,7 +112,7 @@ pub struct ViewArgs {
     #[arg(long, conflicts_with = "replay")]
     pub scene: Option<PathBuf>,
     /// The evaluation the page's review (`/review`) lists: an output folder of
-    /// `seespot eval` (`trials/<method>/<task>.jsonl`). Its trials replay in
+    /// `seespot eval` (`trials/<method>/<task>.jsonl.gz`). Its trials replay in
     /// this session with --models and --demos.
     #[arg(long, default_value = "results")]
     pub review: PathBuf,

@@ -82,8 +82,8 @@ fn diverge_lists_where_the_discordant_trials_part() {
         assert_ne!(a, b, "{d}");
         let records = |run: &str| {
             let task = d["task"].as_str().expect("task");
-            let path = root().join(format!("results/trials/{run}/{task}.jsonl"));
-            let text = std::fs::read_to_string(&path).expect("records");
+            let path = root().join(format!("results/trials/{run}/{task}.jsonl.gz"));
+            let text = seespot_eval::records::read_text(&path).expect("records");
             text.lines()
                 .map(|l| serde_json::from_str::<serde_json::Value>(l).expect("record"))
                 .find(|r| r["seed"] == d["seed"])
@@ -130,9 +130,10 @@ fn record_runs_writes_both_trials_into_one_recording() {
     assert_eq!(rec["runs"][1]["entities"], "runs/ssr-l2cd");
     // The records' own outcomes and lengths.
     for (i, run) in ["ssr-ccd", "ssr-l2cd"].into_iter().enumerate() {
-        let text =
-            std::fs::read_to_string(root().join(format!("results/trials/{run}/stack.jsonl")))
-                .expect("records");
+        let text = seespot_eval::records::read_text(
+            &root().join(format!("results/trials/{run}/stack.jsonl.gz")),
+        )
+        .expect("records");
         let r: serde_json::Value = text
             .lines()
             .map(|l| serde_json::from_str(l).expect("record"))

@@ -26,11 +26,12 @@ fn a_custom_task_evaluates_as_the_committed_records_say() {
     );
     assert_eq!(code, 0, "{err}");
     assert!(stdout.contains("Tasks no policy saw"), "{stdout}");
-    let fresh =
-        seespot_eval::records::read_records(&out.path().join("trials/random/custom/l-shape.jsonl"))
-            .expect("records");
+    let fresh = seespot_eval::records::read_records(
+        &out.path().join("trials/random/custom/l-shape.jsonl.gz"),
+    )
+    .expect("records");
     let committed = seespot_eval::records::read_records(
-        &root().join("results/custom/trials/random/custom/l-shape.jsonl"),
+        &root().join("results/custom/trials/random/custom/l-shape.jsonl.gz"),
     )
     .expect("committed records");
     assert_eq!(fresh.len(), 2);

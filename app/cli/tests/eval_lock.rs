@@ -37,8 +37,8 @@ fn race(out: &Path) {
             refused += 1;
         }
     }
-    let records = out.join("trials/oracle/stack.jsonl");
-    let text = std::fs::read_to_string(&records).expect("records");
+    let records = out.join("trials/oracle/stack.jsonl.gz");
+    let text = seespot_eval::records::read_text(&records).expect("records");
     let mut seeds = BTreeMap::<u64, usize>::new();
     for line in text.lines().filter(|l| !l.trim().is_empty()) {
         let r: serde_json::Value = serde_json::from_str(line).expect("a whole record per line");

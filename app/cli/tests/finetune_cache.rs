@@ -39,8 +39,9 @@ fn finetuned_rows(cache: &std::path::Path, out: &std::path::Path) -> Vec<Vec<Str
         );
     }
     for run in ["transporter-finetuned", "good-robot-finetuned-adam"] {
-        let text = std::fs::read_to_string(out.join("trials").join(run).join("stack.jsonl"))
-            .expect("records");
+        let text =
+            seespot_eval::records::read_text(&out.join("trials").join(run).join("stack.jsonl.gz"))
+                .expect("records");
         rows.push(
             text.lines()
                 .map(|l| {

@@ -64,7 +64,7 @@ fn issue_27_a_replay_refuses_flags_its_record_decides() {
     let replay = [
         "view",
         "--replay",
-        "results/trials/ssr-ccd/stack.jsonl",
+        "results/trials/ssr-ccd/stack.jsonl.gz",
         "--seed",
         "3",
     ];
@@ -164,9 +164,14 @@ fn issue_27_review_refuses_a_trial_recorded_twice() {
         "eval", "--method", "oracle", "--task", "stack", "--trials", "2", "--out", out,
     ]);
     assert_eq!(code, 0, "{err}");
-    let file = dir.path().join("trials/oracle/stack.jsonl");
-    let text = std::fs::read_to_string(&file).expect("records");
-    let first = text.lines().next().expect("a record");
-    std::fs::write(&file, format!("{text}{first}\n")).expect("write");
-    refused(&["review", out], &["stack.jsonl, line 3", "again"]);
+    let file = dir.path().join("trials/oracle/stack.jsonl.gz");
+    let text = seespot_eval::records::read_text(&file).expect("records");
+    let first = serde_json::from_str(text.lines().next().expect("a record")).expect("a record");
+    let member = seespot_eval::records::record_member(&first).expect("member");
+    let mut f = std::fs::OpenOptions::new()
+        .append(true)
+        .open(&file)
+        .expect("open");
+    std::io::Write::write_all(&mut f, &member).expect("write");
+    refused(&["review", out], &["stack.jsonl.gz, line 3", "again"]);
 }

@@ -22,8 +22,10 @@ fn records_under(cap: &str, task: &str) -> Vec<serde_json::Value> {
         "SEESPOT_SIMD={cap}: {}",
         String::from_utf8_lossy(&o.stderr)
     );
-    let text = std::fs::read_to_string(out.path().join(format!("trials/ssr-ccd/{task}.jsonl")))
-        .expect("records");
+    let text = seespot_eval::records::read_text(
+        &out.path().join(format!("trials/ssr-ccd/{task}.jsonl.gz")),
+    )
+    .expect("records");
     text.lines()
         .map(|l| {
             let mut r: serde_json::Value = serde_json::from_str(l).expect("record");

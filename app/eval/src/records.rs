@@ -1,15 +1,23 @@
-//! Trial record files: a run is a JSONL file of [`TrialRecord`]s, one per
-//! line, appended and synced as each trial ends ([`append_record`]), so a
-//! killed run loses at most the trial in progress, and read back with every
-//! record checked against the file it is in ([`read_records`]). The folders
-//! `seespot eval` writes them into are [`records_files`] and
-//! [`custom_records_files`]; the path of one is
+//! Trial record files: a run is a gzip-compressed JSONL file of
+//! [`TrialRecord`]s (`<task>.jsonl.gz`), one line per trial, each line its
+//! own gzip member, appended and synced as each trial ends
+//! ([`append_record`]), so a killed run loses at most the trial in progress,
+//! and read back with every record checked against the file it is in
+//! ([`read_records`]). `zcat` (or Python's `gzip.open`) reads a file as
+//! plain JSONL. The folders `seespot eval` writes them into are
+//! [`records_files`] and [`custom_records_files`]; the path of one is
 //! [`seespot_ssr::layout::records_path`].
 
-use std::io::Write;
+use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 
 use seespot_sim::{TaskId, TrialRecord};
+
+/// How a records file's name ends.
+pub const EXTENSION: &str = seespot_ssr::layout::RECORDS_EXTENSION;
+
+/// The most a records file may hold once decompressed.
+const MAX_TEXT: u64 = 1 << 30;
 
 /// A problem reading or writing trial records.
 #[derive(Debug, thiserror::Error)]
@@ -26,37 +34,116 @@ pub enum RecordError {
         source: serde_json::Error,
     },
     /// A record that does not belong in the file: another method's or task's
-    /// in a `<method>/<task>.jsonl` file, or a trial recorded twice.
+    /// in a `<method>/<task>.jsonl.gz` file, or a trial recorded twice.
     #[error("{path}, line {line}: {message}; a records file holds each trial of one run once")]
     Foreign {
         path: String,
         line: usize,
         message: String,
     },
+    /// A member in the middle of the file that does not decompress.
+    #[error(
+        "{path}, line {line}: not gzip-compressed JSONL ({source}); only the last line of a records file may be cut short"
+    )]
+    Damaged {
+        path: String,
+        line: usize,
+        source: std::io::Error,
+    },
+    /// A plain `.jsonl` records file, the form of records before 2026-11-28.
+    #[error(
+        "{path}: a plain JSONL records file; seespot reads and writes `<task>.jsonl.gz` (compress it with `gzip {path}`)"
+    )]
+    Plain { path: String },
 }
 
-/// Reads a JSONL file of trial records. A missing file is no records. A malformed *last*
-/// line (a write cut short when the evaluation was killed) is dropped, so a
-/// resumed run re-does that trial; a malformed line elsewhere is an error naming
-/// the file and line. So is a trial recorded twice (same method, task and
-/// seed), and, in a file named as `seespot eval` names them
-/// (`<method>/<task>.jsonl`), a record of another method or task: counted,
+/// A records file's decompressed lines, and the byte length of its whole
+/// members: a last member cut short (a write killed half-way) is left out of
+/// both.
+struct Members {
+    lines: Vec<String>,
+    whole_len: usize,
+}
+
+/// Splits a records file into its gzip members, one line each.
+fn members(path: &Path, bytes: &[u8]) -> Result<Members, RecordError> {
+    let mut lines = Vec::new();
+    let mut rest = bytes;
+    let mut total = 0u64;
+    while !rest.is_empty() {
+        let start = bytes.len() - rest.len();
+        let mut text = String::new();
+        let mut decoder = flate2::bufread::GzDecoder::new(rest);
+        let read = (&mut decoder)
+            .take(MAX_TEXT - total + 1)
+            .read_to_string(&mut text);
+        let after = decoder.into_inner();
+        match read {
+            Ok(_) if total + text.len() as u64 > MAX_TEXT => {
+                return Err(RecordError::Io {
+                    path: path.display().to_string(),
+                    source: seespot_sim::bounds::too_large(MAX_TEXT),
+                });
+            }
+            Ok(_) => {
+                total += text.len() as u64;
+                lines.extend(text.lines().map(str::to_owned));
+                rest = after;
+            }
+            // Only the last member may be cut short.
+            Err(e)
+                if e.kind() == std::io::ErrorKind::UnexpectedEof
+                    && is_last_member(&bytes[start..]) =>
+            {
+                return Ok(Members {
+                    lines,
+                    whole_len: start,
+                });
+            }
+            Err(source) => {
+                return Err(RecordError::Damaged {
+                    path: path.display().to_string(),
+                    line: lines.len() + 1,
+                    source,
+                });
+            }
+        }
+    }
+    Ok(Members {
+        lines,
+        whole_len: bytes.len(),
+    })
+}
+
+/// Whether `tail`, which does not decompress, holds no later gzip member:
+/// a write cut short rather than damage in the middle of a file.
+fn is_last_member(tail: &[u8]) -> bool {
+    !tail.windows(3).skip(1).any(|w| w == [0x1f, 0x8b, 0x08])
+}
+
+/// Reads a records file. A missing file is no records. A last line cut short
+/// (a write killed when the evaluation was) is dropped, so a resumed run
+/// re-does that trial; a damaged or malformed line elsewhere is an error
+/// naming the file and line. So is a trial recorded twice (same method, task
+/// and seed), and, in a file named as `seespot eval` names them
+/// (`<method>/<task>.jsonl.gz`), a record of another method or task: counted,
 /// either would change a result without a word.
 pub fn read_records(path: &Path) -> Result<Vec<TrialRecord>, RecordError> {
     let io = |source| RecordError::Io {
         path: path.display().to_string(),
         source,
     };
-    let text = match seespot_sim::bounds::read_text(path, seespot_sim::bounds::files::RECORDS) {
+    let bytes = match seespot_sim::bounds::read_file(path, seespot_sim::bounds::files::RECORDS) {
         Ok(t) => t,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
         Err(e) => return Err(io(e)),
     };
-    let lines: Vec<&str> = text.lines().collect();
+    let lines = members(path, &bytes)?.lines;
     let last = lines.iter().rposition(|l| !l.trim().is_empty());
     // The method and task the file's name gives, when it is named that way.
     let named: Option<(String, TaskId)> = (|| {
-        let task = path.file_stem()?.to_str()?.parse().ok()?;
+        let name = path.file_name()?.to_str()?;
+        let task = name.strip_suffix(&format!(".{EXTENSION}"))?.parse().ok()?;
         let method = path.parent()?.file_name()?.to_str()?.to_owned();
         Some((method, task))
     })();
@@ -103,21 +190,54 @@ pub fn read_records(path: &Path) -> Result<Vec<TrialRecord>, RecordError> {
     Ok(out)
 }
 
-/// Appends one record as a line to `path` (created if missing) and syncs it, so
-/// a killed evaluation loses at most the running trial. If the file ends in a
-/// partial line (a write cut short), that fragment is cut off first, as
-/// [`read_records`] would have ignored it.
+/// The decompressed text of a records file, a JSON line a trial (what
+/// `zcat` prints), without a last member cut short. A missing file is empty.
+pub fn read_text(path: &Path) -> Result<String, RecordError> {
+    let bytes = match seespot_sim::bounds::read_file(path, seespot_sim::bounds::files::RECORDS) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(String::new()),
+        Err(source) => {
+            return Err(RecordError::Io {
+                path: path.display().to_string(),
+                source,
+            });
+        }
+    };
+    let mut text = String::new();
+    for line in members(path, &bytes)?.lines {
+        text.push_str(&line);
+        text.push('\n');
+    }
+    Ok(text)
+}
+
+/// One record as a gzip member holding its JSON line.
+pub fn record_member(record: &TrialRecord) -> std::io::Result<Vec<u8>> {
+    let mut line = record.to_json_line().map_err(std::io::Error::other)?;
+    line.push('\n');
+    let mut encoder = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+    encoder.write_all(line.as_bytes())?;
+    encoder.finish()
+}
+
+/// Appends one record to `path` (created if missing) as a gzip member
+/// holding its line, and syncs it, so a killed evaluation loses at most the
+/// running trial. If the file ends in a member cut short, that fragment is
+/// cut off first, as [`read_records`] would have ignored it.
 pub fn append_record(path: &Path, record: &TrialRecord) -> Result<(), RecordError> {
     let io = |source| RecordError::Io {
         path: path.display().to_string(),
         source,
     };
     let keep = match seespot_sim::bounds::read_file(path, seespot_sim::bounds::files::RECORDS) {
-        Ok(bytes) if bytes.last().is_some_and(|&b| b != b'\n') => {
-            Some(bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1))
+        Ok(bytes) => {
+            let whole = members(path, &bytes)?.whole_len;
+            (whole < bytes.len()).then_some(whole)
         }
-        _ => None,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+        Err(e) => return Err(io(e)),
     };
+    let member = record_member(record).map_err(io)?;
     let mut f = std::fs::OpenOptions::new()
         .create(true)
         .append(true)
@@ -126,22 +246,20 @@ pub fn append_record(path: &Path, record: &TrialRecord) -> Result<(), RecordErro
     if let Some(len) = keep {
         f.set_len(len as u64).map_err(io)?;
     }
-    let mut line = record
-        .to_json_line()
-        .map_err(|e| io(std::io::Error::other(e)))?;
-    line.push('\n');
-    f.write_all(line.as_bytes()).map_err(io)?;
+    f.write_all(&member).map_err(io)?;
     f.sync_data().map_err(io)
 }
 
-/// Every records file under `<out_dir>/trials/` (`<method>/<task>.jsonl`),
+/// Every records file under `<out_dir>/trials/` (`<method>/<task>.jsonl.gz`),
 /// sorted; what the report and `seespot review` read.
 pub fn records_files(out_dir: &Path) -> Result<Vec<PathBuf>, RecordError> {
     records_files_below(out_dir, None)
 }
 
-/// The `.jsonl` files of every run folder of `out_dir`'s `trials/` (or of
-/// its subfolder `below`), sorted.
+/// The records files of every run folder of `out_dir`'s `trials/` (or of
+/// its subfolder `below`), sorted. A plain `.jsonl` file there is refused
+/// ([`RecordError::Plain`]): read as no records, it would drop a result
+/// without a word.
 fn records_files_below(out_dir: &Path, below: Option<&str>) -> Result<Vec<PathBuf>, RecordError> {
     let trials = seespot_ssr::layout::trials_dir(out_dir);
     let io = |e: std::io::Error| RecordError::Io {
@@ -158,8 +276,13 @@ fn records_files_below(out_dir: &Path, below: Option<&str>) -> Result<Vec<PathBu
         if dir.is_dir() {
             for f in std::fs::read_dir(&dir).map_err(io)? {
                 let f = f.map_err(io)?.path();
-                if f.extension().is_some_and(|e| e == "jsonl") {
+                let name = f.file_name().and_then(|n| n.to_str()).unwrap_or_default();
+                if name.ends_with(&format!(".{EXTENSION}")) {
                     files.push(f);
+                } else if name.ends_with(".jsonl") {
+                    return Err(RecordError::Plain {
+                        path: f.display().to_string(),
+                    });
                 }
             }
         }
@@ -169,7 +292,7 @@ fn records_files_below(out_dir: &Path, below: Option<&str>) -> Result<Vec<PathBu
 }
 
 /// The records files of custom tasks in `out_dir`
-/// (`trials/<run>/custom/<name>.jsonl`), sorted; none when there are none.
+/// (`trials/<run>/custom/<name>.jsonl.gz`), sorted; none when there are none.
 pub fn custom_records_files(out_dir: &Path) -> Result<Vec<PathBuf>, RecordError> {
     if !seespot_ssr::layout::trials_dir(out_dir).is_dir() {
         return Ok(Vec::new());
@@ -213,11 +336,11 @@ pub(crate) mod tests {
     }
 
     #[test]
-    fn jsonl_round_trip_and_truncated_tail() {
+    fn round_trip_and_truncated_tail() {
         let dir = tempfile::tempdir().expect("tempdir");
-        let path = dir.path().join("trials.jsonl");
+        let path = dir.path().join("trials.jsonl.gz");
         assert!(read_records(&path).expect("missing is empty").is_empty());
-        let mut r: Vec<TrialRecord> = (0..3)
+        let mut r: Vec<TrialRecord> = (0..4)
             .map(|k| example(k, k == 0, 6 + k, 4, false))
             .collect();
         r[0].actions_log.push(ActionLog {
@@ -236,27 +359,72 @@ pub(crate) mod tests {
         for x in &r[..2] {
             append_record(&path, x).expect("append");
         }
-        // A write cut short by a kill.
+        // The file is gzip-compressed JSONL: decompressed, a line a record.
+        let mut text = String::new();
+        flate2::read::MultiGzDecoder::new(std::fs::File::open(&path).expect("open"))
+            .read_to_string(&mut text)
+            .expect("gunzip");
+        assert_eq!(text.lines().count(), 2);
+        assert_eq!(
+            serde_json::from_str::<TrialRecord>(text.lines().nth(1).expect("line 2"))
+                .expect("a record"),
+            r[1]
+        );
+        // A write cut short by a kill: half a member.
+        let whole = std::fs::metadata(&path).expect("meta").len();
+        let member = record_member(&r[2]).expect("member");
         let mut f = std::fs::OpenOptions::new()
             .append(true)
             .open(&path)
             .expect("open");
-        f.write_all(b"{\"method\":\"ssr").expect("write");
+        f.write_all(&member[..member.len() / 2]).expect("write");
         drop(f);
         assert_eq!(read_records(&path).expect("read"), r[..2].to_vec());
         // Appending cuts the fragment off: every record stays readable.
         append_record(&path, &r[2]).expect("append");
         assert_eq!(read_records(&path).expect("read"), r[..3].to_vec());
-        // A corrupt line in the middle is an error naming the file and line.
-        let text = std::fs::read_to_string(&path).expect("read");
-        let lines: Vec<&str> = text.lines().collect();
-        let bad = format!("{}\n{{oops\n{}\n", lines[0], lines[1]);
-        std::fs::write(&path, bad).expect("write");
+        append_record(&path, &r[3]).expect("append");
+        // A damaged member in the middle is an error naming the file and
+        // line, and appending does not cut the later records off.
+        let mut bytes = std::fs::read(&path).expect("read");
+        let at = whole as usize + member.len() / 2;
+        bytes[at] ^= 0xff;
+        bytes[at + 1] ^= 0xff;
+        std::fs::write(&path, &bytes).expect("write");
         let msg = read_records(&path)
             .err()
             .map(|e| e.to_string())
             .unwrap_or_default();
-        assert!(msg.contains("trials.jsonl, line 2"), "{msg}");
+        assert!(msg.contains("trials.jsonl.gz, line 3"), "{msg}");
+        assert!(append_record(&path, &r[0]).is_err(), "appended past damage");
+        assert_eq!(std::fs::read(&path).expect("read"), bytes);
+        // A malformed line in a whole member is an error too.
+        std::fs::remove_file(&path).expect("rm");
+        append_record(&path, &r[0]).expect("append");
+        let mut e = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+        e.write_all(b"{oops\n").expect("gzip");
+        let mut f = std::fs::OpenOptions::new()
+            .append(true)
+            .open(&path)
+            .expect("open");
+        f.write_all(&e.finish().expect("gzip")).expect("write");
+        drop(f);
+        append_record(&path, &r[1]).expect("append");
+        let msg = read_records(&path)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(msg.contains("trials.jsonl.gz, line 2"), "{msg}");
+    }
+
+    #[test]
+    fn a_plain_jsonl_file_is_refused_by_name() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let run = dir.path().join("trials").join("oracle");
+        std::fs::create_dir_all(&run).expect("mkdir");
+        std::fs::write(run.join("stack.jsonl"), "{}\n").expect("write");
+        let msg = records_files(dir.path()).expect_err("plain").to_string();
+        assert!(msg.contains("stack.jsonl") && msg.contains("gzip"), "{msg}");
     }
 
     /// Issue 27: `review` counted a trial recorded twice, and a record of
@@ -264,7 +432,7 @@ pub(crate) mod tests {
     #[test]
     fn a_trial_twice_or_another_tasks_record_is_refused() {
         let dir = tempfile::tempdir().expect("tempdir");
-        let path = dir.path().join("ssr-ccd").join("stack.jsonl");
+        let path = dir.path().join("ssr-ccd").join("stack.jsonl.gz");
         std::fs::create_dir_all(path.parent().expect("dir")).expect("mkdir");
         let r: Vec<TrialRecord> = (0..2).map(|k| example(k, true, 6, 4, false)).collect();
         for x in [&r[0], &r[1], &r[0]] {
@@ -272,7 +440,8 @@ pub(crate) mod tests {
         }
         let msg = read_records(&path).expect_err("twice").to_string();
         assert!(
-            msg.contains("stack.jsonl, line 3") && msg.contains("seed 1 again (first on line 1)"),
+            msg.contains("stack.jsonl.gz, line 3")
+                && msg.contains("seed 1 again (first on line 1)"),
             "{msg}"
         );
         let mut row = r[1].clone();

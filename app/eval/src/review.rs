@@ -132,7 +132,7 @@ pub fn departure_lines(r: &TrialRecord) -> Vec<String> {
 }
 
 /// Every trial of every records file under `<out>/trials/` (custom tasks'
-/// too, `trials/<run>/custom/<name>.jsonl`), in (method, task, seed) order.
+/// too, `trials/<run>/custom/<name>.jsonl.gz`), in (method, task, seed) order.
 pub fn review_dir(out: &Path) -> Result<Vec<ReviewedTrial>, RecordError> {
     let mut files = crate::records::records_files(out)?;
     files.extend(crate::records::custom_records_files(out)?);

@@ -2,7 +2,7 @@
 //! the policies of the other three tasks (M = 3) and the task's two
 //! demonstrations (N = 2); baselines run beside it.
 //!
-//! Records go to `<out>/trials/<method>/<task>.jsonl`, one line per trial, synced
+//! Records go to `<out>/trials/<method>/<task>.jsonl.gz`, one line per trial, synced
 //! as each trial ends: re-running skips the seeds already recorded, and killing a
 //! run loses at most the trial in progress.
 

@@ -30,7 +30,7 @@ fn config(method: EvalMethod, out: &Path, resolution: usize, trials: u64) -> Eva
 
 /// The records file's lines with every `decide_ms` value zeroed.
 fn lines_without_times(path: &Path) -> Vec<serde_json::Value> {
-    std::fs::read_to_string(path)
+    seespot_eval::records::read_text(path)
         .expect("records")
         .lines()
         .map(|l| {

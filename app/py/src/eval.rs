@@ -230,7 +230,7 @@ fn record_error(e: seespot_eval::records::RecordError) -> PyErr {
 /// The records of a JSONL records file as `seespot eval` reads them (one JSON
 /// line each): none when it is missing, a last line cut short by a kill
 /// dropped, and a damaged line, a trial recorded twice or another method's
-/// or task's record in a `<method>/<task>.jsonl` file refused (`ValueError`).
+/// or task's record in a `<method>/<task>.jsonl.gz` file refused (`ValueError`).
 #[pyfunction]
 pub fn read_records(path: PathBuf) -> PyResult<Vec<String>> {
     seespot_eval::records::read_records(&path)

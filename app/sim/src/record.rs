@@ -72,7 +72,7 @@ impl std::fmt::Display for Departure {
     }
 }
 
-/// One finished trial: a JSON line of a run's `<task>.jsonl`.
+/// One finished trial: a JSON line of a run's `<task>.jsonl.gz`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TrialRecord {
     /// Method id, e.g. `ssr-ccd`, `ssr-l2cd`, `spot-q`, `oracle`, `random`, or

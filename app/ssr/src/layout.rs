@@ -7,7 +7,7 @@
 //! <models>/<task>.safetensors              a SPOT-Q policy (and <task>.md, its card)
 //! <models>/transporter/<task>.safetensors  a TransporterNet
 //! <demos>/<task>/<seed>/                   a demonstration (meta.json + PNGs)
-//! <out>/trials/<run>/<task>.jsonl          an evaluation's records (<run>: a run specification's name)
+//! <out>/trials/<run>/<task>.jsonl.gz        an evaluation's records (<run>: a run specification's name)
 //! runs/train-<task>/                       a SPOT-Q training run (resumable)
 //! runs/transporter-<task>/                 a TransporterNet training run
 //! runs/models/, runs/demos/                what training and recording write by default
@@ -254,10 +254,13 @@ pub fn trials_dir(out_dir: &Path) -> PathBuf {
     out_dir.join("trials")
 }
 
+/// How a records file's name ends: gzip-compressed JSONL, one member a line.
+pub const RECORDS_EXTENSION: &str = "jsonl.gz";
+
 /// The records file of run `run` (a run specification's name, `seespot_eval::RunSpec`) on `task`.
 pub fn records_path(out_dir: &Path, run: &str, task: TaskId) -> PathBuf {
     let mut path = trials_dir(out_dir).join(run).join(task.path());
-    path.set_extension("jsonl");
+    path.set_extension(RECORDS_EXTENSION);
     path
 }
 

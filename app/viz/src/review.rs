@@ -153,7 +153,7 @@ pub fn replay_status(
 /// The evaluation the page reviews and the files replays decide with.
 #[derive(Clone, Debug)]
 pub struct ReviewSource {
-    /// An evaluation's output folder (`trials/<method>/<task>.jsonl`).
+    /// An evaluation's output folder (`trials/<method>/<task>.jsonl.gz`).
     pub dir: PathBuf,
     pub layout: Layout,
 }

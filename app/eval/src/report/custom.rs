@@ -9,7 +9,7 @@ use crate::stats::paired_success;
 
 /// The report of the tasks defined by their demonstrations ("tasks no policy
 /// saw") in `out_dir`: every run's success and progress on each custom task
-/// (`trials/<run>/custom/<name>.jsonl`), and exact McNemar tests of SSR CCD
+/// (`trials/<run>/custom/<name>.jsonl.gz`), and exact McNemar tests of SSR CCD
 /// against SSR L2CD and against random on paired seeds, per task and pooled.
 pub fn custom_markdown(out_dir: &Path) -> Result<String, ReportError> {
     use std::fmt::Write as _;

@@ -207,8 +207,8 @@ mod tests {
     fn the_report_refuses_records_that_mix_runs() {
         let (ccd, l2cd): (Vec<_>, Vec<_>) =
             records().into_iter().partition(|r| r.method == "ssr-ccd");
-        let a = PathBuf::from("trials/ssr-ccd/all.jsonl");
-        let b = PathBuf::from("trials/ssr-l2cd/all.jsonl");
+        let a = PathBuf::from("trials/ssr-ccd/all.jsonl.gz");
+        let b = PathBuf::from("trials/ssr-l2cd/all.jsonl.gz");
         let same = [
             (a.clone(), with_files(ccd.clone(), "aa")),
             (b.clone(), with_files(l2cd.clone(), "aa")),
