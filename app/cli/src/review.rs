@@ -76,7 +76,11 @@ pub fn run(args: ReviewArgs) -> anyhow::Result<()> {
         "{} trials in {}\n\n| method | fold | trials | success | {} |\n|---|---|---|---|{}",
         trials.len(),
         args.dir.display(),
-        FailureKind::ALL.map(|k| k.as_str()).join(" | "),
+        FailureKind::ALL
+            .iter()
+            .map(|k| k.as_str())
+            .collect::<Vec<_>>()
+            .join(" | "),
         "---|".repeat(FailureKind::ALL.len())
     )?;
     for (m, t, n, ok, kinds) in &table {
@@ -85,7 +89,7 @@ pub fn run(args: ReviewArgs) -> anyhow::Result<()> {
     }
     let can =
         |t: &&seespot_eval::review::ReviewedTrial| matches!(replays.get(&t.file), Some(Ok(())));
-    for kind in FailureKind::ALL {
+    for &kind in FailureKind::ALL {
         // The ones that replay first: the first command listed works.
         let mut of_kind: Vec<_> = trials.iter().filter(|t| t.failure == Some(kind)).collect();
         if of_kind.is_empty() {

@@ -27,33 +27,42 @@ pub const PUT_BACK_LOOPS: usize = 2;
 pub const PUT_BACK_PIXELS: usize = 3;
 
 /// Why a failed trial failed (module docs).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    PartialEq,
+    Eq,
+    PartialOrd,
+    Ord,
+    Hash,
+    Serialize,
+    strum::IntoStaticStr,
+    strum::VariantArray,
+)]
 #[serde(rename_all = "kebab-case")]
 pub enum FailureKind {
+    #[strum(serialize = "block out of workspace")]
     OutOfWorkspace,
+    #[strum(serialize = "repeated identical action")]
     RepeatedAction,
+    #[strum(serialize = "pick-and-put-back loop")]
     PickAndPutBack,
+    #[strum(serialize = "progress reversal")]
     ProgressReversal,
+    #[strum(serialize = "action limit")]
     ActionLimit,
 }
 
 impl FailureKind {
-    pub const ALL: [FailureKind; 5] = [
-        Self::OutOfWorkspace,
-        Self::RepeatedAction,
-        Self::PickAndPutBack,
-        Self::ProgressReversal,
-        Self::ActionLimit,
-    ];
+    /// Every kind, in the order the review lists them.
+    pub const ALL: &[FailureKind] = <Self as strum::VariantArray>::VARIANTS;
+    /// How many kinds there are.
+    pub const N: usize = Self::ALL.len();
 
+    /// The kind's label in the review (its serde name is the key in JSON).
     pub fn as_str(self) -> &'static str {
-        match self {
-            Self::OutOfWorkspace => "block out of workspace",
-            Self::RepeatedAction => "repeated identical action",
-            Self::PickAndPutBack => "pick-and-put-back loop",
-            Self::ProgressReversal => "progress reversal",
-            Self::ActionLimit => "action limit",
-        }
+        self.into()
     }
 }
 
@@ -159,13 +168,15 @@ pub fn review_dir(out: &Path) -> Result<Vec<ReviewedTrial>, RecordError> {
 
 /// Per (method, task): trials, successes and failures of each kind (in
 /// [`FailureKind::ALL`] order).
-pub fn counts(trials: &[ReviewedTrial]) -> Vec<(String, TaskId, usize, usize, [usize; 5])> {
-    let mut out: Vec<(String, TaskId, usize, usize, [usize; 5])> = Vec::new();
+pub fn counts(
+    trials: &[ReviewedTrial],
+) -> Vec<(String, TaskId, usize, usize, [usize; FailureKind::N])> {
+    let mut out: Vec<(String, TaskId, usize, usize, [usize; FailureKind::N])> = Vec::new();
     for t in trials {
         let i = match out.iter().position(|o| o.0 == t.method && o.1 == t.task) {
             Some(i) => i,
             None => {
-                out.push((t.method.clone(), t.task, 0, 0, [0; 5]));
+                out.push((t.method.clone(), t.task, 0, 0, [0; FailureKind::N]));
                 out.len() - 1
             }
         };
@@ -232,7 +243,7 @@ pub fn count_rows(
                 task,
                 trials: n,
                 successes: ok,
-                failures: FailureKind::ALL.into_iter().zip(kinds).collect(),
+                failures: FailureKind::ALL.iter().copied().zip(kinds).collect(),
                 replay,
             }
         })

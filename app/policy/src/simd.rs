@@ -27,31 +27,28 @@ pub(crate) fn mul_add(mut acc: [f32; 16], v: f32, w: &[f32; 16]) -> [f32; 16] {
 }
 
 /// The instruction sets the hot loops may use.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, strum::IntoStaticStr, strum::EnumString,
+)]
+#[strum(serialize_all = "lowercase", ascii_case_insensitive)]
 pub enum Level {
     /// Baseline x86-64 (SSE2).
+    #[strum(to_string = "baseline", serialize = "sse2")]
     Baseline,
     Avx2,
+    #[strum(to_string = "avx512", serialize = "avx512f")]
     Avx512,
 }
 
 impl Level {
+    /// The level's name, as `SEESPOT_SIMD` and benchmarks spell it.
     pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Baseline => "baseline",
-            Self::Avx2 => "avx2",
-            Self::Avx512 => "avx512",
-        }
+        self.into()
     }
 
-    /// Parses a `SEESPOT_SIMD` value.
+    /// Parses a `SEESPOT_SIMD` value (any case; `sse2` and `avx512f` too).
     pub fn parse(text: &str) -> Option<Self> {
-        match text.trim().to_ascii_lowercase().as_str() {
-            "baseline" | "sse2" => Some(Self::Baseline),
-            "avx2" => Some(Self::Avx2),
-            "avx512" | "avx512f" => Some(Self::Avx512),
-            _ => None,
-        }
+        text.trim().parse().ok()
     }
 }
 
@@ -198,3 +195,27 @@ macro_rules! simd_kernel {
 }
 
 pub use simd_kernel as kernel;
+
+#[cfg(test)]
+mod tests {
+    use super::Level;
+
+    #[test]
+    fn levels_are_named_and_parsed_as_seespot_simd_spells_them() {
+        for (level, name) in [
+            (Level::Baseline, "baseline"),
+            (Level::Avx2, "avx2"),
+            (Level::Avx512, "avx512"),
+        ] {
+            assert_eq!(level.as_str(), name);
+            assert_eq!(Level::parse(name), Some(level));
+            assert_eq!(
+                Level::parse(&format!(" {} ", name.to_uppercase())),
+                Some(level)
+            );
+        }
+        assert_eq!(Level::parse("sse2"), Some(Level::Baseline));
+        assert_eq!(Level::parse("AVX512F"), Some(Level::Avx512));
+        assert_eq!(Level::parse("neon"), None);
+    }
+}

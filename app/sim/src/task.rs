@@ -14,7 +14,8 @@ use crate::world::BlockPose;
 
 /// A task: one of the four multi-step block tasks of See-SPOT-Run, or a task
 /// defined by its demonstrations.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, strum::IntoStaticStr)]
+#[strum(serialize_all = "kebab-case")]
 pub enum TaskId {
     Stack,
     Row,
@@ -194,11 +195,8 @@ impl TaskId {
     /// (`custom:NAME` for a custom task).
     pub fn as_str(self) -> &'static str {
         match self {
-            TaskId::Stack => "stack",
-            TaskId::Row => "row",
-            TaskId::Unstack => "unstack",
-            TaskId::VerticalSquare => "vertical-square",
             TaskId::Custom(c) => &c.0.id,
+            t => t.into(),
         }
     }
 
@@ -290,10 +288,31 @@ impl std::str::FromStr for TaskId {
             .into_iter()
             .find(|t| t.as_str() == s)
             .ok_or_else(|| {
+                let names: Vec<&str> = Self::ALL.iter().map(|t| t.as_str()).collect();
                 format!(
-                    "unknown task '{s}' (expected one of: stack, row, unstack, vertical-square, \
-                     or custom:NAME for a task defined by demos/custom/NAME)"
+                    "unknown task '{s}' (expected one of: {}, or custom:NAME for a task \
+                     defined by demos/custom/NAME)",
+                    names.join(", ")
                 )
             })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::TaskId;
+
+    #[test]
+    fn built_in_tasks_are_named_in_kebab_case_and_parsed_back() {
+        let names: Vec<&str> = TaskId::ALL.iter().map(|t| t.as_str()).collect();
+        assert_eq!(names, ["stack", "unstack", "row", "vertical-square"]);
+        for t in TaskId::ALL {
+            assert_eq!(t.as_str().parse::<TaskId>(), Ok(t));
+        }
+        let err = "square".parse::<TaskId>().expect_err("unknown");
+        assert!(
+            err.contains("stack, unstack, row, vertical-square, or custom:NAME"),
+            "{err}"
+        );
     }
 }
