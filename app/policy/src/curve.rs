@@ -46,25 +46,35 @@ impl CurveRow {
     }
 }
 
-/// Writes the rows as CSV.
+/// Writes the rows as CSV (one header line, then a row per trial).
 pub fn write_csv(path: &Path, rows: &[CurveRow]) -> Result<(), PolicyError> {
-    let mut s = String::from(
-        "action,trial,success,success_rate,action_efficiency,loss,epsilon,oracle_probability\n",
-    );
+    let csv_err = |e: csv::Error| PolicyError::io(path, std::io::Error::other(e));
+    let mut w = csv::Writer::from_path(path).map_err(csv_err)?;
+    w.write_record([
+        "action",
+        "trial",
+        "success",
+        "success_rate",
+        "action_efficiency",
+        "loss",
+        "epsilon",
+        "oracle_probability",
+    ])
+    .map_err(csv_err)?;
     for r in rows {
-        s.push_str(&format!(
-            "{},{},{},{:.4},{:.4},{:.5},{:.3},{:.3}\n",
-            r.action,
-            r.trial,
-            r.success as u8,
-            r.success_rate,
-            r.action_efficiency,
-            r.loss,
-            r.epsilon,
-            r.oracle_probability
-        ));
+        w.write_record([
+            r.action.to_string(),
+            r.trial.to_string(),
+            u8::from(r.success).to_string(),
+            format!("{:.4}", r.success_rate),
+            format!("{:.4}", r.action_efficiency),
+            format!("{:.5}", r.loss),
+            format!("{:.3}", r.epsilon),
+            format!("{:.3}", r.oracle_probability),
+        ])
+        .map_err(csv_err)?;
     }
-    std::fs::write(path, s).map_err(|e| PolicyError::io(path, e))
+    w.flush().map_err(|e| PolicyError::io(path, e))
 }
 
 /// Draws success rate, action efficiency and loss against actions. Writes
