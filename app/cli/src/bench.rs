@@ -12,7 +12,7 @@ pub enum BenchCommand {
     /// The block world: drop + settle + render steps per second, and render alone.
     Sim {
         /// Number of drop-settle-render steps to time.
-        #[arg(long, default_value_t = 500, value_parser = seespot_sim::bounds::parse_bench_actions)]
+        #[arg(long, default_value_t = 500, value_parser = clap::builder::RangedU64ValueParser::<usize>::from(seespot_sim::bounds::BENCH_ACTIONS))]
         actions: usize,
         #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 224)]
         resolution: usize,
@@ -22,7 +22,7 @@ pub enum BenchCommand {
     /// The Q-networks: forward of 16 rotations (both primitives) at 224 and 112 px,
     /// one training step.
     Policy {
-        #[arg(long, default_value_t = 5, value_parser = seespot_sim::bounds::parse_bench_iterations)]
+        #[arg(long, default_value_t = 5, value_parser = clap::builder::RangedU64ValueParser::<usize>::from(seespot_sim::bounds::BENCH_ITERATIONS))]
         iterations: usize,
         #[arg(long)]
         json: bool,
@@ -34,7 +34,7 @@ pub enum BenchCommand {
         #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 224)]
         resolution: usize,
         /// Actions to run (the first few dozen fill the replay).
-        #[arg(long, default_value_t = 300, value_parser = seespot_sim::bounds::parse_bench_actions)]
+        #[arg(long, default_value_t = 300, value_parser = clap::builder::RangedU64ValueParser::<usize>::from(seespot_sim::bounds::BENCH_ACTIONS))]
         actions: usize,
         #[arg(long, default_value_t = seespot_sim::TaskId::Stack)]
         task: seespot_sim::TaskId,
@@ -53,7 +53,7 @@ pub enum BenchCommand {
     Ssr {
         #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 224)]
         resolution: usize,
-        #[arg(long, default_value_t = 9, value_parser = seespot_sim::bounds::parse_bench_iterations)]
+        #[arg(long, default_value_t = 9, value_parser = clap::builder::RangedU64ValueParser::<usize>::from(seespot_sim::bounds::BENCH_ITERATIONS))]
         iterations: usize,
         /// Decide with these embedding models (a folder of `<task>.onnx`,
         /// or files; docs/embeddings.md) in place of three untrained SPOT-Q

@@ -24,7 +24,7 @@ pub struct EvalArgs {
     #[arg(long, default_value = "all")]
     task: String,
     /// Trials per task.
-    #[arg(long, default_value_t = 50, value_parser = seespot_sim::bounds::parse_trials)]
+    #[arg(long, default_value_t = 50, value_parser = clap::builder::RangedU64ValueParser::<u64>::from(seespot_sim::bounds::TRIALS))]
     trials: u64,
     /// First seed; trial i uses seed + 2 i. 1 (the default) gives the test
     /// seeds 1, 3, ...; 10001 the validation seeds, for choosing settings.
@@ -58,7 +58,7 @@ pub struct EvalArgs {
     /// paper's 1k in all). With `--method spot-q` this gives "Good Robot
     /// finetuned"; with `--method transporter`, iterations of another task's
     /// TransporterNet on the demonstrations (1000 = the paper's finetuned row).
-    #[arg(long, default_value_t = 0, value_parser = seespot_sim::bounds::parse_finetune_steps)]
+    #[arg(long, default_value_t = 0, value_parser = clap::builder::RangedU64ValueParser::<usize>::from(seespot_sim::bounds::FINETUNE_STEPS))]
     finetune_steps: usize,
     /// With --finetune-steps and SPOT-Q policies (SSR, spot-q): `reference`
     /// (the default, as the paper finetuned: SGD at 1e-5, one demonstrated

@@ -24,7 +24,7 @@ pub struct RunArgs {
     #[arg(long, default_value = "oracle")]
     policy: String,
     /// Number of trials (default 20, or the scene's seed count).
-    #[arg(long, value_parser = seespot_sim::bounds::parse_trials)]
+    #[arg(long, value_parser = clap::builder::RangedU64ValueParser::<u64>::from(seespot_sim::bounds::TRIALS))]
     trials: Option<u64>,
     /// First seed; trial i uses seed + 2 i (default 1: the test seeds, or the
     /// scene's first seed; 10001 starts the validation seeds).

@@ -21,7 +21,7 @@ pub struct TrainArgs {
     #[arg(long)]
     pub task: TaskId,
     /// Actions to execute in total (a resumed run continues up to this count).
-    #[arg(long, default_value_t = 2500, value_parser = seespot_sim::bounds::parse_train_actions)]
+    #[arg(long, default_value_t = 2500, value_parser = clap::builder::RangedU64ValueParser::<usize>::from(seespot_sim::bounds::TRAIN_ACTIONS))]
     pub actions: usize,
     /// Run seed (training trials use even seeds derived from it).
     #[arg(long, default_value_t = 0)]
@@ -43,10 +43,10 @@ pub struct TrainArgs {
     #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = seespot_sim::DEFAULT_RESOLUTION)]
     pub resolution: usize,
     /// Checkpoint at the first trial end after every this many actions.
-    #[arg(long, default_value_t = 200, value_parser = seespot_sim::bounds::parse_train_actions)]
+    #[arg(long, default_value_t = 200, value_parser = clap::builder::RangedU64ValueParser::<usize>::from(seespot_sim::bounds::TRAIN_ACTIONS))]
     pub checkpoint_every: usize,
     /// Own-task test trials (odd seeds) for the model card; 0 skips the evaluation.
-    #[arg(long, default_value_t = 50, value_parser = seespot_sim::bounds::parse_eval_trials)]
+    #[arg(long, default_value_t = 50, value_parser = clap::builder::RangedU64ValueParser::<usize>::from(seespot_sim::bounds::EVAL_TRIALS))]
     pub eval_trials: usize,
     /// Pretrain by reinforcement learning alone, as the paper's SPOT-Q does: no
     /// oracle actions, exploration epsilon-greedy under the common-sense masks.
@@ -66,11 +66,11 @@ pub struct TrainArgs {
     pub trial_reward_end: TrialRewardEnd,
     /// A training trial ends after this many actions (the reference trainer's
     /// default was 100; test trials end after 30 whatever this is).
-    #[arg(long, default_value_t = DEFAULT_MAX_TRIAL_ACTIONS, value_parser = seespot_sim::bounds::parse_train_trial_actions)]
+    #[arg(long, default_value_t = DEFAULT_MAX_TRIAL_ACTIONS, value_parser = clap::builder::RangedU64ValueParser::<usize>::from(seespot_sim::bounds::TRAIN_TRIAL_ACTIONS))]
     pub max_trial_actions: usize,
     /// Experiences per primitive the replay keeps, oldest dropped first (the
     /// reference trainer drew from its whole history).
-    #[arg(long, default_value_t = DEFAULT_REPLAY_CAPACITY, value_parser = seespot_sim::bounds::parse_replay_capacity)]
+    #[arg(long, default_value_t = DEFAULT_REPLAY_CAPACITY, value_parser = clap::builder::RangedU64ValueParser::<usize>::from(seespot_sim::bounds::REPLAY_CAPACITY))]
     pub replay_capacity: usize,
     /// Write the run's best snapshot to `--out` instead of its last weights:
     /// the weights with the best training success rate over the trials that

@@ -23,7 +23,7 @@ pub struct TrainArgs {
     task: TaskId,
     /// Training iterations in total (the paper trained 40000); a resumed run
     /// continues up to this count.
-    #[arg(long, default_value_t = 4000, value_parser = seespot_sim::bounds::parse_train_actions)]
+    #[arg(long, default_value_t = 4000, value_parser = clap::builder::RangedU64ValueParser::<usize>::from(seespot_sim::bounds::TRAIN_ACTIONS))]
     iterations: usize,
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -32,7 +32,7 @@ pub struct TrainArgs {
     #[arg(long, default_value_t = 1000)]
     curve_every: usize,
     /// Validation trials per curve point (odd seeds from 10001).
-    #[arg(long, default_value_t = 10, value_parser = seespot_sim::bounds::parse_eval_trials)]
+    #[arg(long, default_value_t = 10, value_parser = clap::builder::RangedU64ValueParser::<usize>::from(seespot_sim::bounds::EVAL_TRIALS))]
     curve_trials: usize,
     /// Run directory (default `runs/transporter-<task>`); an existing run is resumed.
     #[arg(long)]

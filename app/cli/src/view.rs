@@ -258,7 +258,7 @@ pub struct RecordArgs {
     #[arg(long, default_value = "stack")]
     pub task: TaskId,
     /// Number of trials.
-    #[arg(long, default_value_t = 1, value_parser = seespot_sim::bounds::parse_trials)]
+    #[arg(long, default_value_t = 1, value_parser = clap::builder::RangedU64ValueParser::<u64>::from(seespot_sim::bounds::TRIALS))]
     pub trials: u64,
     /// Seed of the first trial; the next ones are seed + 2, seed + 4, … (odd:
     /// test seeds; see `seespot_sim::seeds`).
@@ -430,7 +430,7 @@ pub struct BenchViewArgs {
     #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = 224)]
     pub resolution: usize,
     /// Stop after this many actions.
-    #[arg(long, default_value_t = 30, value_parser = seespot_sim::bounds::parse_bench_actions)]
+    #[arg(long, default_value_t = 30, value_parser = clap::builder::RangedU64ValueParser::<usize>::from(seespot_sim::bounds::BENCH_ACTIONS))]
     pub actions: usize,
     /// Print the full report as JSON.
     #[arg(long)]

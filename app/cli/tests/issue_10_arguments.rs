@@ -8,8 +8,12 @@ use common::run as seespot;
 
 const MAX: &str = "18446744073709551615";
 
-/// `args` must be refused as a usage error (exit 2) naming `flag` and `range`.
+/// `args` must be refused as a usage error (exit 2) naming `flag` and, for
+/// a whole number out of range, `range` (junk such as `-1` is refused by
+/// clap as not a whole number, naming the flag).
 fn refused(args: &[&str], flag: &str, range: &str) {
+    let value = args.last().and_then(|a| a.split('=').nth(1)).unwrap_or("");
+    let range = if value.starts_with('-') { flag } else { range };
     let (code, err) = seespot(args);
     assert_eq!(code, 2, "{args:?} exited {code}: {err}");
     assert!(

@@ -1,133 +1,66 @@
-//! The one validation of every numeric command-line argument: each count a
-//! command takes has a [`Bound`] here, and every command (and, later, the
-//! Python bindings) parses it through that bound, so the allowed ranges are
-//! written once. The heightmap resolution, which scene files and model files
-//! carry too, is checked by [`check_resolution`] (re-exported by
-//! [`crate::scene`]); seed ranges by [`crate::Seeds::new`].
+//! The one table of every numeric command-line range: each count a command
+//! takes has an inclusive range here, which the command line checks with
+//! clap's ranged parser (`clap::builder::RangedU64ValueParser::from(range)`)
+//! and files with [`check`], so the allowed ranges are written once. The
+//! heightmap resolution, which scene files and model files carry too, is
+//! checked by [`check_resolution`] (re-exported by [`crate::scene`]); seed
+//! ranges by [`crate::Seeds::new`].
 //!
 //! Errors state the value and the allowed range; clap puts the flag's name in
-//! front (`invalid value '0' for '--actions <ACTIONS>': 0 is out of range
-//! (1..=100000 actions)`).
+//! front (`invalid value '0' for '--actions <ACTIONS>': 0 is not in
+//! 1..=100000`).
 //!
 //! ```
 //! use seespot_sim::bounds::{self, TRIALS};
-//! assert_eq!(bounds::parse_trials("50"), Ok(50));
-//! assert!(TRIALS.check(0).is_err());
-//! assert!(bounds::parse_trials("18446744073709551615").is_err());
+//! assert_eq!(bounds::check(TRIALS, 50), Ok(50));
+//! assert!(bounds::check(TRIALS, 0).is_err());
 //! ```
 
-/// An inclusive range of whole numbers, and what they count (for messages).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Bound {
-    pub min: u64,
-    pub max: u64,
-    /// Plural noun of the counted thing: "trials", "actions".
-    pub unit: &'static str,
-}
+use std::ops::RangeInclusive;
 
-impl Bound {
-    /// The range `min..=max` of `unit`.
-    pub const fn new(min: u64, max: u64, unit: &'static str) -> Self {
-        Self { min, max, unit }
-    }
-
-    /// `value` if it lies in the range, else a message with the range.
-    pub fn check(&self, value: u64) -> Result<u64, String> {
-        if (self.min..=self.max).contains(&value) {
-            Ok(value)
-        } else {
-            Err(format!(
-                "{value} is out of range ({}..={} {})",
-                self.min, self.max, self.unit
-            ))
-        }
-    }
-
-    /// [`Bound::check`] of a command-line value.
-    pub fn parse(&self, text: &str) -> Result<u64, String> {
-        let v: u64 = text.trim().parse().map_err(|_| {
-            format!(
-                "`{text}` is not a whole number in {}..={} {}",
-                self.min, self.max, self.unit
-            )
-        })?;
-        self.check(v)
-    }
-
-    /// [`Bound::parse`] as a `usize` (every bound fits one).
-    pub fn parse_usize(&self, text: &str) -> Result<usize, String> {
-        let v = self.parse(text)?;
-        usize::try_from(v).map_err(|_| format!("{v} does not fit this machine's usize"))
+/// `value` if `range` holds it, else a message naming the range: for counts
+/// read from files (a scene's `seeds.count`). The command line checks the
+/// same ranges with clap's ranged parsers
+/// (`clap::builder::RangedU64ValueParser::from(range)`).
+pub fn check(range: RangeInclusive<u64>, value: u64) -> Result<u64, String> {
+    if range.contains(&value) {
+        Ok(value)
+    } else {
+        Err(format!(
+            "{value} is out of range ({}..={})",
+            range.start(),
+            range.end()
+        ))
     }
 }
 
 /// Trials of one run (`eval`, `sim run`, `record`; a scene's `seeds.count`).
-pub const TRIALS: Bound = Bound::new(1, 100_000, "trials");
+pub const TRIALS: RangeInclusive<u64> = 1..=100_000;
 
 /// Own-task evaluation trials after training (0 skips the evaluation).
-pub const EVAL_TRIALS: Bound = Bound::new(0, 100_000, "trials");
+pub const EVAL_TRIALS: RangeInclusive<u64> = 0..=100_000;
 
 /// Timed actions of `bench sim` and `bench view`.
-pub const BENCH_ACTIONS: Bound = Bound::new(1, 100_000, "actions");
+pub const BENCH_ACTIONS: RangeInclusive<u64> = 1..=100_000;
 
 /// Timed iterations of `bench policy` and `bench ssr`.
-pub const BENCH_ITERATIONS: Bound = Bound::new(1, 10_000, "iterations");
+pub const BENCH_ITERATIONS: RangeInclusive<u64> = 1..=10_000;
 
 /// Actions of one training run (`train --actions`) and its checkpoint interval.
-pub const TRAIN_ACTIONS: Bound = Bound::new(1, 10_000_000, "actions");
+pub const TRAIN_ACTIONS: RangeInclusive<u64> = 1..=10_000_000;
 
 /// Actions after which a training trial ends (`train --max-trial-actions`).
-pub const TRAIN_TRIAL_ACTIONS: Bound = Bound::new(1, 1000, "actions");
+pub const TRAIN_TRIAL_ACTIONS: RangeInclusive<u64> = 1..=1000;
 
 /// Experiences per primitive a training run's replay keeps (`train
 /// --replay-capacity`).
-pub const REPLAY_CAPACITY: Bound = Bound::new(1, 1_000_000, "experiences");
+pub const REPLAY_CAPACITY: RangeInclusive<u64> = 1..=1_000_000;
 
 /// Finetuning steps per policy (`eval --finetune-steps`; 0: no finetuning).
-pub const FINETUNE_STEPS: Bound = Bound::new(0, 1_000_000, "steps");
+pub const FINETUNE_STEPS: RangeInclusive<u64> = 0..=1_000_000;
 
 /// Largest Gaussian smoothing sigma of the distance maps, pixels.
 pub const MAX_SMOOTH_SIGMA: f32 = 20.0;
-
-/// [`TRIALS`] of a command-line value.
-pub fn parse_trials(text: &str) -> Result<u64, String> {
-    TRIALS.parse(text)
-}
-
-/// [`EVAL_TRIALS`] of a command-line value.
-pub fn parse_eval_trials(text: &str) -> Result<usize, String> {
-    EVAL_TRIALS.parse_usize(text)
-}
-
-/// [`BENCH_ACTIONS`] of a command-line value.
-pub fn parse_bench_actions(text: &str) -> Result<usize, String> {
-    BENCH_ACTIONS.parse_usize(text)
-}
-
-/// [`BENCH_ITERATIONS`] of a command-line value.
-pub fn parse_bench_iterations(text: &str) -> Result<usize, String> {
-    BENCH_ITERATIONS.parse_usize(text)
-}
-
-/// [`TRAIN_ACTIONS`] of a command-line value.
-pub fn parse_train_actions(text: &str) -> Result<usize, String> {
-    TRAIN_ACTIONS.parse_usize(text)
-}
-
-/// [`TRAIN_TRIAL_ACTIONS`] of a command-line value.
-pub fn parse_train_trial_actions(text: &str) -> Result<usize, String> {
-    TRAIN_TRIAL_ACTIONS.parse_usize(text)
-}
-
-/// [`REPLAY_CAPACITY`] of a command-line value.
-pub fn parse_replay_capacity(text: &str) -> Result<usize, String> {
-    REPLAY_CAPACITY.parse_usize(text)
-}
-
-/// [`FINETUNE_STEPS`] of a command-line value.
-pub fn parse_finetune_steps(text: &str) -> Result<usize, String> {
-    FINETUNE_STEPS.parse_usize(text)
-}
 
 /// A smoothing sigma in pixels: finite, in `0..=`[`MAX_SMOOTH_SIGMA`] (NaN and
 /// 1e9, which allocated a 24 GB kernel, are refused).
@@ -173,25 +106,11 @@ mod tests {
     use super::*;
 
     #[test]
-    fn bounds_refuse_zero_huge_and_junk_naming_the_range() {
-        for (bound, bad) in [
-            (BENCH_ACTIONS, "0"),
-            (BENCH_ACTIONS, "100001"),
-            (BENCH_ITERATIONS, "0"),
-            (BENCH_ITERATIONS, "18446744073709551615"),
-            (TRIALS, "-1"),
-            (TRIALS, "1e3"),
-            (TRAIN_ACTIONS, ""),
-        ] {
-            let e = bound.parse(bad).expect_err(bad);
-            assert!(
-                e.contains(&format!("{}..={}", bound.min, bound.max)),
-                "{bad}: {e}"
-            );
-        }
-        assert_eq!(BENCH_ACTIONS.parse_usize("1"), Ok(1));
-        assert_eq!(BENCH_ITERATIONS.parse_usize("10000"), Ok(10_000));
-        assert_eq!(EVAL_TRIALS.parse_usize("0"), Ok(0));
+    fn check_names_the_range() {
+        assert_eq!(check(TRIALS, 50), Ok(50));
+        let e = check(TRIALS, 0).expect_err("0 trials");
+        assert!(e.contains("1..=100000"), "{e}");
+        assert_eq!(check(EVAL_TRIALS, 0), Ok(0));
     }
 
     #[test]

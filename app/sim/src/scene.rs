@@ -208,7 +208,7 @@ impl Scene {
         })?;
         let count = u64::try_from(count)
             .map_err(|_| format!("{count} is negative"))
-            .and_then(|c| crate::bounds::TRIALS.check(c))
+            .and_then(|c| crate::bounds::check(crate::bounds::TRIALS, c))
             .map_err(|e| field(seeds.count.span(), "seeds.count", e))?;
         let seeds = Seeds::new(start, count)
             .map_err(|e| field(file.seeds.span(), "seeds", e.to_string()))?;
