@@ -131,18 +131,20 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
     );
     let evaluation = Evaluation::start(config, tasks)?.with_jobs(jobs);
     let bar = crate::io::progress_bar(evaluation.tasks().len() as u64 * args.trials, false);
-    for &task in evaluation.tasks() {
-        let (mut ok, mut n) = (0, 0);
-        let records = evaluation
-            .run_task(task, &mut |r| {
-                n += 1;
-                ok += r.success as usize;
-                bar.set_message(format!("{name} {task}: success {ok}/{n}"));
-                bar.inc(1);
-            })
-            .with_context(|| format!("evaluating {name} on {task}"))?;
-        if let Some(kind) = record {
-            record_failed(evaluation.config(), kind, &name, &records, &bar)?;
+    // Every task's trials in one pool of jobs; the message counts per task.
+    let mut tally: std::collections::BTreeMap<TaskId, (usize, usize)> = Default::default();
+    let per_task = evaluation
+        .run_tasks(&mut |task, r| {
+            let (ok, n) = tally.entry(task).or_default();
+            *n += 1;
+            *ok += r.success as usize;
+            bar.set_message(format!("{name} {task}: success {ok}/{n}"));
+            bar.inc(1);
+        })
+        .with_context(|| format!("evaluating {name}"))?;
+    if let Some(kind) = record {
+        for records in &per_task {
+            record_failed(evaluation.config(), kind, &name, records, &bar)?;
         }
     }
     bar.finish_and_clear();

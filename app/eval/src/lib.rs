@@ -20,6 +20,7 @@
 pub mod config;
 pub mod diverge;
 pub mod finetuned;
+pub mod jobs;
 pub mod lock;
 pub mod memo;
 pub mod metrics;

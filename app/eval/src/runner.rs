@@ -11,9 +11,7 @@ use std::path::{Path, PathBuf};
 use seespot_policy::finetune::FinetuneProcedure;
 use seespot_policy::transporter::finetune_transporter;
 use seespot_policy::{PolicyNet, RandomActor, TransporterActor, TransporterNet};
-use seespot_sim::{
-    Actor, Grid, Oracle, Provenance, Seeds, TaskId, Trial, TrialRecord, WorldConfig,
-};
+use seespot_sim::{Actor, Grid, Oracle, Provenance, Seeds, TaskId, TrialRecord, WorldConfig};
 
 use seespot_ssr::correspond::{CorrespondOptions, CorrespondSettings};
 use seespot_ssr::layout::{Layout, records_path};
@@ -22,7 +20,7 @@ use seespot_ssr::policy::SsrPolicy;
 pub use crate::config::{EvalConfig, EvalError, demo_dir_files, sha256_file};
 use crate::finetuned::{self, FinetuneSettings, read_demos};
 use crate::lock::OutputLock;
-use crate::records::{append_record, read_records};
+use crate::records::read_records;
 use crate::report::{Report, custom_markdown, write_report};
 use crate::run::{EvalMethod, RunSpec};
 
@@ -353,7 +351,7 @@ impl Evaluation {
         })
     }
 
-    /// Runs `jobs` trials at once ([`run_task_jobs`]); 1 (the default) runs
+    /// Runs `jobs` trials at once ([`crate::jobs`]); 1 (the default) runs
     /// them one after another. The records are the same either way.
     pub fn with_jobs(mut self, jobs: usize) -> Self {
         self.jobs = jobs.max(1);
@@ -374,7 +372,19 @@ impl Evaluation {
         task: TaskId,
         on_trial: &mut dyn FnMut(&TrialRecord),
     ) -> Result<Vec<TrialRecord>, EvalError> {
-        run_task_jobs(&self.config, task, self.jobs, on_trial)
+        crate::jobs::run_task_jobs(&self.config, task, self.jobs, on_trial)
+    }
+
+    /// Runs (or resumes) every task of the evaluation with one pool of
+    /// workers ([`crate::jobs::run_tasks_jobs`]): a worker done with one
+    /// task's trials goes on with the next task's instead of waiting for the
+    /// task's last trial. `on_trial` hears each record with its task; the
+    /// records come back per task, in [`Self::tasks`] order.
+    pub fn run_tasks(
+        &self,
+        on_trial: &mut dyn FnMut(TaskId, &TrialRecord),
+    ) -> Result<Vec<Vec<TrialRecord>>, EvalError> {
+        crate::jobs::run_tasks_jobs(&self.config, &self.tasks, self.jobs, on_trial)
     }
 
     /// Writes the report over every record of the output folder (the custom
@@ -431,168 +441,7 @@ pub fn run_task(
     task: TaskId,
     on_trial: &mut dyn FnMut(&TrialRecord),
 ) -> Result<Vec<TrialRecord>, EvalError> {
-    run_task_jobs(config, task, 1, on_trial)
-}
-
-/// [`run_task`] with up to `jobs` trials running at once, each on a worker
-/// thread with its own actor (each decision still spreads over the cores
-/// through rayon). The records are appended in seed order, as a serial run
-/// appends them, so the file is the same line for line apart from timing
-/// (`decide_ms`); a record waits in memory until the trials of the seeds
-/// before it are written, so a killed run loses at most the trials in
-/// flight and those waiting.
-pub fn run_task_jobs(
-    config: &EvalConfig,
-    task: TaskId,
-    jobs: usize,
-    on_trial: &mut dyn FnMut(&TrialRecord),
-) -> Result<Vec<TrialRecord>, EvalError> {
-    config.check_embeddings(&[task])?;
-    let name = config.spec().to_string();
-    let path = records_path(&config.out_dir, &name, task);
-    if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| EvalError::Invalid(format!("{}: {e}", dir.display())))?;
-    }
-    let mut records = read_records(&path)?;
-    // The seeds of `config.seeds` not on disk yet, with their trial index.
-    let done: std::collections::BTreeSet<u64> = records.iter().map(|r| r.seed).collect();
-    let todo: Vec<(usize, u64)> = config
-        .seeds
-        .iter()
-        .enumerate()
-        .filter(|(_, seed)| !done.contains(seed))
-        .collect();
-    // The finetuned models first: the provenance names them with their
-    // checksums. Made only when there are trials to run (a finished run's
-    // report and checks read the files as they are).
-    if !todo.is_empty() {
-        finetuned::prepare_models(config, task, &mut |base| {
-            eprintln!("finetuning the {base} policy on the {task} demonstrations ...");
-        })?;
-    }
-    let prov = provenance(config, task)?;
-    if let Some(other) = records
-        .iter()
-        .find(|r| r.provenance.as_ref() != Some(&prov))
-    {
-        let what = match &other.provenance {
-            None => "records without provenance (made before seespot recorded it)".to_owned(),
-            Some(p) => {
-                let mut diff: Vec<String> = p
-                    .files
-                    .iter()
-                    .filter(|(k, v)| prov.files.get(*k) != Some(*v))
-                    .map(|(k, _)| k.clone())
-                    .chain(
-                        prov.files
-                            .keys()
-                            .filter(|k| !p.files.contains_key(*k))
-                            .cloned(),
-                    )
-                    .collect();
-                if p.settings != prov.settings {
-                    diff.push(format!("settings `{}`", p.settings));
-                }
-                if p.seespot_version != prov.seespot_version {
-                    diff.push(format!("seespot {}", p.seespot_version));
-                }
-                format!("records made with other inputs ({})", diff.join(", "))
-            }
-        };
-        return Err(EvalError::Invalid(format!(
-            "{}: holds {what} (seed {}); evaluate into another --out so runs never mix",
-            path.display(),
-            other.seed
-        )));
-    }
-    // `read_records` refused another task's records and any seed twice.
-    records.retain(|r| config.seeds.contains(r.seed));
-    records.sort_by_key(|r| r.seed);
-    for r in &records {
-        on_trial(r);
-    }
-    if todo.is_empty() {
-        return Ok(records);
-    }
-    let run_one = |actor: &mut dyn Actor, index: usize, seed: u64| {
-        let mut trial = Trial::new(config.world, task, seed);
-        let mut record = seespot_sim::run_trial(&mut trial, actor, &name, index, &mut |_| {})
-            .map_err(EvalError::Actor)?;
-        record.provenance = Some(prov.clone());
-        Ok::<_, EvalError>(record)
-    };
-    let mut write = |record: TrialRecord| -> Result<(), EvalError> {
-        append_record(&path, &record)?;
-        on_trial(&record);
-        records.push(record);
-        Ok(())
-    };
-    let jobs = jobs.clamp(1, todo.len().max(1));
-    if jobs == 1 {
-        let mut actor = make_actor(config, task)?;
-        for &(index, seed) in &todo {
-            write(run_one(actor.as_mut(), index, seed)?)?;
-        }
-    } else {
-        let next = std::sync::atomic::AtomicUsize::new(0);
-        let stop = std::sync::atomic::AtomicBool::new(false);
-        let (tx, rx) = std::sync::mpsc::channel::<(usize, Result<TrialRecord, EvalError>)>();
-        std::thread::scope(|scope| -> Result<(), EvalError> {
-            for _ in 0..jobs {
-                let tx = tx.clone();
-                let (next, stop, todo, run_one) = (&next, &stop, &todo, &run_one);
-                scope.spawn(move || {
-                    let mut actor = match make_actor(config, task) {
-                        Ok(a) => a,
-                        Err(e) => {
-                            let _ = tx.send((usize::MAX, Err(e)));
-                            return;
-                        }
-                    };
-                    while !stop.load(std::sync::atomic::Ordering::Relaxed) {
-                        let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                        let Some(&(index, seed)) = todo.get(k) else {
-                            return;
-                        };
-                        if tx.send((k, run_one(actor.as_mut(), index, seed))).is_err() {
-                            return;
-                        }
-                    }
-                });
-            }
-            drop(tx);
-            // Write in seed order: hold a finished trial until those before it are written.
-            let mut waiting = std::collections::BTreeMap::new();
-            let mut written = 0;
-            let mut failure = None;
-            for (k, result) in rx {
-                match result {
-                    Ok(record) => {
-                        waiting.insert(k, record);
-                    }
-                    Err(e) => {
-                        stop.store(true, std::sync::atomic::Ordering::Relaxed);
-                        failure.get_or_insert(e);
-                    }
-                }
-                while failure.is_none() {
-                    let Some(record) = waiting.remove(&written) else {
-                        break;
-                    };
-                    if let Err(e) = write(record) {
-                        stop.store(true, std::sync::atomic::Ordering::Relaxed);
-                        failure = Some(e);
-                        break;
-                    }
-                    written += 1;
-                }
-            }
-            failure.map_or(Ok(()), Err)
-        })?;
-    }
-    records.sort_by_key(|r| r.seed);
-    Ok(records)
+    crate::jobs::run_task_jobs(config, task, 1, on_trial)
 }
 
 /// The actor of `config`'s method on `task`, as the evaluation runs it: SSR

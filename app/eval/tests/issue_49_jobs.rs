@@ -4,7 +4,8 @@
 
 use std::path::{Path, PathBuf};
 
-use seespot_eval::runner::{run_task_jobs, world_config};
+use seespot_eval::jobs::{run_task_jobs, run_tasks_jobs};
+use seespot_eval::runner::world_config;
 use seespot_eval::{EvalConfig, EvalMethod};
 use seespot_policy::finetune::FinetuneProcedure;
 use seespot_sim::{Seeds, TaskId};
@@ -92,4 +93,52 @@ fn a_parallel_run_resumes_a_serial_one() {
         lines_without_times(&file(dir.path())),
         lines_without_times(&file(whole.path()))
     );
+}
+
+/// One pool over several tasks (what `seespot eval --task all` runs): a
+/// worker goes on to the next task's trials, and each task's file is the
+/// file a serial run of that task writes; a task half done on disk resumes.
+#[test]
+fn one_pool_over_the_tasks_writes_each_tasks_serial_records() {
+    let tasks = [TaskId::Stack, TaskId::Row];
+    for (method, resolution, trials) in [(EvalMethod::Random, 112, 5), (EvalMethod::SsrCcd, 224, 2)]
+    {
+        let serial = tempfile::tempdir().expect("tempdir");
+        let pooled = tempfile::tempdir().expect("tempdir");
+        let a = config(method, serial.path(), resolution, trials);
+        for task in tasks {
+            run_task_jobs(&a, task, 1, &mut |_| {}).expect("serial");
+        }
+        // Row's first trial is on disk already.
+        let b = config(method, pooled.path(), resolution, trials);
+        run_task_jobs(
+            &config(method, pooled.path(), resolution, 1),
+            TaskId::Row,
+            1,
+            &mut |_| {},
+        )
+        .expect("row's first");
+        let mut heard = Vec::new();
+        let per_task =
+            run_tasks_jobs(&b, &tasks, 3, &mut |t, r| heard.push((t, r.seed))).expect("pooled");
+        let seeds: Vec<u64> = (0..trials).map(|k| 1 + 2 * k).collect();
+        assert_eq!(per_task.len(), tasks.len());
+        for (task, records) in tasks.iter().zip(&per_task) {
+            assert_eq!(records.iter().map(|r| r.seed).collect::<Vec<_>>(), seeds);
+            // Heard once per seed, in seed order within the task.
+            let of_task: Vec<u64> = heard
+                .iter()
+                .filter(|(t, _)| t == task)
+                .map(|h| h.1)
+                .collect();
+            assert_eq!(of_task, seeds, "{method:?} on {task}");
+            let name = a.spec().to_string();
+            let file = |d: &Path| seespot_ssr::layout::records_path(d, &name, *task);
+            assert_eq!(
+                lines_without_times(&file(serial.path())),
+                lines_without_times(&file(pooled.path())),
+                "{method:?} on {task}"
+            );
+        }
+    }
 }

@@ -1,0 +1,254 @@
+//! Trials in parallel: one pool of worker threads runs the trials of every
+//! task of an evaluation, each worker with its own actor (each decision
+//! still spreads over the cores through rayon). A worker that finishes one
+//! task's trials goes on with the next task's rather than waiting for that
+//! task's last trial, so the cores stay busy across tasks. Each task's
+//! records are appended to its own file in seed order, as a serial run
+//! appends them: the files are the same line for line apart from timing
+//! (`decide_ms`). A record waits in memory until the trials of the seeds
+//! before it are written, so a killed run loses at most the trials in flight
+//! and those waiting.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+use seespot_sim::{Actor, Provenance, TaskId, Trial, TrialRecord};
+use seespot_ssr::layout::records_path;
+
+use crate::config::{EvalConfig, EvalError};
+use crate::finetuned;
+use crate::records::{append_record, read_records};
+use crate::runner::{make_actor, provenance};
+
+/// What one task of a run needs and has: its records file, the run's seeds
+/// already in it, the seeds left (with their trial index) and the provenance
+/// each new record carries.
+struct Plan {
+    task: TaskId,
+    path: PathBuf,
+    todo: Vec<(usize, u64)>,
+    prov: Provenance,
+}
+
+/// [`run_tasks_jobs`] of one task.
+pub fn run_task_jobs(
+    config: &EvalConfig,
+    task: TaskId,
+    jobs: usize,
+    on_trial: &mut dyn FnMut(&TrialRecord),
+) -> Result<Vec<TrialRecord>, EvalError> {
+    let mut out = run_tasks_jobs(config, &[task], jobs, &mut |_, r| on_trial(r))?;
+    Ok(out.pop().unwrap_or_default())
+}
+
+/// Runs (or resumes) `config`'s evaluation of `tasks` with up to `jobs`
+/// trials at once ([`crate::runner::run_task`] for each task, in one pool).
+/// Every task is checked (its file's records, its finetuned models, its
+/// provenance) before any trial runs. `on_trial` hears every record with its
+/// task as it is written (the ones already on disk first). Returns each
+/// task's records of `config.seeds`, in `tasks` order, sorted by seed.
+pub fn run_tasks_jobs(
+    config: &EvalConfig,
+    tasks: &[TaskId],
+    jobs: usize,
+    on_trial: &mut dyn FnMut(TaskId, &TrialRecord),
+) -> Result<Vec<Vec<TrialRecord>>, EvalError> {
+    config.check_embeddings(tasks)?;
+    let name = config.spec().to_string();
+    let mut plans = Vec::new();
+    let mut records = Vec::new();
+    for &task in tasks {
+        let (plan, on_disk) = prepare(config, task, &name)?;
+        for r in &on_disk {
+            on_trial(task, r);
+        }
+        plans.push(plan);
+        records.push(on_disk);
+    }
+    // Every trial left, task by task.
+    let units: Vec<(usize, usize)> = plans
+        .iter()
+        .enumerate()
+        .flat_map(|(i, p)| (0..p.todo.len()).map(move |k| (i, k)))
+        .collect();
+    let run_one = |actor: &mut dyn Actor, plan: &Plan, k: usize| {
+        let (index, seed) = plan.todo[k];
+        let mut trial = Trial::new(config.world, plan.task, seed);
+        let mut record = seespot_sim::run_trial(&mut trial, actor, &name, index, &mut |_| {})
+            .map_err(EvalError::Actor)?;
+        record.provenance = Some(plan.prov.clone());
+        Ok::<_, EvalError>(record)
+    };
+    let mut write = |i: usize, record: TrialRecord| -> Result<(), EvalError> {
+        append_record(&plans[i].path, &record)?;
+        on_trial(plans[i].task, &record);
+        records[i].push(record);
+        Ok(())
+    };
+    let jobs = jobs.clamp(1, units.len().max(1));
+    if jobs == 1 {
+        for (i, plan) in plans.iter().enumerate() {
+            if plan.todo.is_empty() {
+                continue;
+            }
+            let mut actor = make_actor(config, plan.task)?;
+            for k in 0..plan.todo.len() {
+                write(i, run_one(actor.as_mut(), plan, k)?)?;
+            }
+        }
+    } else {
+        let next = AtomicUsize::new(0);
+        let stop = AtomicBool::new(false);
+        let (tx, rx) = std::sync::mpsc::channel::<(usize, usize, Result<TrialRecord, EvalError>)>();
+        std::thread::scope(|scope| -> Result<(), EvalError> {
+            for _ in 0..jobs {
+                let tx = tx.clone();
+                let (next, stop, units, plans, run_one) = (&next, &stop, &units, &plans, &run_one);
+                scope.spawn(move || {
+                    // The actor of the task this worker is on; a worker
+                    // moves forward through the tasks, so one at a time.
+                    let mut current: Option<(usize, Box<dyn Actor + Send + Sync>)> = None;
+                    while !stop.load(Ordering::Relaxed) {
+                        let Some(&(i, k)) = units.get(next.fetch_add(1, Ordering::Relaxed)) else {
+                            return;
+                        };
+                        if current.as_ref().is_none_or(|(on, _)| *on != i) {
+                            // The last task's actor goes before the next is made.
+                            drop(current.take());
+                            match make_actor(config, plans[i].task) {
+                                Ok(a) => current = Some((i, a)),
+                                Err(e) => {
+                                    let _ = tx.send((i, k, Err(e)));
+                                    return;
+                                }
+                            }
+                        }
+                        let Some((_, actor)) = current.as_mut() else {
+                            return;
+                        };
+                        if tx
+                            .send((i, k, run_one(actor.as_mut(), &plans[i], k)))
+                            .is_err()
+                        {
+                            return;
+                        }
+                    }
+                });
+            }
+            drop(tx);
+            // Write each task's records in seed order: hold a finished trial
+            // until those before it in its task are written.
+            let mut waiting: Vec<BTreeMap<usize, TrialRecord>> = vec![BTreeMap::new(); plans.len()];
+            let mut written = vec![0usize; plans.len()];
+            let mut failure = None;
+            for (i, k, result) in rx {
+                match result {
+                    Ok(record) => {
+                        waiting[i].insert(k, record);
+                    }
+                    Err(e) => {
+                        stop.store(true, Ordering::Relaxed);
+                        failure.get_or_insert(e);
+                    }
+                }
+                while failure.is_none() {
+                    let Some(record) = waiting[i].remove(&written[i]) else {
+                        break;
+                    };
+                    if let Err(e) = write(i, record) {
+                        stop.store(true, Ordering::Relaxed);
+                        failure = Some(e);
+                        break;
+                    }
+                    written[i] += 1;
+                }
+            }
+            failure.map_or(Ok(()), Err)
+        })?;
+    }
+    for r in &mut records {
+        r.sort_by_key(|r| r.seed);
+    }
+    Ok(records)
+}
+
+/// Checks `task`'s records file and readies what its new trials need (the
+/// finetuned models first: the provenance names them with their checksums).
+/// Returns the plan and the file's records of `config.seeds`, by seed. A
+/// file holding records made with other files or settings (or without
+/// provenance) is refused rather than appended to.
+fn prepare(
+    config: &EvalConfig,
+    task: TaskId,
+    name: &str,
+) -> Result<(Plan, Vec<TrialRecord>), EvalError> {
+    let path = records_path(&config.out_dir, name, task);
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| EvalError::Invalid(format!("{}: {e}", dir.display())))?;
+    }
+    let mut records = read_records(&path)?;
+    // The seeds of `config.seeds` not on disk yet, with their trial index.
+    let done: BTreeSet<u64> = records.iter().map(|r| r.seed).collect();
+    let todo: Vec<(usize, u64)> = config
+        .seeds
+        .iter()
+        .enumerate()
+        .filter(|(_, seed)| !done.contains(seed))
+        .collect();
+    // Made only when there are trials to run (a finished run's report and
+    // checks read the files as they are).
+    if !todo.is_empty() {
+        finetuned::prepare_models(config, task, &mut |base| {
+            eprintln!("finetuning the {base} policy on the {task} demonstrations ...");
+        })?;
+    }
+    let prov = provenance(config, task)?;
+    if let Some(other) = records
+        .iter()
+        .find(|r| r.provenance.as_ref() != Some(&prov))
+    {
+        let what = match &other.provenance {
+            None => "records without provenance (made before seespot recorded it)".to_owned(),
+            Some(p) => {
+                let mut diff: Vec<String> = p
+                    .files
+                    .iter()
+                    .filter(|(k, v)| prov.files.get(*k) != Some(*v))
+                    .map(|(k, _)| k.clone())
+                    .chain(
+                        prov.files
+                            .keys()
+                            .filter(|k| !p.files.contains_key(*k))
+                            .cloned(),
+                    )
+                    .collect();
+                if p.settings != prov.settings {
+                    diff.push(format!("settings `{}`", p.settings));
+                }
+                if p.seespot_version != prov.seespot_version {
+                    diff.push(format!("seespot {}", p.seespot_version));
+                }
+                format!("records made with other inputs ({})", diff.join(", "))
+            }
+        };
+        return Err(EvalError::Invalid(format!(
+            "{}: holds {what} (seed {}); evaluate into another --out so runs never mix",
+            path.display(),
+            other.seed
+        )));
+    }
+    // `read_records` refused another task's records and any seed twice.
+    records.retain(|r| config.seeds.contains(r.seed));
+    records.sort_by_key(|r| r.seed);
+    Ok((
+        Plan {
+            task,
+            path,
+            todo,
+            prov,
+        },
+        records,
+    ))
+}
