@@ -3,7 +3,8 @@
 use seespot_eval::EvalMethod;
 use seespot_eval::RunSpec;
 use seespot_eval::run::CorrespondName;
-use seespot_eval::runner::{EvalConfig, run_task, world_config};
+use seespot_eval::run_task;
+use seespot_eval::runner::{EvalConfig, world_config};
 use seespot_policy::PolicyNet;
 use seespot_sim::{Demo, Primitive, Seeds, TaskId, TrialRecord};
 use seespot_ssr::correspond::Correspondence;

@@ -19,8 +19,8 @@
 
 pub mod config;
 pub mod diverge;
+pub mod evaluation;
 pub mod finetuned;
-pub mod jobs;
 pub mod lock;
 pub mod memo;
 pub mod metrics;
@@ -31,7 +31,8 @@ pub mod run;
 pub mod runner;
 pub mod stats;
 
+pub use evaluation::run_task;
 pub use metrics::{Summary, summarize, summarize_all};
 pub use records::{RecordError, append_record, read_records};
 pub use run::{EvalMethod, RunSpec};
-pub use runner::{EvalConfig, EvalError, run_task};
+pub use runner::{EvalConfig, EvalError};

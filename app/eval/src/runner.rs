@@ -2,9 +2,11 @@
 //! the policies of the other three tasks (M = 3) and the task's two
 //! demonstrations (N = 2); baselines run beside it.
 //!
-//! Records go to `<out>/trials/<method>/<task>.jsonl.gz`, one line per trial, synced
-//! as each trial ends: re-running skips the seeds already recorded, and killing a
-//! run loses at most the trial in progress.
+//! This module holds what a run is made of: its settings and provenance
+//! ([`RunSettings`], [`provenance`]) and the actor each method acts with
+//! ([`make_actor`]). The run itself, which writes the records
+//! (`<out>/trials/<method>/<task>.jsonl.gz`) and the report, is
+//! [`crate::evaluation`].
 
 use std::path::{Path, PathBuf};
 
@@ -14,14 +16,11 @@ use seespot_policy::{PolicyNet, RandomActor, TransporterActor, TransporterNet};
 use seespot_sim::{Actor, Grid, Oracle, Provenance, Seeds, TaskId, TrialRecord, WorldConfig};
 
 use seespot_ssr::correspond::{CorrespondOptions, CorrespondSettings};
-use seespot_ssr::layout::{Layout, records_path};
+use seespot_ssr::layout::Layout;
 use seespot_ssr::policy::SsrPolicy;
 
 pub use crate::config::{EvalConfig, EvalError, demo_dir_files, sha256_file};
 use crate::finetuned::{self, FinetuneSettings, read_demos};
-use crate::lock::OutputLock;
-use crate::records::read_records;
-use crate::report::{Report, custom_markdown, write_report};
 use crate::run::{EvalMethod, RunSpec};
 
 /// A run's settings as its records' provenance holds them (a JSON object),
@@ -279,169 +278,6 @@ pub fn replay_config(
         )));
     }
     Ok(config)
-}
-
-/// An evaluation as a front end starts it: the configuration and its tasks,
-/// checked, with the output folder's lock held until it is
-/// [finished](Evaluation::finish) or dropped, so that two runs can never
-/// write the same records.
-#[derive(Debug)]
-pub struct Evaluation {
-    config: EvalConfig,
-    tasks: Vec<TaskId>,
-    jobs: usize,
-    _lock: OutputLock,
-}
-
-/// What a finished [`Evaluation`] wrote.
-#[derive(Debug)]
-pub enum Finished {
-    /// The four folds' report (`summary.md`, `summary.csv`, `figure4.png`).
-    Table(Report),
-    /// The custom tasks' report (`custom.md`), its text, and this run's
-    /// summary per custom task it evaluated (as a built-in fold's).
-    Custom {
-        path: PathBuf,
-        text: String,
-        summaries: Vec<crate::Summary>,
-    },
-}
-
-impl Evaluation {
-    /// Checks `config` against `tasks` and takes the lock on its output
-    /// folder. A custom task has no policy, oracle or TransporterNet of its
-    /// own: it takes SSR and random actions only, unfinetuned, and its
-    /// demonstrations must define it.
-    pub fn start(config: EvalConfig, tasks: Vec<TaskId>) -> Result<Self, EvalError> {
-        if config.finetune_steps > 0
-            && matches!(config.method, EvalMethod::Oracle | EvalMethod::Random)
-        {
-            return Err(EvalError::Invalid(format!(
-                "--finetune-steps {}: method {} has no policy to finetune",
-                config.finetune_steps,
-                config.method.as_str()
-            )));
-        }
-        if let Some(custom) = tasks.iter().find(|t| !t.is_builtin()) {
-            if !(config.method.is_ssr() || config.method == EvalMethod::Random)
-                || config.finetune_steps > 0
-            {
-                return Err(EvalError::Invalid(format!(
-                    "--method {}{}: a custom task ({custom}) has no policy, oracle or \
-                     TransporterNet of its own; evaluate it with ssr-ccd, ssr-l2cd, \
-                     ssr-ccd-loopbreak or random",
-                    config.method.as_str(),
-                    if config.finetune_steps > 0 {
-                        " --finetune-steps"
-                    } else {
-                        ""
-                    },
-                )));
-            }
-            for t in tasks.iter().filter(|t| !t.is_builtin()) {
-                config.layout.load_task(*t)?;
-            }
-        }
-        let lock = OutputLock::acquire(&config.out_dir)?;
-        Ok(Self {
-            config,
-            tasks,
-            jobs: 1,
-            _lock: lock,
-        })
-    }
-
-    /// Runs `jobs` trials at once ([`crate::jobs`]); 1 (the default) runs
-    /// them one after another. The records are the same either way.
-    pub fn with_jobs(mut self, jobs: usize) -> Self {
-        self.jobs = jobs.max(1);
-        self
-    }
-
-    pub fn config(&self) -> &EvalConfig {
-        &self.config
-    }
-
-    pub fn tasks(&self) -> &[TaskId] {
-        &self.tasks
-    }
-
-    /// Runs (or resumes) one task: [`run_task`].
-    pub fn run_task(
-        &self,
-        task: TaskId,
-        on_trial: &mut dyn FnMut(&TrialRecord),
-    ) -> Result<Vec<TrialRecord>, EvalError> {
-        crate::jobs::run_task_jobs(&self.config, task, self.jobs, on_trial)
-    }
-
-    /// Runs (or resumes) every task of the evaluation with one pool of
-    /// workers ([`crate::jobs::run_tasks_jobs`]): a worker done with one
-    /// task's trials goes on with the next task's instead of waiting for the
-    /// task's last trial. `on_trial` hears each record with its task; the
-    /// records come back per task, in [`Self::tasks`] order.
-    pub fn run_tasks(
-        &self,
-        on_trial: &mut dyn FnMut(TaskId, &TrialRecord),
-    ) -> Result<Vec<Vec<TrialRecord>>, EvalError> {
-        crate::jobs::run_tasks_jobs(&self.config, &self.tasks, self.jobs, on_trial)
-    }
-
-    /// Writes the report over every record of the output folder (the custom
-    /// tasks' own report when the evaluation held one) and lets the lock go.
-    /// `finetune_steps`: what a finetuned row's records that do not state
-    /// their steps were finetuned with ([`write_report`]).
-    pub fn finish(self, finetune_steps: usize) -> Result<Finished, EvalError> {
-        let out = &self.config.out_dir;
-        if self.tasks.iter().any(|t| !t.is_builtin()) {
-            let path = out.join("custom.md");
-            let text = custom_markdown(out)?;
-            std::fs::write(&path, &text)
-                .map_err(|e| EvalError::Invalid(format!("{}: {e}", path.display())))?;
-            let name = self.config.spec().to_string();
-            let mut records = Vec::new();
-            for t in self.tasks.iter().filter(|t| !t.is_builtin()) {
-                let file = records_path(out, &name, *t);
-                if file.is_file() {
-                    let rs = read_records(&file)?;
-                    records.extend(
-                        rs.into_iter()
-                            .filter(|r| self.config.seeds.contains(r.seed)),
-                    );
-                }
-            }
-            let layout = &self.config.layout;
-            let summaries = crate::summarize_all(
-                &records,
-                |_, _| 0,
-                |_, t| crate::metrics::demo_actions(layout, t).unwrap_or(0),
-            );
-            return Ok(Finished::Custom {
-                path,
-                text,
-                summaries,
-            });
-        }
-        Ok(Finished::Table(write_report(
-            out,
-            &self.config.layout,
-            finetune_steps,
-        )?))
-    }
-}
-
-/// Runs (or resumes) the evaluation of one task; `on_trial` sees every trial
-/// record as it is written (also the ones already on disk, first). A record on
-/// disk counts for the seed it names; records of seeds outside `config.seeds`
-/// are kept in the file and left out of the result. Every new record carries
-/// the run's [`Provenance`]; a file holding records made with other files or
-/// settings (or without provenance) is refused rather than appended to.
-pub fn run_task(
-    config: &EvalConfig,
-    task: TaskId,
-    on_trial: &mut dyn FnMut(&TrialRecord),
-) -> Result<Vec<TrialRecord>, EvalError> {
-    crate::jobs::run_task_jobs(config, task, 1, on_trial)
 }
 
 /// The actor of `config`'s method on `task`, as the evaluation runs it: SSR

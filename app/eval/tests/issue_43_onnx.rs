@@ -7,7 +7,8 @@
 
 use std::path::{Path, PathBuf};
 
-use seespot_eval::runner::{run_task, world_config};
+use seespot_eval::run_task;
+use seespot_eval::runner::world_config;
 use seespot_eval::{EvalConfig, EvalMethod};
 use seespot_policy::finetune::FinetuneProcedure;
 use seespot_policy::onnx::export;

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use seespot_eval::jobs::{run_task_jobs, run_tasks_jobs};
+use seespot_eval::evaluation::{run_task_jobs, run_tasks_jobs};
 use seespot_eval::runner::world_config;
 use seespot_eval::{EvalConfig, EvalMethod};
 use seespot_policy::finetune::FinetuneProcedure;

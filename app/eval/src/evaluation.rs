@@ -1,4 +1,7 @@
-//! Trials in parallel: one pool of worker threads runs the trials of every
+//! An evaluation's run ([`Evaluation`]: its checks, the output folder's lock,
+//! the trials, the report) and its trials in parallel.
+//!
+//! One pool of worker threads runs the trials of every
 //! task of an evaluation, each worker with its own actor (each decision
 //! still spreads over the cores through rayon). A worker that finishes one
 //! task's trials goes on with the next task's rather than waiting for that
@@ -18,8 +21,174 @@ use seespot_ssr::layout::records_path;
 
 use crate::config::{EvalConfig, EvalError};
 use crate::finetuned;
+use crate::lock::OutputLock;
 use crate::records::{append_record, read_records};
+use crate::report::{Report, custom_markdown, write_report};
+use crate::run::EvalMethod;
 use crate::runner::{make_actor, provenance};
+
+/// An evaluation as a front end starts it: the configuration and its tasks,
+/// checked, with the output folder's lock held until it is
+/// [finished](Evaluation::finish) or dropped, so that two runs can never
+/// write the same records.
+#[derive(Debug)]
+pub struct Evaluation {
+    config: EvalConfig,
+    tasks: Vec<TaskId>,
+    jobs: usize,
+    _lock: OutputLock,
+}
+
+/// What a finished [`Evaluation`] wrote.
+#[derive(Debug)]
+pub enum Finished {
+    /// The four folds' report (`summary.md`, `summary.csv`, `figure4.png`).
+    Table(Report),
+    /// The custom tasks' report (`custom.md`), its text, and this run's
+    /// summary per custom task it evaluated (as a built-in fold's).
+    Custom {
+        path: PathBuf,
+        text: String,
+        summaries: Vec<crate::Summary>,
+    },
+}
+
+impl Evaluation {
+    /// Checks `config` against `tasks` and takes the lock on its output
+    /// folder. A custom task has no policy, oracle or TransporterNet of its
+    /// own: it takes SSR and random actions only, unfinetuned, and its
+    /// demonstrations must define it.
+    pub fn start(config: EvalConfig, tasks: Vec<TaskId>) -> Result<Self, EvalError> {
+        if config.finetune_steps > 0
+            && matches!(config.method, EvalMethod::Oracle | EvalMethod::Random)
+        {
+            return Err(EvalError::Invalid(format!(
+                "--finetune-steps {}: method {} has no policy to finetune",
+                config.finetune_steps,
+                config.method.as_str()
+            )));
+        }
+        if let Some(custom) = tasks.iter().find(|t| !t.is_builtin()) {
+            if !(config.method.is_ssr() || config.method == EvalMethod::Random)
+                || config.finetune_steps > 0
+            {
+                return Err(EvalError::Invalid(format!(
+                    "--method {}{}: a custom task ({custom}) has no policy, oracle or \
+                     TransporterNet of its own; evaluate it with ssr-ccd, ssr-l2cd, \
+                     ssr-ccd-loopbreak or random",
+                    config.method.as_str(),
+                    if config.finetune_steps > 0 {
+                        " --finetune-steps"
+                    } else {
+                        ""
+                    },
+                )));
+            }
+            for t in tasks.iter().filter(|t| !t.is_builtin()) {
+                config.layout.load_task(*t)?;
+            }
+        }
+        let lock = OutputLock::acquire(&config.out_dir)?;
+        Ok(Self {
+            config,
+            tasks,
+            jobs: 1,
+            _lock: lock,
+        })
+    }
+
+    /// Runs `jobs` trials at once ([`run_tasks_jobs`]); 1 (the default) runs
+    /// them one after another. The records are the same either way.
+    pub fn with_jobs(mut self, jobs: usize) -> Self {
+        self.jobs = jobs.max(1);
+        self
+    }
+
+    pub fn config(&self) -> &EvalConfig {
+        &self.config
+    }
+
+    pub fn tasks(&self) -> &[TaskId] {
+        &self.tasks
+    }
+
+    /// Runs (or resumes) one task: [`run_task`].
+    pub fn run_task(
+        &self,
+        task: TaskId,
+        on_trial: &mut dyn FnMut(&TrialRecord),
+    ) -> Result<Vec<TrialRecord>, EvalError> {
+        run_task_jobs(&self.config, task, self.jobs, on_trial)
+    }
+
+    /// Runs (or resumes) every task of the evaluation with one pool of
+    /// workers ([`run_tasks_jobs`]): a worker done with one
+    /// task's trials goes on with the next task's instead of waiting for the
+    /// task's last trial. `on_trial` hears each record with its task; the
+    /// records come back per task, in [`Self::tasks`] order.
+    pub fn run_tasks(
+        &self,
+        on_trial: &mut dyn FnMut(TaskId, &TrialRecord),
+    ) -> Result<Vec<Vec<TrialRecord>>, EvalError> {
+        run_tasks_jobs(&self.config, &self.tasks, self.jobs, on_trial)
+    }
+
+    /// Writes the report over every record of the output folder (the custom
+    /// tasks' own report when the evaluation held one) and lets the lock go.
+    /// `finetune_steps`: what a finetuned row's records that do not state
+    /// their steps were finetuned with ([`write_report`]).
+    pub fn finish(self, finetune_steps: usize) -> Result<Finished, EvalError> {
+        let out = &self.config.out_dir;
+        if self.tasks.iter().any(|t| !t.is_builtin()) {
+            let path = out.join("custom.md");
+            let text = custom_markdown(out)?;
+            std::fs::write(&path, &text)
+                .map_err(|e| EvalError::Invalid(format!("{}: {e}", path.display())))?;
+            let name = self.config.spec().to_string();
+            let mut records = Vec::new();
+            for t in self.tasks.iter().filter(|t| !t.is_builtin()) {
+                let file = records_path(out, &name, *t);
+                if file.is_file() {
+                    let rs = read_records(&file)?;
+                    records.extend(
+                        rs.into_iter()
+                            .filter(|r| self.config.seeds.contains(r.seed)),
+                    );
+                }
+            }
+            let layout = &self.config.layout;
+            let summaries = crate::summarize_all(
+                &records,
+                |_, _| 0,
+                |_, t| crate::metrics::demo_actions(layout, t).unwrap_or(0),
+            );
+            return Ok(Finished::Custom {
+                path,
+                text,
+                summaries,
+            });
+        }
+        Ok(Finished::Table(write_report(
+            out,
+            &self.config.layout,
+            finetune_steps,
+        )?))
+    }
+}
+
+/// Runs (or resumes) the evaluation of one task; `on_trial` sees every trial
+/// record as it is written (also the ones already on disk, first). A record on
+/// disk counts for the seed it names; records of seeds outside `config.seeds`
+/// are kept in the file and left out of the result. Every new record carries
+/// the run's [`Provenance`]; a file holding records made with other files or
+/// settings (or without provenance) is refused rather than appended to.
+pub fn run_task(
+    config: &EvalConfig,
+    task: TaskId,
+    on_trial: &mut dyn FnMut(&TrialRecord),
+) -> Result<Vec<TrialRecord>, EvalError> {
+    run_task_jobs(config, task, 1, on_trial)
+}
 
 /// What one task of a run needs and has: its records file, the run's seeds
 /// already in it, the seeds left (with their trial index) and the provenance
@@ -43,7 +212,7 @@ pub fn run_task_jobs(
 }
 
 /// Runs (or resumes) `config`'s evaluation of `tasks` with up to `jobs`
-/// trials at once ([`crate::runner::run_task`] for each task, in one pool).
+/// trials at once ([`run_task`] for each task, in one pool).
 /// Every task is checked (its file's records, its finetuned models, its
 /// provenance) before any trial runs. `on_trial` hears every record with its
 /// task as it is written (the ones already on disk first). Returns each
