@@ -27,20 +27,9 @@ pub const PUT_BACK_LOOPS: usize = 2;
 pub const PUT_BACK_PIXELS: usize = 3;
 
 /// Why a failed trial failed (module docs).
-#[derive(
-    Clone,
-    Copy,
-    Debug,
-    PartialEq,
-    Eq,
-    PartialOrd,
-    Ord,
-    Hash,
-    Serialize,
-    strum::IntoStaticStr,
-    strum::VariantArray,
-)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
 #[serde(rename_all = "kebab-case")]
+#[derive(strum::IntoStaticStr, strum::VariantArray)]
 pub enum FailureKind {
     #[strum(serialize = "block out of workspace")]
     OutOfWorkspace,
