@@ -6,7 +6,8 @@ use seespot_sim::{Action, Heightmaps, Primitive};
 
 /// **Put-back breaking (seespot's extension, not the paper's):** a grasp
 /// whose block came back where it was is not taken again. At each grasp
-/// decision, when progress is what it was at the last grasp and the scene
+/// decision after a place (a grasp that lifted nothing is loop breaking's,
+/// not a put-back), when progress is what it was at the last grasp and the scene
 /// differs from the scene of that grasp by less than one block's footprint
 /// (pixels whose height changed by more than half a block,
 /// [`PutBack::changed_area`]), the last grasp picked a block and put it
@@ -19,6 +20,12 @@ pub struct PutBack {
     last_grasp: Option<(Vec<f32>, Action, u8)>,
     /// The grasps whose blocks were put back, at the current progress.
     pub(super) grasps: Vec<Action>,
+    /// Whether a place decision came after the last grasp: without one, the
+    /// grasp lifted nothing (its scene is unchanged, which loop breaking
+    /// handles), and kept here it would mask a block it never moved until
+    /// progress changes; enough of those left no grasp allowed, and then
+    /// every mask was dropped.
+    placed: bool,
 }
 
 impl PutBack {
@@ -37,12 +44,14 @@ impl PutBack {
     /// Called at each decision before it is made: updates the put-back grasps.
     pub(super) fn observe(&mut self, hm: &Heightmaps, progress: u8, primitive: Primitive) {
         if primitive != Primitive::Grasp {
+            self.placed = true;
             return;
         }
         match &self.last_grasp {
             Some((depth, grasp, p)) if *p == progress => {
                 let footprint = seespot_sim::blocks::BLOCK_SIZE * seespot_sim::blocks::BLOCK_SIZE;
-                if Self::changed_area(depth, &hm.depth, hm.grid.pixel_size()) < footprint
+                if self.placed
+                    && Self::changed_area(depth, &hm.depth, hm.grid.pixel_size()) < footprint
                     && !self.grasps.contains(grasp)
                 {
                     self.grasps.push(*grasp);
@@ -57,6 +66,7 @@ impl PutBack {
     pub(super) fn chose(&mut self, hm: &Heightmaps, progress: u8, action: Action) {
         if action.primitive == Primitive::Grasp {
             self.last_grasp = Some((hm.depth.clone(), action, progress));
+            self.placed = false;
         }
     }
 }
@@ -74,6 +84,11 @@ mod tests {
         let mut pb = PutBack::default();
         pb.observe(&hm, 1, Primitive::Grasp);
         assert!(pb.grasps.is_empty(), "no grasp yet");
+        pb.chose(&hm, 1, grasp);
+        // A grasp that lifted nothing (the next decision is a grasp again) is
+        // no put-back.
+        pb.observe(&hm, 1, Primitive::Grasp);
+        assert!(pb.grasps.is_empty(), "a failed grasp");
         pb.chose(&hm, 1, grasp);
         // A place decision does not judge.
         pb.observe(&hm, 1, Primitive::Place);
@@ -96,10 +111,12 @@ mod tests {
         );
         let other = Action::new(Primitive::Grasp, 0, 10, 10);
         pb.chose(&hm, 1, other);
+        pb.observe(&moved, 1, Primitive::Place);
         pb.observe(&moved, 1, Primitive::Grasp);
         assert_eq!(pb.grasps, vec![grasp]);
         // Progress changed: the put-back grasps are forgotten.
         pb.chose(&moved, 1, other);
+        pb.observe(&moved, 2, Primitive::Place);
         pb.observe(&moved, 2, Primitive::Grasp);
         assert!(pb.grasps.is_empty());
     }
