@@ -90,11 +90,9 @@ fn members(path: &Path, bytes: &[u8]) -> Result<Members, RecordError> {
                 lines.extend(text.lines().map(str::to_owned));
                 rest = after;
             }
-            // Only the last member may be cut short.
-            Err(e)
-                if e.kind() == std::io::ErrorKind::UnexpectedEof
-                    && is_last_member(&bytes[start..]) =>
-            {
+            // Only the last member may be cut short (or followed by
+            // garbage, such as the zeros a power cut can leave).
+            Err(_) if is_last_member(&bytes[start..]) => {
                 return Ok(Members {
                     lines,
                     whole_len: start,
@@ -378,6 +376,14 @@ pub(crate) mod tests {
             .open(&path)
             .expect("open");
         f.write_all(&member[..member.len() / 2]).expect("write");
+        drop(f);
+        assert_eq!(read_records(&path).expect("read"), r[..2].to_vec());
+        // So is a tail of zeros after it, as a power cut can leave.
+        let mut f = std::fs::OpenOptions::new()
+            .append(true)
+            .open(&path)
+            .expect("open");
+        f.write_all(&[0u8; 64]).expect("write");
         drop(f);
         assert_eq!(read_records(&path).expect("read"), r[..2].to_vec());
         // Appending cuts the fragment off: every record stays readable.
