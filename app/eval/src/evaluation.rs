@@ -112,15 +112,6 @@ impl Evaluation {
         &self.tasks
     }
 
-    /// Runs (or resumes) one task: [`run_task`].
-    pub fn run_task(
-        &self,
-        task: TaskId,
-        on_trial: &mut dyn FnMut(&TrialRecord),
-    ) -> Result<Vec<TrialRecord>, EvalError> {
-        run_task_jobs(&self.config, task, self.jobs, on_trial)
-    }
-
     /// Runs (or resumes) every task of the evaluation with one pool of
     /// workers ([`run_tasks_jobs`]): a worker done with one
     /// task's trials goes on with the next task's instead of waiting for the

@@ -65,6 +65,19 @@ struct Members {
     whole_len: usize,
 }
 
+/// The bytes of a records file, within its bound; `None` when there is no
+/// such file.
+fn read_bytes(path: &Path) -> Result<Option<Vec<u8>>, RecordError> {
+    match seespot_sim::bounds::read_file(path, seespot_sim::bounds::files::RECORDS) {
+        Ok(bytes) => Ok(Some(bytes)),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        Err(source) => Err(RecordError::Io {
+            path: path.display().to_string(),
+            source,
+        }),
+    }
+}
+
 /// Splits a records file into its gzip members, one line each.
 fn members(path: &Path, bytes: &[u8]) -> Result<Members, RecordError> {
     let mut lines = Vec::new();
@@ -127,14 +140,8 @@ fn is_last_member(tail: &[u8]) -> bool {
 /// (`<method>/<task>.jsonl.gz`), a record of another method or task: counted,
 /// either would change a result without a word.
 pub fn read_records(path: &Path) -> Result<Vec<TrialRecord>, RecordError> {
-    let io = |source| RecordError::Io {
-        path: path.display().to_string(),
-        source,
-    };
-    let bytes = match seespot_sim::bounds::read_file(path, seespot_sim::bounds::files::RECORDS) {
-        Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
-        Err(e) => return Err(io(e)),
+    let Some(bytes) = read_bytes(path)? else {
+        return Ok(Vec::new());
     };
     let lines = members(path, &bytes)?.lines;
     let last = lines.iter().rposition(|l| !l.trim().is_empty());
@@ -191,15 +198,8 @@ pub fn read_records(path: &Path) -> Result<Vec<TrialRecord>, RecordError> {
 /// The decompressed text of a records file, a JSON line a trial (what
 /// `zcat` prints), without a last member cut short. A missing file is empty.
 pub fn read_text(path: &Path) -> Result<String, RecordError> {
-    let bytes = match seespot_sim::bounds::read_file(path, seespot_sim::bounds::files::RECORDS) {
-        Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(String::new()),
-        Err(source) => {
-            return Err(RecordError::Io {
-                path: path.display().to_string(),
-                source,
-            });
-        }
+    let Some(bytes) = read_bytes(path)? else {
+        return Ok(String::new());
     };
     let mut text = String::new();
     for line in members(path, &bytes)?.lines {
@@ -227,13 +227,12 @@ pub fn append_record(path: &Path, record: &TrialRecord) -> Result<(), RecordErro
         path: path.display().to_string(),
         source,
     };
-    let keep = match seespot_sim::bounds::read_file(path, seespot_sim::bounds::files::RECORDS) {
-        Ok(bytes) => {
+    let keep = match read_bytes(path)? {
+        Some(bytes) => {
             let whole = members(path, &bytes)?.whole_len;
             (whole < bytes.len()).then_some(whole)
         }
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
-        Err(e) => return Err(io(e)),
+        None => None,
     };
     let member = record_member(record).map_err(io)?;
     let mut f = std::fs::OpenOptions::new()
