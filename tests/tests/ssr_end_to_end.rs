@@ -319,6 +319,62 @@ fn loop_breaking_never_repeats_an_action_that_changed_nothing() {
     );
 }
 
+/// Regrasp and replacing (`ssr-ccd-replace`): after a failed grasp, the
+/// next grasp in the same scene is never on the failed grasp's axis within
+/// its neighbourhood, and never anywhere within it when the grasp came down
+/// on the bare table; each such mask is a departure the record names.
+#[test]
+fn regrasp_keeps_away_from_a_failed_grasp_axis_and_says_so() {
+    use seespot_sim::actor::run_trial;
+    use seespot_ssr::explain::{LEFT_UNCHANGED, REGRASP};
+    use seespot_ssr::policy::{LOOP_BREAK_RADIUS, regrasp_rotations};
+    let models = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../models/oracle-guided");
+    let config = EvalMethod::SsrCcdReplace.ssr_config(Default::default());
+    assert!(config.regrasp && config.replace && config.reversal_guard);
+    let world = world_config(112);
+    let r = (LOOP_BREAK_RADIUS / world.grid.pixel_size()).round() as usize;
+    let (mut tested, mut on_something) = (0, 0);
+    for (task, seed) in [
+        (TaskId::Stack, 3),
+        (TaskId::Row, 3),
+        (TaskId::VerticalSquare, 5),
+    ] {
+        let mut ssr =
+            SsrPolicy::load(task, &Layout::new(&models, demos_dir()), config).expect("ssr");
+        let mut trial = seespot_sim::Trial::new(world, task, seed);
+        let record =
+            run_trial(&mut trial, &mut ssr, "ssr-ccd-replace", 0, &mut |_| {}).expect("trial");
+        for w in record.actions_log.windows(2) {
+            let (a, b) = (w[0].action, w[1].action);
+            if w[0].primitive_success != Some(false) || a.primitive != Primitive::Grasp {
+                continue;
+            }
+            tested += 1;
+            let said = w[1]
+                .departures
+                .iter()
+                .find(|d| d.action == a)
+                .unwrap_or_else(|| panic!("{task} seed {seed}: no departure names {a:?}"));
+            let near = b.y.abs_diff(a.y) <= r && b.x.abs_diff(a.x) <= r;
+            if said.why == REGRASP {
+                on_something += 1;
+                assert!(
+                    !near || !regrasp_rotations(a.rotation, 16).contains(&b.rotation),
+                    "{task} seed {seed}: {b:?} is on the axis of the failed {a:?}"
+                );
+            } else {
+                assert_eq!(said.why, LEFT_UNCHANGED);
+                assert!(!near, "{task} seed {seed}: {b:?} repeats the failed {a:?}");
+            }
+        }
+    }
+    eprintln!("{tested} failed grasps, {on_something} on something");
+    assert!(
+        tested > 0 && on_something > 0,
+        "{tested} failed grasps, {on_something} on something"
+    );
+}
+
 /// The record name of a configuration, as `seespot eval` names its records.
 fn name_of(
     method: EvalMethod,

@@ -55,6 +55,16 @@ pub enum EvalMethod {
     /// and no grasp on a block whose removal would lower progress
     /// ([`seespot_ssr::policy::guarded_blocks`]).
     SsrCcdGuarded,
+    /// seespot's extension, not the paper's: the reversal guard's method,
+    /// and a failed grasp on something masks only its grasp axis there, so
+    /// another angle at the same spot stays allowed
+    /// ([`seespot_ssr::policy::regrasp_rotations`]).
+    SsrCcdRegrasp,
+    /// seespot's extension, not the paper's: regrasp's method, and a block
+    /// picked and put back where it was is tried elsewhere: the place that
+    /// put it back is masked instead of the grasp
+    /// ([`seespot_ssr::policy::PutBack`]).
+    SsrCcdReplace,
     /// The test task's own SPOT-Q policy, greedy: the ceiling row.
     SpotQ,
     /// The scripted oracle.
@@ -68,12 +78,14 @@ pub enum EvalMethod {
 }
 
 impl EvalMethod {
-    pub const ALL: [EvalMethod; 9] = [
+    pub const ALL: [EvalMethod; 11] = [
         Self::SsrCcd,
         Self::SsrL2cd,
         Self::SsrCcdLoopBreak,
         Self::SsrCcdNoLoops,
         Self::SsrCcdGuarded,
+        Self::SsrCcdRegrasp,
+        Self::SsrCcdReplace,
         Self::SpotQ,
         Self::Oracle,
         Self::Random,
@@ -98,10 +110,25 @@ impl EvalMethod {
             correspond,
             loop_break: matches!(
                 self,
-                Self::SsrCcdLoopBreak | Self::SsrCcdNoLoops | Self::SsrCcdGuarded
+                Self::SsrCcdLoopBreak
+                    | Self::SsrCcdNoLoops
+                    | Self::SsrCcdGuarded
+                    | Self::SsrCcdRegrasp
+                    | Self::SsrCcdReplace
             ),
-            put_back_break: matches!(self, Self::SsrCcdNoLoops | Self::SsrCcdGuarded),
-            reversal_guard: self == Self::SsrCcdGuarded,
+            put_back_break: matches!(
+                self,
+                Self::SsrCcdNoLoops
+                    | Self::SsrCcdGuarded
+                    | Self::SsrCcdRegrasp
+                    | Self::SsrCcdReplace
+            ),
+            reversal_guard: matches!(
+                self,
+                Self::SsrCcdGuarded | Self::SsrCcdRegrasp | Self::SsrCcdReplace
+            ),
+            regrasp: matches!(self, Self::SsrCcdRegrasp | Self::SsrCcdReplace),
+            replace: self == Self::SsrCcdReplace,
         }
     }
 
@@ -114,6 +141,8 @@ impl EvalMethod {
                 | Self::SsrCcdLoopBreak
                 | Self::SsrCcdNoLoops
                 | Self::SsrCcdGuarded
+                | Self::SsrCcdRegrasp
+                | Self::SsrCcdReplace
         )
     }
 
@@ -486,6 +515,12 @@ impl RunSpec {
             (EvalMethod::SsrCcdGuarded, _) => {
                 "Extension: SSR CCD + loop and put-back breaking + reversal guard"
             }
+            (EvalMethod::SsrCcdRegrasp, _) => {
+                "Extension: SSR CCD + loop and put-back breaking + reversal guard + regrasp"
+            }
+            (EvalMethod::SsrCcdReplace, _) => {
+                "Extension: SSR CCD + loop and put-back breaking + reversal guard + regrasp + replacing"
+            }
             (EvalMethod::SpotQ, false) => "SPOT-Q",
             (EvalMethod::SpotQ, true) => "Good Robot finetuned",
             (EvalMethod::Transporter, false) => "TransporterNet",
@@ -624,10 +659,10 @@ mod tests {
     #[test]
     fn every_spec_round_trips_through_its_name() {
         let all = RunSpec::all();
-        // 5 SSR methods x 9 correspondences x 3 finetunings x 2 noises,
+        // 7 SSR methods x 9 correspondences x 3 finetunings x 2 noises,
         // SPOT-Q x 3 x 2, TransporterNet x 2 x 2, oracle and random x 2
         // (noise only).
-        assert_eq!(all.len(), 5 * 9 * 6 + 6 + 4 + 2 * 2);
+        assert_eq!(all.len(), 7 * 9 * 6 + 6 + 4 + 2 * 2);
         let mut names = std::collections::HashSet::new();
         for spec in &all {
             let name = spec.to_string();

@@ -109,7 +109,9 @@ pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalE
             | EvalMethod::SsrL2cd
             | EvalMethod::SsrCcdLoopBreak
             | EvalMethod::SsrCcdNoLoops
-            | EvalMethod::SsrCcdGuarded,
+            | EvalMethod::SsrCcdGuarded
+            | EvalMethod::SsrCcdRegrasp
+            | EvalMethod::SsrCcdReplace,
             _,
         ) => {
             for (_, path) in config.layout.policy_files(task) {
@@ -294,7 +296,9 @@ pub fn make_actor(
         | EvalMethod::SsrL2cd
         | EvalMethod::SsrCcdLoopBreak
         | EvalMethod::SsrCcdNoLoops
-        | EvalMethod::SsrCcdGuarded => Box::new(ssr_policy(config, task)?),
+        | EvalMethod::SsrCcdGuarded
+        | EvalMethod::SsrCcdRegrasp
+        | EvalMethod::SsrCcdReplace => Box::new(ssr_policy(config, task)?),
         EvalMethod::SpotQ => Box::new(spot_q_actor(config, task)?),
         EvalMethod::Transporter => Box::new(TransporterActor::new(transporter_net(config, task)?)),
         EvalMethod::Oracle => Box::new(Oracle::new(task)),

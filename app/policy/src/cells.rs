@@ -623,16 +623,19 @@ impl CellAse {
         }
     }
 
-    /// Masks every action at the pixels where `forbid` (`H x W`) is true, on
-    /// top of the current mask.
+    /// Masks every action where `forbid` (`R x H x W`) is true, on top of
+    /// the current mask.
     ///
     /// # Panics
-    /// If `forbid` is not `H x W`.
-    pub fn forbid_pixels(&mut self, forbid: &[bool]) {
-        let plane = self.resolution * self.resolution;
-        assert_eq!(forbid.len(), plane, "forbidden pixels are not H x W");
-        for (i, m) in self.mask.iter_mut().enumerate() {
-            if forbid[i % plane] {
+    /// If `forbid` is not `R x H x W`.
+    pub fn forbid_actions(&mut self, forbid: &[bool]) {
+        assert_eq!(
+            forbid.len(),
+            self.mask.len(),
+            "forbidden actions are not R x H x W"
+        );
+        for (m, &f) in self.mask.iter_mut().zip(forbid) {
+            if f {
                 *m = false;
             }
         }

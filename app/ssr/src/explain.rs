@@ -114,6 +114,12 @@ pub struct Decision {
     /// method.
     #[serde(default)]
     pub excluded: Vec<Action>,
+    /// Regrasp (seespot's extension): failed grasps on something whose
+    /// neighbourhood was masked on their grasp axis only
+    /// ([`crate::policy::regrasp_rotations`]); empty for the paper's method
+    /// and absent from older records.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub regrasp: Vec<Action>,
     /// Put-back breaking (seespot's extension): grasps whose neighbourhood
     /// was masked because their block was put back where it was; empty for
     /// the paper's method and absent from older records.
@@ -140,6 +146,7 @@ pub const GUARD_RADIUS: f32 = seespot_sim::blocks::BLOCK_SIZE / 2.0;
 pub const LEFT_UNCHANGED: &str = "it left the scene unchanged";
 pub const PUT_BACK: &str = "its block was put back where it was, progress unchanged";
 pub const GUARDED: &str = "its block is part of what is built: taking it would lower progress";
+pub const REGRASP: &str = "it left the scene unchanged, on its grasp axis only (this rotation, one step either way and the half turn): another angle there may catch the block";
 
 impl Decision {
     /// The decision of a method that is not See-SPOT-Run, shown in SSR's
@@ -166,6 +173,7 @@ impl Decision {
             ccd_choice: 0,
             l2cd_choice: 0,
             excluded: Vec::new(),
+            regrasp: Vec::new(),
             put_back: Vec::new(),
             guarded: Vec::new(),
         }
@@ -187,6 +195,11 @@ impl Decision {
         self.excluded
             .iter()
             .map(departure(LEFT_UNCHANGED, LOOP_BREAK_RADIUS))
+            .chain(
+                self.regrasp
+                    .iter()
+                    .map(departure(REGRASP, LOOP_BREAK_RADIUS)),
+            )
             .chain(
                 self.put_back
                     .iter()
@@ -218,6 +231,7 @@ mod tests {
             ccd_choice: 0,
             l2cd_choice: 0,
             excluded: vec![a],
+            regrasp: vec![b],
             put_back: vec![b],
             guarded: vec![a],
         };
@@ -231,6 +245,7 @@ mod tests {
             said,
             vec![
                 (a, LEFT_UNCHANGED.to_owned(), r),
+                (b, REGRASP.to_owned(), r),
                 (b, PUT_BACK.to_owned(), r),
                 (a, GUARDED.to_owned(), GUARD_RADIUS)
             ]
@@ -242,6 +257,7 @@ mod tests {
         // The paper's methods depart from nothing.
         let plain = Decision {
             excluded: Vec::new(),
+            regrasp: Vec::new(),
             put_back: Vec::new(),
             guarded: Vec::new(),
             ..d

@@ -360,6 +360,7 @@ impl Actor for FeatureDecider {
             l2cd_choice,
             excluded: Vec::new(),
             put_back: Vec::new(),
+            regrasp: Vec::new(),
             guarded: Vec::new(),
         });
         Ok(choice)

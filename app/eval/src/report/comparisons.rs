@@ -108,9 +108,10 @@ pub fn ssr_runs(records: &[TrialRecord]) -> Vec<RunSpec> {
 /// what each comparison asks; pairs without shared seeds are skipped. Runs
 /// are [`RunSpec`] values, so a comparison cannot name a run that
 /// does not exist.
-pub fn planned_comparisons() -> [(RunSpec, RunSpec, &'static str); 15] {
+pub fn planned_comparisons() -> [(RunSpec, RunSpec, &'static str); 21] {
     use crate::run::EvalMethod::{
-        Random, SpotQ, SsrCcd, SsrCcdLoopBreak, SsrCcdNoLoops, SsrL2cd, Transporter,
+        Random, SpotQ, SsrCcd, SsrCcdGuarded, SsrCcdLoopBreak, SsrCcdNoLoops, SsrCcdRegrasp,
+        SsrCcdReplace, SsrL2cd, Transporter,
     };
     use RunSpec;
     let run = RunSpec::new;
@@ -145,6 +146,36 @@ pub fn planned_comparisons() -> [(RunSpec, RunSpec, &'static str); 15] {
             run(SsrCcdNoLoops),
             run(Transporter),
             "seespot's extension against the few-shot baseline trained on the test task's demonstrations",
+        ),
+        (
+            run(SsrCcdGuarded),
+            run(SsrCcdNoLoops),
+            "what the reversal guard adds to put-back breaking",
+        ),
+        (
+            run(SsrCcdRegrasp),
+            run(SsrCcdGuarded),
+            "what regrasp adds to the reversal guard",
+        ),
+        (
+            run(SsrCcdReplace),
+            run(SsrCcdRegrasp),
+            "what replacing adds to regrasp",
+        ),
+        (
+            run(SsrCcdReplace),
+            run(SsrCcd),
+            "seespot's extensions, all five, against the faithful method",
+        ),
+        (
+            run(SsrCcdReplace),
+            run(SsrCcdLoopBreak),
+            "seespot's extensions, all five, against loop breaking alone",
+        ),
+        (
+            run(SsrCcdReplace),
+            run(Transporter),
+            "seespot's extensions, all five, against the few-shot baseline trained on the test task's demonstrations",
         ),
         (
             run(SsrCcd).noisy(),
@@ -199,7 +230,10 @@ pub fn planned_comparisons() -> [(RunSpec, RunSpec, &'static str); 15] {
 /// named `<run>@<set>`): SSR CCD and SSR L2CD on the set against the same
 /// method on the SPOT-Q policies, and CCD against L2CD on the set.
 pub fn report_comparisons(records: &[TrialRecord]) -> Vec<(RunSpec, RunSpec, String)> {
-    use crate::run::EvalMethod::{SsrCcd, SsrCcdLoopBreak, SsrCcdNoLoops, SsrL2cd};
+    use crate::run::EvalMethod::{
+        SsrCcd, SsrCcdGuarded, SsrCcdLoopBreak, SsrCcdNoLoops, SsrCcdRegrasp, SsrCcdReplace,
+        SsrL2cd,
+    };
     let mut out: Vec<(RunSpec, RunSpec, String)> = planned_comparisons()
         .into_iter()
         .map(|(a, b, why)| (a, b, why.to_owned()))
@@ -246,6 +280,33 @@ pub fn report_comparisons(records: &[TrialRecord]) -> Vec<(RunSpec, RunSpec, Str
             on(SsrCcdNoLoops),
             RunSpec::new(SsrCcdNoLoops),
             format!("embedding set {set} against the SPOT-Q policies, with both extensions"),
+        ));
+        out.push((
+            on(SsrCcdGuarded),
+            on(SsrCcdNoLoops),
+            format!("what the reversal guard adds to put-back breaking on embedding set {set}"),
+        ));
+        out.push((
+            on(SsrCcdRegrasp),
+            on(SsrCcdGuarded),
+            format!("what regrasp adds to the reversal guard on embedding set {set}"),
+        ));
+        out.push((
+            on(SsrCcdReplace),
+            on(SsrCcdRegrasp),
+            format!("what replacing adds to regrasp on embedding set {set}"),
+        ));
+        out.push((
+            on(SsrCcdReplace),
+            on(SsrCcd),
+            format!(
+                "seespot's extensions, all five, against the faithful method on embedding set {set}"
+            ),
+        ));
+        out.push((
+            on(SsrCcdReplace),
+            RunSpec::new(SsrCcdReplace),
+            format!("embedding set {set} against the SPOT-Q policies, with all five extensions"),
         ));
     }
     out

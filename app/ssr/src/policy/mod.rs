@@ -32,9 +32,11 @@
 mod choose;
 mod guard;
 mod put_back;
+mod regrasp;
 pub use choose::{choose, chosen_pair};
 pub use guard::guarded_blocks;
 pub use put_back::PutBack;
+pub use regrasp::{regrasp_applies, regrasp_rotations};
 
 use std::collections::HashMap;
 use std::path::PathBuf;
@@ -68,6 +70,15 @@ pub struct SsrConfig {
     /// put-back breaking: no grasp on a block whose removal would lower
     /// progress; off for the paper's method.
     pub reversal_guard: bool,
+    /// seespot's regrasp ([`regrasp_rotations`]), on top of the reversal
+    /// guard: a failed grasp on something masks only its own grasp axis,
+    /// so a grasp at another angle there stays allowed; off for the
+    /// paper's method.
+    pub regrasp: bool,
+    /// seespot's replacing, on top of regrasp: a pick-and-put-back masks
+    /// the place that put the block back instead of the grasp, so the
+    /// block is tried elsewhere ([`PutBack`]); off for the paper's method.
+    pub replace: bool,
 }
 
 impl Default for SsrConfig {
@@ -78,6 +89,8 @@ impl Default for SsrConfig {
             loop_break: false,
             put_back_break: false,
             reversal_guard: false,
+            regrasp: false,
+            replace: false,
         }
     }
 }
@@ -373,8 +386,7 @@ impl SsrPolicy {
                 live.set_pixel_mask(&mask);
             }
         }
-        let (excluded, put_back, guarded) =
-            self.exclude_repeats(primitive, n, hm.grid.pixel_size());
+        let (excluded, regrasp, put_back, guarded) = self.exclude_repeats(primitive, hm);
         let embed_ms = t.elapsed().as_secs_f64() * 1e3;
         let steps: Vec<usize> = (0..self.demos.len())
             .map(|d| {
@@ -503,6 +515,7 @@ impl SsrPolicy {
             ccd_choice,
             l2cd_choice,
             excluded,
+            regrasp,
             put_back,
             guarded,
         })
@@ -511,62 +524,71 @@ impl SsrPolicy {
     /// Loop and put-back breaking: masks the neighbourhood of every excluded
     /// action of `primitive` (and of every put-back grasp) in the live maps,
     /// unless that would leave no action allowed. Returns the actions whose
-    /// neighbourhood was masked: the repeats, and the put-back grasps.
+    /// neighbourhood was masked: the repeats masked at every rotation, the
+    /// repeats masked on their grasp axis only (regrasp), the put-back
+    /// grasps and the guarded blocks.
+    #[allow(clippy::type_complexity)]
     fn exclude_repeats(
         &mut self,
         primitive: Primitive,
-        n: usize,
-        pixel: f32,
-    ) -> (Vec<Action>, Vec<Action>, Vec<Action>) {
-        let excluded: Vec<Action> = self
-            .excluded
-            .iter()
-            .copied()
-            .filter(|a| a.primitive == primitive)
-            .collect();
-        let put_back: Vec<Action> = if self.config.put_back_break {
-            let g = &self.put_back.grasps;
-            g.iter()
+        hm: &Heightmaps,
+    ) -> (Vec<Action>, Vec<Action>, Vec<Action>, Vec<Action>) {
+        let of_primitive = |v: &[Action]| -> Vec<Action> {
+            v.iter()
                 .copied()
                 .filter(|a| a.primitive == primitive)
                 .collect()
+        };
+        // With regrasp, a failed grasp on something keeps its other angles.
+        let (regrasp, excluded): (Vec<Action>, Vec<Action>) = of_primitive(&self.excluded)
+            .into_iter()
+            .partition(|a| self.config.regrasp && regrasp_applies(a, hm));
+        let put_back = if self.config.put_back_break && self.config.replace {
+            of_primitive(&self.put_back.places)
+        } else if self.config.put_back_break {
+            of_primitive(&self.put_back.grasps)
         } else {
             Vec::new()
         };
-        let guarded: Vec<Action> = self
-            .guarded
-            .iter()
-            .copied()
-            .filter(|a| a.primitive == primitive)
-            .collect();
-        if excluded.is_empty() && put_back.is_empty() && guarded.is_empty() {
-            return (excluded, put_back, guarded);
+        let guarded = of_primitive(&self.guarded);
+        if excluded.is_empty() && regrasp.is_empty() && put_back.is_empty() && guarded.is_empty() {
+            return (excluded, regrasp, put_back, guarded);
         }
+        let n = hm.resolution();
+        let pixel = hm.grid.pixel_size();
+        let rotations = self.live.first().map_or(0, |m| m.mask.len() / (n * n));
         let forbid_of = |guard: &[Action]| {
-            let mut forbid = vec![false; n * n];
-            let mut square = |a: &Action, radius: f32| {
+            let mut forbid = vec![false; rotations * n * n];
+            let mut square = |a: &Action, radius: f32, on: &[usize]| {
                 let r = (radius / pixel).round() as usize;
-                for y in a.y.saturating_sub(r)..=(a.y + r).min(n - 1) {
-                    for x in a.x.saturating_sub(r)..=(a.x + r).min(n - 1) {
-                        forbid[y * n + x] = true;
+                for &k in on {
+                    for y in a.y.saturating_sub(r)..=(a.y + r).min(n - 1) {
+                        for x in a.x.saturating_sub(r)..=(a.x + r).min(n - 1) {
+                            forbid[(k * n + y) * n + x] = true;
+                        }
                     }
                 }
             };
+            let every: Vec<usize> = (0..rotations).collect();
             for a in excluded.iter().chain(&put_back) {
-                square(a, LOOP_BREAK_RADIUS);
+                square(a, LOOP_BREAK_RADIUS, &every);
+            }
+            for a in &regrasp {
+                square(
+                    a,
+                    LOOP_BREAK_RADIUS,
+                    &regrasp_rotations(a.rotation, rotations),
+                );
             }
             for a in guard {
-                square(a, GUARD_RADIUS);
+                square(a, GUARD_RADIUS, &every);
             }
             forbid
         };
         let leaves_some = |forbid: &[bool]| {
-            self.live.iter().all(|m| {
-                m.mask
-                    .iter()
-                    .enumerate()
-                    .any(|(i, &ok)| ok && !forbid[i % (n * n)])
-            })
+            self.live
+                .iter()
+                .all(|m| m.mask.iter().zip(forbid).any(|(&ok, &no)| ok && !no))
         };
         // Every mask if some action is left; else without the guard (the
         // repeats stay forbidden); else none.
@@ -576,13 +598,13 @@ impl SsrPolicy {
             guarded.clear();
             forbid = forbid_of(&[]);
             if !leaves_some(&forbid) {
-                return (Vec::new(), Vec::new(), Vec::new());
+                return (Vec::new(), Vec::new(), Vec::new(), Vec::new());
             }
         }
         for live in &mut self.live {
-            live.forbid_pixels(&forbid);
+            live.forbid_actions(&forbid);
         }
-        (excluded, put_back, guarded)
+        (excluded, regrasp, put_back, guarded)
     }
 
     /// Click-to-query: the ASE of the demo pixel `q` names (at the demo step's
@@ -688,6 +710,14 @@ pub fn demo_step(demo: &Demo, progress: u8, primitive: Primitive) -> Option<usiz
 impl Actor for SsrPolicy {
     fn name(&self) -> String {
         match self.config.method {
+            Method::SsrCcd if self.config.replace => {
+                "See-SPOT-Run CCD + loop and put-back breaking + reversal guard + regrasp + replacing (seespot's extension)"
+                    .to_owned()
+            }
+            Method::SsrCcd if self.config.regrasp => {
+                "See-SPOT-Run CCD + loop and put-back breaking + reversal guard + regrasp (seespot's extension)"
+                    .to_owned()
+            }
             Method::SsrCcd if self.config.reversal_guard => {
                 "See-SPOT-Run CCD + loop and put-back breaking + reversal guard (seespot's extension)"
                     .to_owned()
