@@ -60,10 +60,10 @@ pub enum EvalMethod {
     /// another angle at the same spot stays allowed
     /// ([`seespot_ssr::policy::regrasp_rotations`]).
     SsrCcdRegrasp,
-    /// seespot's extension, not the paper's: regrasp's method, and a block
-    /// picked and put back where it was is tried elsewhere: the place that
-    /// put it back is masked instead of the grasp
-    /// ([`seespot_ssr::policy::PutBack`]).
+    /// seespot's extension, not the paper's: regrasp's method with
+    /// put-back breaking's grasp mask swapped for replacing: a place that
+    /// left progress where it was is masked until progress changes, so the
+    /// block is tried elsewhere ([`seespot_ssr::policy::Replacing`]).
     SsrCcdReplace,
     /// The test task's own SPOT-Q policy, greedy: the ceiling row.
     SpotQ,
@@ -118,10 +118,7 @@ impl EvalMethod {
             ),
             put_back_break: matches!(
                 self,
-                Self::SsrCcdNoLoops
-                    | Self::SsrCcdGuarded
-                    | Self::SsrCcdRegrasp
-                    | Self::SsrCcdReplace
+                Self::SsrCcdNoLoops | Self::SsrCcdGuarded | Self::SsrCcdRegrasp
             ),
             reversal_guard: matches!(
                 self,
@@ -519,7 +516,7 @@ impl RunSpec {
                 "Extension: SSR CCD + loop and put-back breaking + reversal guard + regrasp"
             }
             (EvalMethod::SsrCcdReplace, _) => {
-                "Extension: SSR CCD + loop and put-back breaking + reversal guard + regrasp + replacing"
+                "Extension: SSR CCD + loop breaking + reversal guard + regrasp + replacing"
             }
             (EvalMethod::SpotQ, false) => "SPOT-Q",
             (EvalMethod::SpotQ, true) => "Good Robot finetuned",

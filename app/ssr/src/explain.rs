@@ -125,6 +125,11 @@ pub struct Decision {
     /// the paper's method and absent from older records.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub put_back: Vec<Action>,
+    /// Replacing (seespot's extension): places whose neighbourhood was
+    /// masked because they left progress where it was; empty for the
+    /// paper's method and absent from older records.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub replaced: Vec<Action>,
     /// Reversal guard (seespot's extension): the centres of the blocks whose
     /// grasps were masked because taking them would lower progress; empty
     /// for the paper's method and absent from older records.
@@ -146,6 +151,8 @@ pub const GUARD_RADIUS: f32 = seespot_sim::blocks::BLOCK_SIZE / 2.0;
 pub const LEFT_UNCHANGED: &str = "it left the scene unchanged";
 pub const PUT_BACK: &str = "its block was put back where it was, progress unchanged";
 pub const GUARDED: &str = "its block is part of what is built: taking it would lower progress";
+pub const REPLACED: &str =
+    "it left progress where it was: until progress changes, the block goes elsewhere";
 pub const REGRASP: &str = "it left the scene unchanged, on its grasp axis only (this rotation, one step either way and the half turn): another angle there may catch the block";
 
 impl Decision {
@@ -175,6 +182,7 @@ impl Decision {
             excluded: Vec::new(),
             regrasp: Vec::new(),
             put_back: Vec::new(),
+            replaced: Vec::new(),
             guarded: Vec::new(),
         }
     }
@@ -205,6 +213,11 @@ impl Decision {
                     .iter()
                     .map(departure(PUT_BACK, LOOP_BREAK_RADIUS)),
             )
+            .chain(
+                self.replaced
+                    .iter()
+                    .map(departure(REPLACED, LOOP_BREAK_RADIUS)),
+            )
             .chain(self.guarded.iter().map(departure(GUARDED, GUARD_RADIUS)))
             .collect()
     }
@@ -218,6 +231,7 @@ mod tests {
     fn departures_name_each_masked_action_and_why() {
         let a = Action::new(Primitive::Grasp, 3, 40, 50);
         let b = Action::new(Primitive::Grasp, 5, 60, 70);
+        let c = Action::new(Primitive::Place, 2, 80, 90);
         let d = Decision {
             method: Method::SsrCcd,
             primitive: Primitive::Grasp,
@@ -233,6 +247,7 @@ mod tests {
             excluded: vec![a],
             regrasp: vec![b],
             put_back: vec![b],
+            replaced: vec![c],
             guarded: vec![a],
         };
         let r = LOOP_BREAK_RADIUS;
@@ -247,6 +262,7 @@ mod tests {
                 (a, LEFT_UNCHANGED.to_owned(), r),
                 (b, REGRASP.to_owned(), r),
                 (b, PUT_BACK.to_owned(), r),
+                (c, REPLACED.to_owned(), r),
                 (a, GUARDED.to_owned(), GUARD_RADIUS)
             ]
         );
@@ -259,6 +275,7 @@ mod tests {
             excluded: Vec::new(),
             regrasp: Vec::new(),
             put_back: Vec::new(),
+            replaced: Vec::new(),
             guarded: Vec::new(),
             ..d
         };

@@ -361,6 +361,7 @@ impl Actor for FeatureDecider {
             excluded: Vec::new(),
             put_back: Vec::new(),
             regrasp: Vec::new(),
+            replaced: Vec::new(),
             guarded: Vec::new(),
         });
         Ok(choice)

@@ -160,22 +160,22 @@ pub fn planned_comparisons() -> [(RunSpec, RunSpec, &'static str); 21] {
         (
             run(SsrCcdReplace),
             run(SsrCcdRegrasp),
-            "what replacing adds to regrasp",
+            "replacing in place of put-back breaking, with regrasp",
         ),
         (
             run(SsrCcdReplace),
             run(SsrCcd),
-            "seespot's extensions, all five, against the faithful method",
+            "seespot's extensions together (loop breaking, reversal guard, regrasp, replacing) against the faithful method",
         ),
         (
             run(SsrCcdReplace),
             run(SsrCcdLoopBreak),
-            "seespot's extensions, all five, against loop breaking alone",
+            "seespot's extensions together (loop breaking, reversal guard, regrasp, replacing) against loop breaking alone",
         ),
         (
             run(SsrCcdReplace),
             run(Transporter),
-            "seespot's extensions, all five, against the few-shot baseline trained on the test task's demonstrations",
+            "seespot's extensions together (loop breaking, reversal guard, regrasp, replacing) against the few-shot baseline trained on the test task's demonstrations",
         ),
         (
             run(SsrCcd).noisy(),
@@ -294,19 +294,19 @@ pub fn report_comparisons(records: &[TrialRecord]) -> Vec<(RunSpec, RunSpec, Str
         out.push((
             on(SsrCcdReplace),
             on(SsrCcdRegrasp),
-            format!("what replacing adds to regrasp on embedding set {set}"),
+            format!("replacing in place of put-back breaking, with regrasp, on embedding set {set}"),
         ));
         out.push((
             on(SsrCcdReplace),
             on(SsrCcd),
             format!(
-                "seespot's extensions, all five, against the faithful method on embedding set {set}"
+                "seespot's extensions together (loop breaking, reversal guard, regrasp, replacing) against the faithful method on embedding set {set}"
             ),
         ));
         out.push((
             on(SsrCcdReplace),
             RunSpec::new(SsrCcdReplace),
-            format!("embedding set {set} against the SPOT-Q policies, with all five extensions"),
+            format!("embedding set {set} against the SPOT-Q policies, with the extensions together"),
         ));
     }
     out

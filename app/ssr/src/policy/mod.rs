@@ -33,10 +33,12 @@ mod choose;
 mod guard;
 mod put_back;
 mod regrasp;
+mod replace;
 pub use choose::{choose, chosen_pair};
 pub use guard::guarded_blocks;
 pub use put_back::PutBack;
 pub use regrasp::{regrasp_applies, regrasp_rotations};
+pub use replace::Replacing;
 
 use std::collections::HashMap;
 use std::path::PathBuf;
@@ -75,9 +77,10 @@ pub struct SsrConfig {
     /// so a grasp at another angle there stays allowed; off for the
     /// paper's method.
     pub regrasp: bool,
-    /// seespot's replacing, on top of regrasp: a pick-and-put-back masks
-    /// the place that put the block back instead of the grasp, so the
-    /// block is tried elsewhere ([`PutBack`]); off for the paper's method.
+    /// seespot's replacing ([`Replacing`]): a place that left progress
+    /// where it was is masked until progress changes, so the block is
+    /// tried elsewhere; it takes the place of put-back breaking's grasp
+    /// mask. Off for the paper's method.
     pub replace: bool,
 }
 
@@ -121,6 +124,32 @@ pub struct DemoQuery {
     pub x: usize,
 }
 
+/// What the extensions masked at one decision, each list empty for the
+/// paper's method (the decision record keeps them: [`Decision::departures`]).
+#[derive(Debug, Default)]
+struct Masked {
+    /// Loop breaking's repeats, masked at every rotation.
+    excluded: Vec<Action>,
+    /// Regrasp's repeats, masked on their grasp axis only.
+    regrasp: Vec<Action>,
+    /// Put-back breaking's grasps.
+    put_back: Vec<Action>,
+    /// Replacing's places.
+    replaced: Vec<Action>,
+    /// The reversal guard's blocks.
+    guarded: Vec<Action>,
+}
+
+impl Masked {
+    fn is_empty(&self) -> bool {
+        self.excluded.is_empty()
+            && self.regrasp.is_empty()
+            && self.put_back.is_empty()
+            && self.replaced.is_empty()
+            && self.guarded.is_empty()
+    }
+}
+
 /// See-SPOT-Run for one test task.
 #[derive(Debug)]
 pub struct SsrPolicy {
@@ -141,6 +170,8 @@ pub struct SsrPolicy {
     excluded: Vec<Action>,
     /// Put-back breaking: the grasps whose blocks were put back.
     put_back: PutBack,
+    /// Replacing: the places that left progress where it was.
+    replacing: Replacing,
     /// Reversal guard: the centres of the blocks a grasp must leave alone in
     /// the current scene (as grasps at rotation 0).
     guarded: Vec<Action>,
@@ -202,6 +233,7 @@ impl SsrPolicy {
             last: None,
             excluded: Vec::new(),
             put_back: PutBack::default(),
+            replacing: Replacing::default(),
             guarded: Vec::new(),
         })
     }
@@ -386,7 +418,7 @@ impl SsrPolicy {
                 live.set_pixel_mask(&mask);
             }
         }
-        let (excluded, regrasp, put_back, guarded) = self.exclude_repeats(primitive, hm);
+        let masked = self.exclude_repeats(primitive, hm);
         let embed_ms = t.elapsed().as_secs_f64() * 1e3;
         let steps: Vec<usize> = (0..self.demos.len())
             .map(|d| {
@@ -514,25 +546,19 @@ impl SsrPolicy {
             correspond_ms,
             ccd_choice,
             l2cd_choice,
-            excluded,
-            regrasp,
-            put_back,
-            guarded,
+            excluded: masked.excluded,
+            regrasp: masked.regrasp,
+            put_back: masked.put_back,
+            replaced: masked.replaced,
+            guarded: masked.guarded,
         })
     }
 
-    /// Loop and put-back breaking: masks the neighbourhood of every excluded
-    /// action of `primitive` (and of every put-back grasp) in the live maps,
-    /// unless that would leave no action allowed. Returns the actions whose
-    /// neighbourhood was masked: the repeats masked at every rotation, the
-    /// repeats masked on their grasp axis only (regrasp), the put-back
-    /// grasps and the guarded blocks.
-    #[allow(clippy::type_complexity)]
-    fn exclude_repeats(
-        &mut self,
-        primitive: Primitive,
-        hm: &Heightmaps,
-    ) -> (Vec<Action>, Vec<Action>, Vec<Action>, Vec<Action>) {
+    /// The extensions' masks: masks the neighbourhood of every excluded
+    /// action of `primitive` (and of every put-back grasp, replaced place
+    /// and guarded block) in the live maps, unless that would leave no
+    /// action allowed. Returns the actions whose neighbourhood was masked.
+    fn exclude_repeats(&mut self, primitive: Primitive, hm: &Heightmaps) -> Masked {
         let of_primitive = |v: &[Action]| -> Vec<Action> {
             v.iter()
                 .copied()
@@ -543,16 +569,23 @@ impl SsrPolicy {
         let (regrasp, excluded): (Vec<Action>, Vec<Action>) = of_primitive(&self.excluded)
             .into_iter()
             .partition(|a| self.config.regrasp && regrasp_applies(a, hm));
-        let put_back = if self.config.put_back_break && self.config.replace {
-            of_primitive(&self.put_back.places)
-        } else if self.config.put_back_break {
-            of_primitive(&self.put_back.grasps)
-        } else {
-            Vec::new()
+        let mut masked = Masked {
+            excluded,
+            regrasp,
+            put_back: if self.config.put_back_break {
+                of_primitive(&self.put_back.grasps)
+            } else {
+                Vec::new()
+            },
+            replaced: if self.config.replace {
+                of_primitive(&self.replacing.places)
+            } else {
+                Vec::new()
+            },
+            guarded: of_primitive(&self.guarded),
         };
-        let guarded = of_primitive(&self.guarded);
-        if excluded.is_empty() && regrasp.is_empty() && put_back.is_empty() && guarded.is_empty() {
-            return (excluded, regrasp, put_back, guarded);
+        if masked.is_empty() {
+            return masked;
         }
         let n = hm.resolution();
         let pixel = hm.grid.pixel_size();
@@ -570,10 +603,15 @@ impl SsrPolicy {
                 }
             };
             let every: Vec<usize> = (0..rotations).collect();
-            for a in excluded.iter().chain(&put_back) {
+            for a in masked
+                .excluded
+                .iter()
+                .chain(&masked.put_back)
+                .chain(&masked.replaced)
+            {
                 square(a, LOOP_BREAK_RADIUS, &every);
             }
-            for a in &regrasp {
+            for a in &masked.regrasp {
                 square(
                     a,
                     LOOP_BREAK_RADIUS,
@@ -592,19 +630,18 @@ impl SsrPolicy {
         };
         // Every mask if some action is left; else without the guard (the
         // repeats stay forbidden); else none.
-        let mut forbid = forbid_of(&guarded);
-        let mut guarded = guarded;
+        let mut forbid = forbid_of(&masked.guarded);
         if !leaves_some(&forbid) {
-            guarded.clear();
             forbid = forbid_of(&[]);
             if !leaves_some(&forbid) {
-                return (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+                return Masked::default();
             }
+            masked.guarded.clear();
         }
         for live in &mut self.live {
             live.forbid_actions(&forbid);
         }
-        (excluded, regrasp, put_back, guarded)
+        masked
     }
 
     /// Click-to-query: the ASE of the demo pixel `q` names (at the demo step's
@@ -711,7 +748,7 @@ impl Actor for SsrPolicy {
     fn name(&self) -> String {
         match self.config.method {
             Method::SsrCcd if self.config.replace => {
-                "See-SPOT-Run CCD + loop and put-back breaking + reversal guard + regrasp + replacing (seespot's extension)"
+                "See-SPOT-Run CCD + loop breaking + reversal guard + regrasp + replacing (seespot's extension)"
                     .to_owned()
             }
             Method::SsrCcd if self.config.regrasp => {
@@ -738,6 +775,7 @@ impl Actor for SsrPolicy {
     fn begin_trial(&mut self, _trial: &Trial) {
         self.excluded.clear();
         self.put_back = PutBack::default();
+        self.replacing = Replacing::default();
         self.guarded.clear();
     }
 
@@ -759,6 +797,9 @@ impl Actor for SsrPolicy {
             if self.config.put_back_break {
                 self.put_back.observe(hm, progress, primitive);
             }
+            if self.config.replace {
+                self.replacing.observe(progress, primitive);
+            }
             self.guarded = if self.config.reversal_guard && primitive == Primitive::Grasp {
                 guarded_blocks(trial, self.task)
             } else {
@@ -767,6 +808,9 @@ impl Actor for SsrPolicy {
             let d = self.decide_fresh(hm, progress, primitive, repeat.is_some())?;
             if self.config.put_back_break {
                 self.put_back.chose(hm, progress, d.action);
+            }
+            if self.config.replace {
+                self.replacing.chose(progress, d.action);
             }
             self.last = Some((hm.clone(), progress, primitive, d.clone()));
             d

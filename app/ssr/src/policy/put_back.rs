@@ -1,7 +1,6 @@
 //! Put-back breaking, seespot's extension of See-SPOT-Run (method
 //! `ssr-ccd-noloops`; docs/design.md §4.1): a grasp whose block came back
-//! where it was is masked until progress changes; with replacing
-//! (`ssr-ccd-replace`), the place that put it back is masked instead.
+//! where it was is masked until progress changes.
 
 use seespot_sim::{Action, Heightmaps, Primitive};
 
@@ -21,11 +20,6 @@ pub struct PutBack {
     last_grasp: Option<(Vec<f32>, Action, u8)>,
     /// The grasps whose blocks were put back, at the current progress.
     pub(super) grasps: Vec<Action>,
-    /// The places that put those blocks back (the place after each grasp),
-    /// which replacing ([`super::SsrConfig::replace`]) masks instead.
-    pub(super) places: Vec<Action>,
-    /// The place after the last grasp, if any.
-    last_place: Option<Action>,
     /// Whether a place decision came after the last grasp: without one, the
     /// grasp lifted nothing (its scene is unchanged, which loop breaking
     /// handles), and kept here it would mask a block it never moved until
@@ -62,29 +56,17 @@ impl PutBack {
                 {
                     self.grasps.push(*grasp);
                 }
-                if let Some(place) = self.last_place.take()
-                    && !self.places.contains(&place)
-                {
-                    self.places.push(place);
-                }
             }
-            Some(_) => {
-                self.grasps.clear();
-                self.places.clear();
-            }
+            Some(_) => self.grasps.clear(),
             None => {}
         }
     }
 
     /// Called after a decision: remembers a grasp and its scene.
     pub(super) fn chose(&mut self, hm: &Heightmaps, progress: u8, action: Action) {
-        match action.primitive {
-            Primitive::Grasp => {
-                self.last_grasp = Some((hm.depth.clone(), action, progress));
-                self.placed = false;
-                self.last_place = None;
-            }
-            Primitive::Place => self.last_place = Some(action),
+        if action.primitive == Primitive::Grasp {
+            self.last_grasp = Some((hm.depth.clone(), action, progress));
+            self.placed = false;
         }
     }
 }
@@ -111,15 +93,9 @@ mod tests {
         // A place decision does not judge.
         pb.observe(&hm, 1, Primitive::Place);
         assert!(pb.grasps.is_empty());
-        let place = Action::new(Primitive::Place, 5, 60, 70);
-        pb.chose(&hm, 1, place);
-        assert!(pb.places.is_empty(), "a place is judged at the next grasp");
-        // The next grasp decision sees the scene of the grasp again: the
-        // grasp and the place that put its block back are both remembered
-        // (put-back breaking masks the grasp, replacing the place).
+        // The next grasp decision sees the scene of the grasp again.
         pb.observe(&hm, 1, Primitive::Grasp);
         assert_eq!(pb.grasps, vec![grasp]);
-        assert_eq!(pb.places, vec![place]);
         // A scene changed over more than a block's footprint is no put-back.
         let mut moved = hm.clone();
         let side = (seespot_sim::BLOCK_SIZE / hm.grid.pixel_size()).ceil() as usize + 2;
@@ -142,6 +118,6 @@ mod tests {
         pb.chose(&moved, 1, other);
         pb.observe(&moved, 2, Primitive::Place);
         pb.observe(&moved, 2, Primitive::Grasp);
-        assert!(pb.grasps.is_empty() && pb.places.is_empty());
+        assert!(pb.grasps.is_empty());
     }
 }
