@@ -618,8 +618,8 @@ impl CellAse {
     pub fn set_pixel_mask(&mut self, pixel_mask: &[bool]) {
         let plane = self.resolution * self.resolution;
         assert_eq!(pixel_mask.len(), plane, "pixel mask is not H x W");
-        for (i, m) in self.mask.iter_mut().enumerate() {
-            *m = pixel_mask[i % plane];
+        for rotation in self.mask.chunks_exact_mut(plane) {
+            rotation.copy_from_slice(pixel_mask);
         }
     }
 

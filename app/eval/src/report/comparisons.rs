@@ -294,7 +294,9 @@ pub fn report_comparisons(records: &[TrialRecord]) -> Vec<(RunSpec, RunSpec, Str
         out.push((
             on(SsrCcdReplace),
             on(SsrCcdRegrasp),
-            format!("replacing in place of put-back breaking, with regrasp, on embedding set {set}"),
+            format!(
+                "replacing in place of put-back breaking, with regrasp, on embedding set {set}"
+            ),
         ));
         out.push((
             on(SsrCcdReplace),
@@ -306,7 +308,9 @@ pub fn report_comparisons(records: &[TrialRecord]) -> Vec<(RunSpec, RunSpec, Str
         out.push((
             on(SsrCcdReplace),
             RunSpec::new(SsrCcdReplace),
-            format!("embedding set {set} against the SPOT-Q policies, with the extensions together"),
+            format!(
+                "embedding set {set} against the SPOT-Q policies, with the extensions together"
+            ),
         ));
     }
     out
