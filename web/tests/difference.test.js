@@ -6,20 +6,18 @@
 //
 // Server: $SEESPOT_BIN (default ../target/release/seespot), reviewing
 // results/. SEESPOT_SCREENSHOTS=DIR saves difference.png there.
-import { gunzipSync } from 'node:zlib';
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import { existsSync, readFileSync, mkdtempSync, rmSync } from 'node:fs';
 import { spawnSync } from 'node:child_process';
 import { tmpdir } from 'node:os';
 import { join, resolve } from 'node:path';
-import { root, BIN, openView } from './serve.js';
+import { root, BIN, committedTrial, openView } from './serve.js';
 
 let view;
 
 function record(run, task, seed) {
-  const f = join(root, 'results', 'trials', run, `${task}.jsonl.gz`);
-  return gunzipSync(readFileSync(f)).toString('utf8').split('\n').filter(Boolean).map((l) => JSON.parse(l)).find((r) => r.seed === seed);
+  return committedTrial(join('results', 'trials', run, `${task}.jsonl.gz`), seed);
 }
 
 const key = (a) => `${a.primitive} ${a.rotation} ${a.y} ${a.x}`;

@@ -7,12 +7,11 @@
 // The page says each beside the pairs table, in the record's words.
 //
 // Server: $SEESPOT_BIN (default ../target/release/seespot).
-import { gunzipSync } from 'node:zlib';
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
-import { existsSync, readFileSync } from 'node:fs';
+import { existsSync } from 'node:fs';
 import { join } from 'node:path';
-import { root, BIN, openView } from './serve.js';
+import { BIN, committedTrial, openView } from './serve.js';
 
 const RECORDS = join('results', 'trials', 'ssr-ccd-replace@raw-patches', 'row.jsonl.gz');
 const SEED = 21;
@@ -22,8 +21,7 @@ let view, page, stepAndWait, record;
 
 before(async () => {
   assert.ok(existsSync(BIN), `no server binary at ${BIN}; build it with cargo build --release`);
-  record = gunzipSync(readFileSync(join(root, RECORDS))).toString('utf8').split('\n').filter(Boolean)
-    .map((l) => JSON.parse(l)).find((r) => r.seed === SEED);
+  record = committedTrial(RECORDS, SEED);
   assert.ok(record, `${RECORDS} has no trial of seed ${SEED}`);
   view = await openView(['view', '--port', '0', '--no-viewer', '--replay', RECORDS, '--seed', String(SEED)]);
   ({ page, stepAndWait } = view);

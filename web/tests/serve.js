@@ -1,6 +1,8 @@
 // What the browser tests share: where the repository, the seespot binary and
 // Chromium are, Chromium's flags, and starting / stopping `seespot view`.
 import { spawn } from 'node:child_process';
+import { readFileSync } from 'node:fs';
+import { gunzipSync } from 'node:zlib';
 import { join, dirname, resolve } from 'node:path';
 import { fileURLToPath } from 'node:url';
 
@@ -9,6 +11,15 @@ export const BIN = process.env.SEESPOT_BIN || join(root, 'target', 'release', 's
 export const CHROMIUM = process.env.CHROMIUM || '/usr/bin/chromium';
 export const FLAGS = ['--headless', '--no-sandbox', '--disable-gpu', '--no-first-run',
   '--disable-background-networking', '--disable-component-update', '--disable-sync'];
+
+/**
+ * The committed trial of `seed` in records file `path` (relative to the
+ * repository root; gzip JSONL), or undefined.
+ */
+export function committedTrial(path, seed) {
+  return gunzipSync(readFileSync(join(root, path))).toString('utf8').split('\n').filter(Boolean)
+    .map((l) => JSON.parse(l)).find((r) => r.seed === seed);
+}
 
 /**
  * Starts `$SEESPOT_BIN ARGS` (a `view`) from the repository root and resolves
