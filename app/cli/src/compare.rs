@@ -57,14 +57,6 @@ fn runs(dir: &Path) -> anyhow::Result<BTreeMap<String, Vec<TrialRecord>>> {
     Ok(out)
 }
 
-fn p_text(p: f64) -> String {
-    if p < 0.001 {
-        "< 0.001".into()
-    } else {
-        format!("{p:.3}")
-    }
-}
-
 /// One run's paired comparison.
 #[derive(Debug, serde::Serialize)]
 struct Row {
@@ -221,7 +213,7 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
             rate(r.second_successes),
             r.only_first,
             r.only_second,
-            p_text(r.p_value)
+            seespot_eval::stats::p_text(r.p_value)
         )?;
     }
     Ok(())

@@ -22,6 +22,15 @@ pub struct Paired {
     pub p_value: f64,
 }
 
+/// A p-value as the tables print it: three decimals, `< 0.001` below that.
+pub fn p_text(p: f64) -> String {
+    if p < 0.001 {
+        "< 0.001".into()
+    } else {
+        format!("{p:.3}")
+    }
+}
+
 /// The exact two-sided McNemar p-value of `b` and `c` discordant pairs.
 pub fn mcnemar_exact(b: usize, c: usize) -> f64 {
     let n = b + c;

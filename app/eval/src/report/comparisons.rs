@@ -428,12 +428,12 @@ pub fn statistics_markdown(records: &[TrialRecord]) -> String {
         ));
         for c in &comps {
             md.push_str(&format!(
-                "| {} | {} | {} | {} | {:.3} |\n",
+                "| {} | {} | {} | {} | {} |\n",
                 c.task.map_or("pooled", |t| t.as_str()),
                 c.paired.pairs,
                 c.paired.only_a,
                 c.paired.only_b,
-                c.paired.p_value
+                crate::stats::p_text(c.paired.p_value)
             ));
         }
     }

@@ -99,12 +99,12 @@ pub fn custom_markdown(out_dir: &Path) -> Result<String, ReportError> {
             let p = paired_success(&a, &b, task);
             let _ = writeln!(
                 md,
-                "| {} | {} | {} | {} | {:.3} |",
+                "| {} | {} | {} | {} | {} |",
                 task.map_or("pooled", |t| t.as_str()),
                 p.pairs,
                 p.only_a,
                 p.only_b,
-                p.p_value
+                crate::stats::p_text(p.p_value)
             );
         }
     }
