@@ -41,7 +41,7 @@ pub fn custom_markdown(out_dir: &Path) -> Result<String, ReportError> {
         md,
         "## Tasks no policy saw\n\nSuccess (successes / trials) and mean final progress P / 4 \
          on tasks defined by their demonstrations; SSR embeds with all four policies of the \
-         model set (M = 4).\n"
+         model set (M = 4), or with the embedding set a row names (M = its files).\n"
     );
     let _ = write!(md, "| method |");
     for t in &tasks {
