@@ -8,9 +8,8 @@
 // Server: $SEESPOT_BIN (default ../target/release/seespot).
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
-import { existsSync } from 'node:fs';
 import { join } from 'node:path';
-import { BIN, committedTrial, openView } from './serve.js';
+import { openReplay } from './serve.js';
 
 const RECORDS = join('results', 'trials', 'ssr-ccd-noloops@raw-patches', 'stack.jsonl.gz');
 const SEED = 9;
@@ -18,10 +17,7 @@ const SEED = 9;
 let view, page, stepAndWait, record;
 
 before(async () => {
-  assert.ok(existsSync(BIN), `no server binary at ${BIN}; build it with cargo build --release`);
-  record = committedTrial(RECORDS, SEED);
-  assert.ok(record, `${RECORDS} has no trial of seed ${SEED}`);
-  view = await openView(['view', '--port', '0', '--no-viewer', '--replay', RECORDS, '--seed', String(SEED)]);
+  ({ view, record } = await openReplay(RECORDS, SEED));
   ({ page, stepAndWait } = view);
 });
 

@@ -9,9 +9,8 @@
 // Server: $SEESPOT_BIN (default ../target/release/seespot).
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
-import { existsSync } from 'node:fs';
 import { join } from 'node:path';
-import { BIN, committedTrial, openView } from './serve.js';
+import { openReplay } from './serve.js';
 
 const RECORDS = join('results', 'trials', 'ssr-ccd-replace@raw-patches', 'row.jsonl.gz');
 const SEED = 21;
@@ -20,10 +19,7 @@ const PHASES = 4;
 let view, page, stepAndWait, record;
 
 before(async () => {
-  assert.ok(existsSync(BIN), `no server binary at ${BIN}; build it with cargo build --release`);
-  record = committedTrial(RECORDS, SEED);
-  assert.ok(record, `${RECORDS} has no trial of seed ${SEED}`);
-  view = await openView(['view', '--port', '0', '--no-viewer', '--replay', RECORDS, '--seed', String(SEED)]);
+  ({ view, record } = await openReplay(RECORDS, SEED));
   ({ page, stepAndWait } = view);
 });
 

@@ -1,7 +1,7 @@
 // What the browser tests share: where the repository, the seespot binary and
 // Chromium are, Chromium's flags, and starting / stopping `seespot view`.
 import { spawn } from 'node:child_process';
-import { readFileSync } from 'node:fs';
+import { existsSync, readFileSync } from 'node:fs';
 import { gunzipSync } from 'node:zlib';
 import { join, dirname, resolve } from 'node:path';
 import { fileURLToPath } from 'node:url';
@@ -19,6 +19,19 @@ export const FLAGS = ['--headless', '--no-sandbox', '--disable-gpu', '--no-first
 export function committedTrial(path, seed) {
   return gunzipSync(readFileSync(join(root, path))).toString('utf8').split('\n').filter(Boolean)
     .map((l) => JSON.parse(l)).find((r) => r.seed === seed);
+}
+
+/**
+ * `seespot view --replay` of the committed trial of `seed` in records file
+ * `path` (relative to the repository root), opened in Chromium:
+ * `{ view, record }` ([`openView`]'s view, and the trial's record).
+ */
+export async function openReplay(path, seed) {
+  if (!existsSync(BIN)) throw new Error(`no server binary at ${BIN}; build it with cargo build --release`);
+  const record = committedTrial(path, seed);
+  if (!record) throw new Error(`${path} has no trial of seed ${seed}`);
+  const view = await openView(['view', '--port', '0', '--no-viewer', '--replay', path, '--seed', String(seed)]);
+  return { view, record };
 }
 
 /**
