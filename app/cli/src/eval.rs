@@ -44,8 +44,9 @@ pub struct EvalArgs {
     #[arg(long, default_value = "demos")]
     demos: PathBuf,
     /// SSR's embedding models in place of the SPOT-Q policies: a folder of
-    /// `<task>.onnx` files (each fold leaves its own task's out) or ONNX
-    /// files used for every fold (docs/embeddings.md). The run is named
+    /// `<task>.onnx` files (each fold leaves its own task's out), ONNX
+    /// files used for every fold, or such a folder first and files after it
+    /// (both: the files join every fold; docs/embeddings.md). The run is named
     /// after the set (`ssr-ccd@NAME`) and its records carry each file's
     /// sha256.
     #[arg(long, num_args = 1.., value_name = "PATH")]

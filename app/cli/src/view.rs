@@ -27,8 +27,9 @@ pub struct DeciderArgs {
     #[arg(long, default_value = "demos")]
     pub demos: PathBuf,
     /// SSR's embedding models in place of the SPOT-Q policies: a folder of
-    /// `<task>.onnx` files (each fold leaves its own task's out) or ONNX
-    /// files used for every fold (docs/embeddings.md).
+    /// `<task>.onnx` files (each fold leaves its own task's out), ONNX
+    /// files used for every fold, or such a folder first and files after it
+    /// (both: the files join every fold; docs/embeddings.md).
     #[arg(long, num_args = 1.., value_name = "PATH")]
     pub embeddings: Vec<PathBuf>,
 }

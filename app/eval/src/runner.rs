@@ -173,6 +173,10 @@ fn rebase(e: seespot_ssr::layout::Embeddings, layout: &Layout) -> seespot_ssr::l
     match e {
         Embeddings::Folder(d) => Embeddings::Folder(fix(d)),
         Embeddings::Files(f) => Embeddings::Files(f.into_iter().map(fix).collect()),
+        Embeddings::FolderAnd { folder, files } => Embeddings::FolderAnd {
+            folder: fix(folder),
+            files: files.into_iter().map(fix).collect(),
+        },
     }
 }
 

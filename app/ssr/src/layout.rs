@@ -45,6 +45,13 @@ pub enum Embeddings {
     Folder(PathBuf),
     /// These files, every one for every fold (M = their number).
     Files(Vec<PathBuf>),
+    /// A folder of `<task>.onnx` files, each fold leaving its own task's
+    /// out, and these files on every fold besides: another set mixed in
+    /// under leave-one-out.
+    FolderAnd {
+        folder: PathBuf,
+        files: Vec<PathBuf>,
+    },
 }
 
 impl Embeddings {
@@ -54,29 +61,45 @@ impl Embeddings {
         match paths {
             [] => Err("--embeddings names no file or folder".into()),
             [dir] if dir.is_dir() => Ok(Self::Folder(dir.clone())),
+            [dir, files @ ..] if dir.is_dir() => {
+                // The folder's models are named after the tasks.
+                let taken = TaskId::ALL.map(|t| t.as_str().to_owned());
+                Self::check_files(files, &taken)?;
+                Ok(Self::FolderAnd {
+                    folder: dir.clone(),
+                    files: files.to_vec(),
+                })
+            }
             files => {
-                let mut seen = std::collections::BTreeSet::new();
-                for f in files {
-                    if f.is_dir() {
-                        return Err(format!(
-                            "{}: a folder among files; --embeddings takes one folder or a list of files",
-                            f.display()
-                        ));
-                    }
-                    if !f.is_file() {
-                        return Err(format!("{}: no such embedding model file", f.display()));
-                    }
-                    if !seen.insert(model_name(f)) {
-                        return Err(format!(
-                            "{}: two embedding models named `{}`; rename one",
-                            f.display(),
-                            model_name(f)
-                        ));
-                    }
-                }
+                Self::check_files(files, &[])?;
                 Ok(Self::Files(files.to_vec()))
             }
         }
+    }
+
+    /// Each of `files` is a file, and their names (stems) differ from each
+    /// other and from `taken`.
+    fn check_files(files: &[PathBuf], taken: &[String]) -> Result<(), String> {
+        let mut seen: std::collections::BTreeSet<String> = taken.iter().cloned().collect();
+        for f in files {
+            if f.is_dir() {
+                return Err(format!(
+                    "{}: a second folder; --embeddings takes one folder (first), files, or both",
+                    f.display()
+                ));
+            }
+            if !f.is_file() {
+                return Err(format!("{}: no such embedding model file", f.display()));
+            }
+            if !seen.insert(model_name(f)) {
+                return Err(format!(
+                    "{}: two embedding models named `{}`; rename one",
+                    f.display(),
+                    model_name(f)
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// The set's name in run names and report rows: the folder's name, or
@@ -92,6 +115,9 @@ impl Embeddings {
                 .map(|p| model_name(p))
                 .collect::<Vec<_>>()
                 .join("+"),
+            Self::FolderAnd { folder, files } => {
+                Self::Folder(folder.clone()).label() + "+" + &Self::Files(files.clone()).label()
+            }
         };
         raw.chars()
             .map(|c| {
@@ -118,6 +144,11 @@ impl Embeddings {
                 })
                 .collect(),
             Self::Files(f) => f.iter().map(|p| (model_name(p), p.clone())).collect(),
+            Self::FolderAnd { folder, files } => {
+                let mut out = Self::Folder(folder.clone()).files(task);
+                out.extend(Self::Files(files.clone()).files(task));
+                out
+            }
         }
     }
 }
@@ -157,7 +188,9 @@ impl Layout {
     pub fn own_policy_file(&self, task: TaskId) -> Option<PathBuf> {
         match &self.embeddings {
             None => Some(self.model(task)),
-            Some(Embeddings::Folder(d)) => Some(d.join(format!("{}.onnx", task.as_str()))),
+            Some(Embeddings::Folder(d) | Embeddings::FolderAnd { folder: d, .. }) => {
+                Some(d.join(format!("{}.onnx", task.as_str())))
+            }
             Some(Embeddings::Files(_)) => None,
         }
     }
@@ -297,4 +330,38 @@ pub fn new_layout() -> Layout {
         Path::new(RUNS).join("models"),
         Path::new(RUNS).join("demos"),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A folder then files: each fold takes the folder's other tasks and
+    /// every file; names may not clash with the folder's tasks or each other.
+    #[test]
+    fn a_folder_and_files_keep_leave_one_out_and_add_the_files() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let folder = dir.path().join("set");
+        std::fs::create_dir(&folder).expect("mkdir");
+        let extra = dir.path().join("mine.onnx");
+        std::fs::write(&extra, b"x").expect("write");
+        let e = Embeddings::from_paths(&[folder.clone(), extra.clone()]).expect("folder and file");
+        assert_eq!(e.label(), "set+mine");
+        let names: Vec<String> = e.files(TaskId::Row).into_iter().map(|(n, _)| n).collect();
+        assert_eq!(names, ["stack", "unstack", "vertical-square", "mine"]);
+        assert_eq!(e.files(TaskId::Row)[3].1, extra);
+        let layout = Layout::new("models", "demos").with_embeddings(Some(e));
+        assert_eq!(
+            layout.own_policy_file(TaskId::Row),
+            Some(folder.join("row.onnx"))
+        );
+        // A file named after a task would clash with the folder's model.
+        let clash = dir.path().join("row.onnx");
+        std::fs::write(&clash, b"x").expect("write");
+        let err = Embeddings::from_paths(&[folder.clone(), clash]).expect_err("clash");
+        assert!(err.contains("two embedding models named `row`"), "{err}");
+        // A second folder is refused by name.
+        let err = Embeddings::from_paths(&[folder.clone(), folder]).expect_err("two folders");
+        assert!(err.contains("a second folder"), "{err}");
+    }
 }

@@ -41,6 +41,13 @@ pub fn load_with(
             .map(|p| p.display().to_string())
             .collect::<Vec<_>>()
             .join(", "),
+        Some(seespot_ssr::layout::Embeddings::FolderAnd { folder, files }) => {
+            std::iter::once(folder)
+                .chain(files)
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        }
     };
     let what = if layout.embeddings.is_some() {
         "embedding models"
