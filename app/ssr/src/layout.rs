@@ -84,7 +84,7 @@ impl Embeddings {
         for f in files {
             if f.is_dir() {
                 return Err(format!(
-                    "{}: a second folder; --embeddings takes one folder (first), files, or both",
+                    "{}: a folder after the first path; --embeddings takes one folder (first), files, or both",
                     f.display()
                 ));
             }
@@ -102,23 +102,29 @@ impl Embeddings {
         Ok(())
     }
 
-    /// The set's name in run names and report rows: the folder's name, or
-    /// the files' names joined by `+` (letters, digits and `-` kept).
+    /// The folder (if any) and the files (each for every fold) of the set.
+    fn parts(&self) -> (Option<&Path>, &[PathBuf]) {
+        match self {
+            Self::Folder(d) => (Some(d), &[]),
+            Self::Files(f) => (None, f),
+            Self::FolderAnd { folder, files } => (Some(folder), files),
+        }
+    }
+
+    /// The set's name in run names and report rows: the folder's name and
+    /// the files' names, joined by `+` (letters, digits and `-` kept).
     pub fn label(&self) -> String {
-        let raw = match self {
-            Self::Folder(d) => d
-                .file_name()
+        let (folder, files) = self.parts();
+        let folder = folder.map(|d| {
+            d.file_name()
                 .map(|n| n.to_string_lossy().into_owned())
-                .unwrap_or_else(|| "embeddings".into()),
-            Self::Files(f) => f
-                .iter()
-                .map(|p| model_name(p))
-                .collect::<Vec<_>>()
-                .join("+"),
-            Self::FolderAnd { folder, files } => {
-                Self::Folder(folder.clone()).label() + "+" + &Self::Files(files.clone()).label()
-            }
-        };
+                .unwrap_or_else(|| "embeddings".into())
+        });
+        let raw = folder
+            .into_iter()
+            .chain(files.iter().map(|p| model_name(p)))
+            .collect::<Vec<_>>()
+            .join("+");
         raw.chars()
             .map(|c| {
                 if c.is_ascii_alphanumeric() || c == '+' {
@@ -130,26 +136,22 @@ impl Embeddings {
             .collect()
     }
 
-    /// The (name, file) of every model fold `task` uses.
+    /// The (name, file) of every model fold `task` uses: the folder's
+    /// other tasks', then every file.
     pub fn files(&self, task: TaskId) -> Vec<(String, PathBuf)> {
-        match self {
-            Self::Folder(d) => TaskId::ALL
-                .into_iter()
-                .filter(|t| *t != task)
-                .map(|t| {
+        let (folder, files) = self.parts();
+        folder
+            .into_iter()
+            .flat_map(|d| {
+                TaskId::ALL.into_iter().filter(|t| *t != task).map(|t| {
                     (
                         t.as_str().to_string(),
                         d.join(format!("{}.onnx", t.as_str())),
                     )
                 })
-                .collect(),
-            Self::Files(f) => f.iter().map(|p| (model_name(p), p.clone())).collect(),
-            Self::FolderAnd { folder, files } => {
-                let mut out = Self::Folder(folder.clone()).files(task);
-                out.extend(Self::Files(files.clone()).files(task));
-                out
-            }
-        }
+            })
+            .chain(files.iter().map(|p| (model_name(p), p.clone())))
+            .collect()
     }
 }
 
@@ -188,10 +190,10 @@ impl Layout {
     pub fn own_policy_file(&self, task: TaskId) -> Option<PathBuf> {
         match &self.embeddings {
             None => Some(self.model(task)),
-            Some(Embeddings::Folder(d) | Embeddings::FolderAnd { folder: d, .. }) => {
-                Some(d.join(format!("{}.onnx", task.as_str())))
-            }
-            Some(Embeddings::Files(_)) => None,
+            Some(e) => e
+                .parts()
+                .0
+                .map(|d| d.join(format!("{}.onnx", task.as_str()))),
         }
     }
 
@@ -362,6 +364,6 @@ mod tests {
         assert!(err.contains("two embedding models named `row`"), "{err}");
         // A second folder is refused by name.
         let err = Embeddings::from_paths(&[folder.clone(), folder]).expect_err("two folders");
-        assert!(err.contains("a second folder"), "{err}");
+        assert!(err.contains("a folder after the first path"), "{err}");
     }
 }
