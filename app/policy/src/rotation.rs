@@ -38,8 +38,24 @@ pub(crate) fn sample_fill(plane: &[f32], n: usize, fx: f32, fy: f32, fill: f32) 
             plane[y as usize * n + x as usize]
         }
     };
-    let top = at(x0, y0) * (1.0 - tx) + at(x0 + 1, y0) * tx;
-    let bot = at(x0, y0 + 1) * (1.0 - tx) + at(x0 + 1, y0 + 1) * tx;
+    bilinear(
+        [
+            at(x0, y0),
+            at(x0 + 1, y0),
+            at(x0, y0 + 1),
+            at(x0 + 1, y0 + 1),
+        ],
+        tx,
+        ty,
+    )
+}
+
+/// The bilinear blend of the four taps `[upper-left, upper-right,
+/// lower-left, lower-right]` at fractions `(tx, ty)`.
+#[inline(always)]
+fn bilinear([a, b, c, d]: [f32; 4], tx: f32, ty: f32) -> f32 {
+    let top = a * (1.0 - tx) + b * tx;
+    let bot = c * (1.0 - tx) + d * tx;
     top * (1.0 - ty) + bot * ty
 }
 
@@ -68,15 +84,14 @@ pub fn rotate_image / rotate_image_lanes(
             let (x0, y0) = (fx.floor(), fy.floor());
             let (xi, yi) = (x0 as i64, y0 as i64);
             if xi >= 0 && yi >= 0 && xi + 1 < n as i64 && yi + 1 < n as i64 {
-                // All four taps inside: the arithmetic of `sample_fill`,
-                // its bounds checks and floors done once for every channel.
+                // All four taps inside: `sample_fill`'s blend, its bounds
+                // checks and floors done once for every channel.
                 let (tx, ty) = (fx - x0, fy - y0);
                 let i = yi as usize * n + xi as usize;
                 for ch in 0..channels {
                     let p = &data[ch * plane..(ch + 1) * plane];
-                    let top = p[i] * (1.0 - tx) + p[i + 1] * tx;
-                    let bot = p[i + n] * (1.0 - tx) + p[i + n + 1] * tx;
-                    out[ch * plane + v * n + u] = top * (1.0 - ty) + bot * ty;
+                    out[ch * plane + v * n + u] =
+                        bilinear([p[i], p[i + 1], p[i + n], p[i + n + 1]], tx, ty);
                 }
             } else {
                 for ch in 0..channels {

@@ -192,21 +192,16 @@ pub fn dilate(mask: &[bool], n: usize, k: usize) -> Vec<bool> {
 #[cfg(test)]
 mod tests {
     use super::dilate;
+    use rand::{Rng, SeedableRng};
 
     /// The prefix-count dilation against the definition: set when any pixel
     /// within Chebyshev distance `k` is, on sparse random masks and at the
     /// borders.
     #[test]
     fn dilation_sets_every_pixel_within_k_of_a_set_one() {
-        let mut state = 0x2545_f491_4f6c_dd1d_u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
         for (n, k) in [(1, 0), (7, 0), (7, 1), (13, 3), (40, 12), (40, 60)] {
-            let mask: Vec<bool> = (0..n * n).map(|_| next() % 23 == 0).collect();
+            let mask: Vec<bool> = (0..n * n).map(|_| rng.random_bool(1.0 / 23.0)).collect();
             let got = dilate(&mask, n, k);
             for y in 0..n {
                 for x in 0..n {
