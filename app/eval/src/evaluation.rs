@@ -2,8 +2,10 @@
 //! the trials, the report) and its trials in parallel.
 //!
 //! One pool of worker threads runs the trials of every
-//! task of an evaluation, each worker with its own actor (each decision
-//! still spreads over the cores through rayon). A worker that finishes one
+//! task of an evaluation, each worker with its own actor. The workers are a
+//! rayon pool's threads, so a decision's parallel parts stay on its own
+//! thread while every core has a trial, and spread over the idle ones when
+//! there are fewer trials left than cores. A worker that finishes one
 //! task's trials goes on with the next task's rather than waiting for that
 //! task's last trial, so the cores stay busy across tasks. Each task's
 //! records are appended to its own file in seed order, as a serial run
@@ -261,11 +263,29 @@ pub fn run_tasks_jobs(
         let next = AtomicUsize::new(0);
         let stop = AtomicBool::new(false);
         let (tx, rx) = std::sync::mpsc::channel::<(usize, usize, Result<TrialRecord, EvalError>)>();
+        // The trials run on a pool's threads, `jobs` of them each taking
+        // trials in turn; a decision's parallel parts stay on the thread
+        // that runs its trial unless another thread of the pool is idle
+        // (no trial left for it, or more cores than jobs): then it steals
+        // them. So with a trial per core nothing waits on another thread,
+        // and the last trials still spread over every core.
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(jobs.max(cores))
+            .thread_name(|i| format!("seespot-eval-{i}"))
+            .build()
+            .map_err(|e| EvalError::Invalid(format!("cannot start {jobs} trial workers: {e}")))?;
         std::thread::scope(|scope| -> Result<(), EvalError> {
-            for _ in 0..jobs {
-                let tx = tx.clone();
-                let (next, stop, units, plans, run_one) = (&next, &stop, &units, &plans, &run_one);
-                scope.spawn(move || {
+            let (next, stop, units, plans, run_one) = (&next, &stop, &units, &plans, &run_one);
+            let pool = &pool;
+            scope.spawn(move || {
+                // One loop per thread (a broadcast is never stolen, so no
+                // thread runs two loops); threads past `jobs` only steal.
+                pool.broadcast(|ctx| {
+                    if ctx.index() >= jobs {
+                        return;
+                    }
+                    let tx = tx.clone();
                     // The actor of the task this worker is on; a worker
                     // moves forward through the tasks, so one at a time.
                     let mut current: Option<(usize, Box<dyn Actor + Send + Sync>)> = None;
@@ -295,8 +315,8 @@ pub fn run_tasks_jobs(
                         }
                     }
                 });
-            }
-            drop(tx);
+                drop(tx);
+            });
             // Write each task's records in seed order: hold a finished trial
             // until those before it in its task are written.
             let mut waiting: Vec<BTreeMap<usize, TrialRecord>> = vec![BTreeMap::new(); plans.len()];
