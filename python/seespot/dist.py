@@ -78,7 +78,9 @@ class TrialRunner:
     """A Ray actor's state: one :class:`seespot.Evaluator` (policy set) per
     (method, task), loaded on first use."""
 
-    def __init__(self, models_dir: str, demos_dir: str, resolution: int, correspond: str, options: dict[str, Any]):
+    def __init__(
+        self, models_dir: str, demos_dir: str, resolution: int, correspond: str | dict[str, Any], options: dict[str, Any]
+    ):
         self.args = (models_dir, demos_dir, resolution, correspond)
         self.options = options
         self.evaluators: dict[tuple[str, str], Evaluator] = {}
@@ -115,7 +117,7 @@ def evaluate(
     models_dir: str = "models",
     demos_dir: str = "demos",
     resolution: int = DEFAULT_RESOLUTION,
-    correspond: str = "reference",
+    correspond: str | dict[str, Any] = "reference",
     num_workers: int = 2,
     threads_per_worker: int | None = None,
     address: str | None = None,
@@ -180,7 +182,7 @@ def _evaluate_locked(
     models_dir: str,
     demos_dir: str,
     resolution: int,
-    correspond: str,
+    correspond: str | dict[str, Any],
     num_workers: int,
     threads: int,
     address: str | None,
@@ -206,21 +208,34 @@ def _evaluate_locked(
         ]
         paths: dict[tuple[str, str], Path] = {}
         done: dict[tuple[str, str], dict[int, dict[str, Any]]] = {}
-        pending = []
-        k = 0
+        todo: list[tuple[str, str, int, int]] = []
         for m in methods:
             for t in tasks:
                 path = Path(records_path(Path(out_dir), names[(m, t)], t))
                 paths[(m, t)] = path
                 done[(m, t)] = recorded(path)
-                for index, s in enumerate(seeds):
-                    if s not in done[(m, t)]:
-                        actor = actors[k % num_workers]
-                        pending.append(actor.run.remote(m, t, s, index))  # type: ignore[attr-defined]
-                        k += 1
+                todo.extend((m, t, s, index) for index, s in enumerate(seeds) if s not in done[(m, t)])
+        # Each actor is handed its next trial when one of its two finishes
+        # (one running, one waiting, so it never idles on the driver), in
+        # the order above: an actor stays on one (method, task) while it
+        # lasts, and the last trials go to whichever actors are free rather
+        # than to a queue fixed at the start.
+        queue = iter(todo)
+        pending: dict[Any, Any] = {}
+
+        def hand(actor: Any) -> None:
+            unit = next(queue, None)
+            if unit is not None:
+                pending[actor.run.remote(*unit)] = actor
+
+        for actor in actors:
+            hand(actor)
+            hand(actor)
         while pending:
-            ready, pending = ray.wait(pending, num_returns=1)
+            ready, _ = ray.wait(list(pending), num_returns=1)
+            actor = pending.pop(ready[0])
             m, t, s, line = ray.get(ready[0])
+            hand(actor)
             append(paths[(m, t)], line)
             done[(m, t)][s] = json.loads(line)
         return {
@@ -241,7 +256,12 @@ def main(argv: Sequence[str] | None = None) -> None:
     p.add_argument("--models", default="models")
     p.add_argument("--demos", default="demos")
     p.add_argument("--resolution", type=int, default=DEFAULT_RESOLUTION)
-    p.add_argument("--correspond", default="reference")
+    p.add_argument("--correspond", default="reference", help="reference (the default) or plain")
+    # Correspond's options, named as `seespot eval --help` names them.
+    p.add_argument("--rematch", default=None, help="window (the default) or global")
+    p.add_argument("--demo-features", default=None, help="zeroed (the default) or real")
+    p.add_argument("--smoothing", default=None, help="reference (the default) or normalized")
+    p.add_argument("--smooth-sigma", type=float, default=None, help="with --correspond plain: sigma in pixels")
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--address", default=None, help="a Ray cluster's address (default: local)")
     p.add_argument("--embeddings", nargs="+", default=None, help="an embedding set: a folder of <task>.onnx or ONNX files")
@@ -254,6 +274,9 @@ def main(argv: Sequence[str] | None = None) -> None:
     except ImportError as e:
         p.exit(2, f"{p.prog}: error: {e}\n")
     tasks = TASKS if a.task == "all" else [a.task]
+    options = {"rematch": a.rematch, "demo_features": a.demo_features, "smoothing": a.smoothing, "smooth_sigma": a.smooth_sigma}
+    given = {k: v for k, v in options.items() if v is not None}
+    correspond: str | dict[str, Any] = {"correspond": a.correspond, **given} if given else a.correspond
     result = evaluate(
         a.method or ["ssr-ccd"],
         tasks,
@@ -263,7 +286,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         models_dir=a.models,
         demos_dir=a.demos,
         resolution=a.resolution,
-        correspond=a.correspond,
+        correspond=correspond,
         num_workers=a.workers,
         address=a.address,
         embeddings=a.embeddings,

@@ -145,3 +145,16 @@ def test_ray_runs_the_finetuned_noisy_and_custom_rows_as_the_serial_run(tmp_path
         on_disk = sorted((json.loads(x) for x in gzip.decompress(path.read_bytes()).decode().splitlines()), key=lambda r: r["seed"])
         assert [without_timing(r) for r in on_disk] == want, (method, task, options)
         assert [without_timing(r) for r in result[(method, task)]] == want
+
+
+def test_the_command_line_runs_the_global_rematch_row(tmp_path: Path) -> None:
+    """Every row of ``scripts/eval-all`` runs from the command line, Correspond's
+    options included (``--rematch global`` was not accepted): the records are
+    the serial run's, under the row's name."""
+    dist.main(["--method", "ssr-ccd", "--task", "stack", "--trials", "1", "--workers", "2",
+               "--rematch", "global", "--out", str(tmp_path)])
+    serial = seespot.Evaluator("ssr-ccd", "stack", correspond={"rematch": "global"})
+    assert serial.record_name == "ssr-ccd-global-rematch"
+    path = Path(seespot.records_path(tmp_path, serial.record_name, "stack"))
+    on_disk = [json.loads(x) for x in gzip.decompress(path.read_bytes()).decode().splitlines()]
+    assert [without_timing(r) for r in on_disk] == [without_timing(json.loads(serial.run(1, 0)))]
