@@ -62,7 +62,8 @@ pub enum BenchCommand {
         embeddings: Vec<std::path::PathBuf>,
         /// How a decision's cost grows: one whole decision for M = 1, 2, 4
         /// and 8 untrained policies and N = 1, 2 and 4 demonstrations, with
-        /// the process's resident memory after each.
+        /// the process's resident memory after each; then the embedding and
+        /// Correspond at R = 1, 2, 4, 8 and 16 rotations.
         #[arg(long, conflicts_with = "embeddings")]
         sweep: bool,
         #[arg(long)]
@@ -225,6 +226,7 @@ fn resident_mb() -> Option<f64> {
 /// M policies, correspond M x N pairs) as M and N grow, at 16 rotations
 /// (seespot's fixed R), on stack from seed 1 with oracle demonstrations from
 /// the even seeds; resident memory after each configuration's decisions.
+/// Then the parts that grow with the rotations ([`rotation_sweep`]).
 fn bench_ssr_sweep(resolution: usize, iterations: usize, json: bool) -> anyhow::Result<()> {
     use seespot_sim::{Primitive, TaskId, Trial};
     use seespot_ssr::{SsrConfig, SsrPolicy};
@@ -269,11 +271,13 @@ fn bench_ssr_sweep(resolution: usize, iterations: usize, json: bool) -> anyhow::
             rows.push(row);
         }
     }
+    let rotations = rotation_sweep(task, &hm, resolution, iterations)?;
     let report = serde_json::json!({
         "resolution": resolution,
         "threads": std::thread::available_parallelism().map_or(1, |n| n.get()),
         "iterations": iterations,
         "sweep": rows,
+        "rotations": rotations,
     });
     if json {
         return crate::io::print_json(&report);
@@ -293,7 +297,80 @@ fn bench_ssr_sweep(resolution: usize, iterations: usize, json: bool) -> anyhow::
             f("resident_mb")
         )?;
     }
+    outln!(
+        "\n| R rotations | trunk ms (3 policies) | correspond ms (3 x 2 pairs, every action allowed) | sum ms |\n|---|---|---|---|"
+    )?;
+    for r in &rotations {
+        let f = |k: &str| r[k].as_f64().map_or("-".to_owned(), |v| format!("{v:.1}"));
+        outln!(
+            "| {} | {} | {} | {} |",
+            r["rotations"],
+            f("trunk_ms"),
+            f("correspond_ms"),
+            f("sum_ms")
+        )?;
+    }
     Ok(())
+}
+
+/// The two parts of a decision that grow with the rotations R (seespot's R
+/// is fixed at 16, so no whole decision runs at another R): the trunk passes
+/// over the live scene at R rotations spread over the turn, batched as a
+/// decision batches them (the input rotated once, then each of 3 untrained
+/// policies' trunk over the R rotations; the cells' records built from
+/// them are left out), and the reference Correspond for 3 policies x 2
+/// demos over `R x resolution x resolution` actions on random cell
+/// embeddings with every action allowed
+/// (`seespot_ssr::bench::correspond_step_cells`); medians over
+/// `iterations`.
+fn rotation_sweep(
+    task: seespot_sim::TaskId,
+    hm: &seespot_sim::Heightmaps,
+    resolution: usize,
+    iterations: usize,
+) -> anyhow::Result<Vec<serde_json::Value>> {
+    use seespot_policy::{infer::InferTrunk, input::NET_RESOLUTION};
+    let trunks = (0..3)
+        .map(|i| {
+            let p = seespot_policy::PolicyNet::new(task, resolution, 100 + i as u64)?;
+            Ok(InferTrunk::shared(p.net(seespot_sim::Primitive::Grasp))?)
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let input = seespot_policy::input::NetInput::from_heightmaps(hm);
+    let mut rows = Vec::new();
+    for r in [1usize, 2, 4, 8, 16] {
+        let step = seespot_sim::NUM_ROTATIONS / r;
+        let rotations: Vec<usize> = (0..r).map(|k| k * step).collect();
+        let mut embed = Vec::new();
+        for _ in 0..iterations.max(1) {
+            let start = Instant::now();
+            let chw = seespot_policy::rotation::rotate_input_batch(&input, &rotations);
+            let x = seespot_policy::infer::channels_last(&chw, r, NET_RESOLUTION);
+            for t in &trunks {
+                std::hint::black_box(t.forward_channels_last(&x, r, NET_RESOLUTION));
+            }
+            embed.push(start.elapsed().as_secs_f64() * 1e3);
+        }
+        let input =
+            seespot_ssr::bench::CellBenchInput::random_rotations(resolution, r, 0x5EE5_9071);
+        let mut correspond = Vec::new();
+        for _ in 0..iterations.max(1) {
+            let start = Instant::now();
+            std::hint::black_box(seespot_ssr::bench::correspond_step_cells(&input));
+            correspond.push(start.elapsed().as_secs_f64() * 1e3);
+        }
+        let (e, c) = (median(&embed), median(&correspond));
+        rows.push(serde_json::json!({
+            "rotations": r,
+            "policies": trunks.len(),
+            "demos": 2,
+            "trunk_ms": e,
+            "correspond_ms": c,
+            "sum_ms": e + c,
+            "resident_mb": resident_mb(),
+        }));
+    }
+    Ok(rows)
 }
 
 /// Correspond alone on random maps, then whole SSR decisions on a live scene

@@ -246,10 +246,16 @@ fn time_ms(iterations: usize, mut f: impl FnMut()) -> Vec<f64> {
 pub type CellBenchInput = BenchInput<CellAse, Action>;
 
 impl CellBenchInput {
-    /// Random embeddings at `resolution`, seeded.
+    /// Random embeddings at `resolution` and seespot's 16 rotations, seeded.
     pub fn random(resolution: usize, seed: u64) -> Self {
-        let (rotations, cells, dim) = (
-            seespot_sim::NUM_ROTATIONS,
+        Self::random_rotations(resolution, seespot_sim::NUM_ROTATIONS, seed)
+    }
+
+    /// Random embeddings at `resolution` over `rotations` rotations (at
+    /// least one), seeded: the live actions and each demo's number
+    /// `rotations x resolution x resolution`.
+    pub fn random_rotations(resolution: usize, rotations: usize, seed: u64) -> Self {
+        let (cells, dim) = (
             seespot_policy::net::FEATURE_RESOLUTION,
             seespot_policy::EMBEDDING_DIM,
         );
