@@ -83,8 +83,9 @@ pub struct EvalArgs {
     /// Print one machine-readable summary object on stdout.
     #[arg(long)]
     json: bool,
-    /// Trials run at once, each on its own worker with its own actor (each
-    /// decision still spreads over the cores). Default: every core. The
+    /// Trials run at once, each on its own worker with its own actor; a
+    /// decision's parallel parts spread over the cores no trial is using
+    /// (with `--jobs 1`, over every core). Default: every core. The
     /// records are the same as one at a time, line for line, apart from
     /// `decide_ms`.
     #[arg(long, value_parser = clap::value_parser!(u16).range(1..=256))]
