@@ -74,6 +74,15 @@ def init_local_ray(num_workers: int, threads_per_worker: int) -> None:
     )
 
 
+def _usable_cores() -> int:
+    """The cores this process may run on (its affinity, as ``taskset`` sets
+    it, where the platform has one), else every core."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:
+        return os.cpu_count() or 1
+
+
 class TrialRunner:
     """A Ray actor's state: one :class:`seespot.Evaluator` (policy set) per
     (method, task), loaded on first use."""
@@ -150,7 +159,7 @@ def evaluate(
             raise ValueError(f"methods: '{m}' is not one of {', '.join(METHODS)}")
     if num_workers < 1:
         raise ValueError(f"num_workers: {num_workers} is not positive")
-    threads = threads_per_worker or max(1, (os.cpu_count() or 1) // num_workers)
+    threads = threads_per_worker or max(1, _usable_cores() // num_workers)
     options: dict[str, Any] = {
         "embeddings": embeddings,
         "finetune_steps": finetune_steps,
