@@ -222,6 +222,13 @@ fn resident_mb() -> Option<f64> {
     Some(kb / 1024.0)
 }
 
+/// A table cell of `row[key]`: one decimal, or `-` when it has no number.
+fn number_cell(row: &serde_json::Value, key: &str) -> String {
+    row[key]
+        .as_f64()
+        .map_or("-".to_owned(), |v| format!("{v:.1}"))
+}
+
 /// `bench ssr --sweep`: the median whole decision (embed the live scene with
 /// M policies, correspond M x N pairs) as M and N grow, at 16 rotations
 /// (seespot's fixed R), on stack from seed 1 with oracle demonstrations from
@@ -286,28 +293,26 @@ fn bench_ssr_sweep(resolution: usize, iterations: usize, json: bool) -> anyhow::
         "| M policies | N demos | decision ms | embed ms | correspond ms | resident MB |\n|---|---|---|---|---|---|"
     )?;
     for r in &rows {
-        let f = |k: &str| r[k].as_f64().map_or("-".to_owned(), |v| format!("{v:.1}"));
         outln!(
             "| {} | {} | {} | {} | {} | {} |",
             r["policies"],
             r["demos"],
-            f("decision_ms"),
-            f("embed_live_ms"),
-            f("correspond_ms"),
-            f("resident_mb")
+            number_cell(r, "decision_ms"),
+            number_cell(r, "embed_live_ms"),
+            number_cell(r, "correspond_ms"),
+            number_cell(r, "resident_mb")
         )?;
     }
     outln!(
         "\n| R rotations | trunk ms (3 policies) | correspond ms (3 x 2 pairs, every action allowed) | sum ms |\n|---|---|---|---|"
     )?;
     for r in &rotations {
-        let f = |k: &str| r[k].as_f64().map_or("-".to_owned(), |v| format!("{v:.1}"));
         outln!(
             "| {} | {} | {} | {} |",
             r["rotations"],
-            f("trunk_ms"),
-            f("correspond_ms"),
-            f("sum_ms")
+            number_cell(r, "trunk_ms"),
+            number_cell(r, "correspond_ms"),
+            number_cell(r, "sum_ms")
         )?;
     }
     Ok(())
@@ -341,25 +346,19 @@ fn rotation_sweep(
     for r in [1usize, 2, 4, 8, 16] {
         let step = seespot_sim::NUM_ROTATIONS / r;
         let rotations: Vec<usize> = (0..r).map(|k| k * step).collect();
-        let mut embed = Vec::new();
-        for _ in 0..iterations.max(1) {
-            let start = Instant::now();
+        let trunk = seespot_ssr::bench::time_ms(iterations, || {
             let chw = seespot_policy::rotation::rotate_input_batch(&input, &rotations);
             let x = seespot_policy::infer::channels_last(&chw, r, NET_RESOLUTION);
             for t in &trunks {
                 std::hint::black_box(t.forward_channels_last(&x, r, NET_RESOLUTION));
             }
-            embed.push(start.elapsed().as_secs_f64() * 1e3);
-        }
-        let input =
+        });
+        let cells =
             seespot_ssr::bench::CellBenchInput::random_rotations(resolution, r, 0x5EE5_9071);
-        let mut correspond = Vec::new();
-        for _ in 0..iterations.max(1) {
-            let start = Instant::now();
-            std::hint::black_box(seespot_ssr::bench::correspond_step_cells(&input));
-            correspond.push(start.elapsed().as_secs_f64() * 1e3);
-        }
-        let (e, c) = (median(&embed), median(&correspond));
+        let correspond = seespot_ssr::bench::time_ms(iterations, || {
+            std::hint::black_box(seespot_ssr::bench::correspond_step_cells(&cells));
+        });
+        let (e, c) = (median(&trunk), median(&correspond));
         rows.push(serde_json::json!({
             "rotations": r,
             "policies": trunks.len(),

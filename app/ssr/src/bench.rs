@@ -230,7 +230,8 @@ pub fn bandwidth_baseline(input: &CorrespondBenchInput, iterations: usize) -> f6
     bytes as f64 / best / 1e9
 }
 
-fn time_ms(iterations: usize, mut f: impl FnMut()) -> Vec<f64> {
+/// The wall times of `iterations` (at least one) calls of `f`, ms, sorted.
+pub fn time_ms(iterations: usize, mut f: impl FnMut()) -> Vec<f64> {
     let mut t = Vec::new();
     for _ in 0..iterations.max(1) {
         let start = Instant::now();
