@@ -144,9 +144,25 @@ pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalE
             }
         }
     }
+    // An ONNX model's external data files are part of the model.
+    let mut data = Vec::new();
+    for p in &paths {
+        if p.extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("onnx"))
+            && seespot_policy::callable::name_of(p).is_none()
+        {
+            data.extend(seespot_policy::onnx::data_files(p)?);
+        }
+    }
+    paths.extend(data);
     let mut files = std::collections::BTreeMap::new();
     for p in paths {
-        files.insert(p.display().to_string(), sha256_file(&p)?);
+        let sum = if seespot_policy::callable::name_of(&p).is_some() {
+            seespot_policy::callable::NOT_A_FILE.to_owned()
+        } else {
+            sha256_file(&p)?
+        };
+        files.insert(p.display().to_string(), sum);
     }
     let settings = serde_json::to_value(RunSettings::of(config, task))
         .map_err(|e| EvalError::Invalid(format!("settings: {e}")))?;

@@ -2,6 +2,7 @@
 //! returns what is wrong in words, and [`super::OnnxEmbedder`] puts the file
 //! in front.
 
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use prost::Message;
@@ -9,6 +10,7 @@ use tract_onnx::pb;
 use tract_onnx::pb::tensor_shape_proto::dimension::Value as Dim;
 use tract_onnx::prelude::*;
 
+use super::external;
 use super::{GRASP, GRASP_Q, MAX_DIM, PLACE, PLACE_Q, Plan};
 use crate::input::{INPUT_CHANNELS, NET_RESOLUTION};
 
@@ -24,30 +26,42 @@ pub(super) struct Checked {
     pub batch_named: bool,
     /// The outputs' names, in the file's order.
     pub outputs: Vec<String>,
+    /// The external data files read into the model (docs of [`external`]).
+    pub data_files: Vec<PathBuf>,
+    /// Every node's name and operator, to name a node the engine refuses.
+    nodes: Vec<(String, String)>,
 }
 
 /// Decodes `bytes` and checks the graph's input and outputs as declared, and
 /// that every operator is one the engine has.
-pub(super) fn check(bytes: &[u8]) -> Result<Checked, String> {
-    let proto = pb::ModelProto::decode(bytes)
+pub(super) fn check(bytes: &[u8], folder: &Path) -> Result<Checked, String> {
+    let mut proto = pb::ModelProto::decode(bytes)
         .map_err(|e| format!("not an ONNX model (the protobuf does not decode: {e})"))?;
+    if proto
+        .graph
+        .as_ref()
+        .is_some_and(|g| g.initializer.iter().any(external::is_external))
+    {
+        // Bounded before the data are read: the tensors' own checks follow.
+        let graph = proto
+            .graph
+            .as_ref()
+            .ok_or("not an ONNX model: it holds no graph")?;
+        for t in graph
+            .initializer
+            .iter()
+            .filter(|t| external::is_external(t))
+        {
+            check_dims(t, &format!("initializer `{}`", t.name))?;
+        }
+    }
+    let data_files = external::inline(&mut proto, folder)?;
     let graph = proto
         .graph
         .as_ref()
         .ok_or("not an ONNX model: it holds no graph")?;
     if graph.node.is_empty() {
         return Err("not an ONNX model: its graph has no nodes".into());
-    }
-    let external = pb::tensor_proto::DataLocation::External as i32;
-    if let Some(t) = graph
-        .initializer
-        .iter()
-        .find(|t| t.data_location == Some(external))
-    {
-        return Err(format!(
-            "initializer `{}` is stored in an external file; save the model with every tensor inside it",
-            t.name
-        ));
     }
     for t in &graph.initializer {
         check_tensor(t, &format!("initializer `{}`", t.name))?;
@@ -73,7 +87,7 @@ pub(super) fn check(bytes: &[u8]) -> Result<Checked, String> {
                 format!("{}.{}", n.domain, n.op_type)
             };
             return Err(format!(
-                "operator `{op}` (node `{}`) is not one the ONNX engine (tract) runs",
+                "node `{}` ({op}): the ONNX engine (tract) does not run operator `{op}`; replace that layer, or try another `opset_version` in `torch.onnx.export`, which may write it as operators the engine runs",
                 n.name,
             ));
         }
@@ -87,7 +101,7 @@ pub(super) fn check(bytes: &[u8]) -> Result<Checked, String> {
         .collect();
     let [input] = inputs.as_slice() else {
         return Err(format!(
-            "the graph has {} inputs ({}); an embedding model has one, the rotated scene [R, 4, 112, 112]",
+            "the graph has {} inputs ({}); an embedding model has one, the rotated scene [R, 4, 112, 112] (export a forward that takes the scene alone)",
             inputs.len(),
             names(inputs.iter().map(|i| i.name.as_str()))
         ));
@@ -113,13 +127,13 @@ pub(super) fn check(bytes: &[u8]) -> Result<Checked, String> {
             (DimOf::Value(v), None) if *v == seespot_sim::NUM_ROTATIONS as i64 => {}
             (DimOf::Value(v), None) => {
                 return Err(format!(
-                    "input `{}` dimension 0 is {v}; the batch of rotations is 16 or a named dimension",
+                    "input `{}` dimension 0 is {v}; the batch of rotations is 16 or a named dimension (export with an example of 16 rotations, `torch.zeros(16, 4, 112, 112)`, or name the batch: `dynamic_shapes=({{0: torch.export.Dim(\"rotations\")}},)`)",
                     input.name
                 ));
             }
             (DimOf::Named(s), Some(w)) => {
                 return Err(format!(
-                    "input `{}` dimension {k} is the unresolved dynamic dimension `{s}`; it must be {w}",
+                    "input `{}` dimension {k} is the unresolved dynamic dimension `{s}`; it must be {w} (name only dimension 0 dynamic in the export call)",
                     input.name
                 ));
             }
@@ -147,11 +161,19 @@ pub(super) fn check(bytes: &[u8]) -> Result<Checked, String> {
         }
         outputs.push(o.name.clone());
     }
+    let nodes = graph
+        .node
+        .iter()
+        .map(|n| (n.name.clone(), n.op_type.clone()))
+        .collect();
+    forget_shapes(&mut proto);
     Ok(Checked {
         proto,
         engine,
         batch_named,
         outputs,
+        data_files,
+        nodes,
     })
 }
 
@@ -159,9 +181,9 @@ pub(super) fn check(bytes: &[u8]) -> Result<Checked, String> {
 /// float32), constants and every intermediate map at 16 rotations alike.
 pub(super) const MAX_ELEMENTS: u64 = 1 << 25;
 
-/// A constant tensor's dimensions are sane and its data is as long as they
-/// say (checked before the engine reads it).
-fn check_tensor(t: &pb::TensorProto, what: &str) -> Result<(), String> {
+/// A tensor's element count, refused when a dimension is negative or the
+/// count is above [`MAX_ELEMENTS`].
+fn check_dims(t: &pb::TensorProto, what: &str) -> Result<u64, String> {
     let mut n: u64 = 1;
     for &d in &t.dims {
         let d = u64::try_from(d).map_err(|_| format!("{what} has the negative dimension {d}"))?;
@@ -172,6 +194,32 @@ fn check_tensor(t: &pb::TensorProto, what: &str) -> Result<(), String> {
             "{what} holds {n} elements; seespot loads at most {MAX_ELEMENTS} in one tensor"
         ));
     }
+    Ok(n)
+}
+
+/// Drops the shapes a file states for intermediate values and outputs, so
+/// that the engine derives every shape from the input. An exporter may
+/// write the shapes of its example (PyTorch's `dynamo=True` exporter writes
+/// batch 16 inside a graph whose input batch is named): trusted, they
+/// contradict the batch seespot runs. Element types stay.
+fn forget_shapes(proto: &mut pb::ModelProto) {
+    let Some(graph) = proto.graph.as_mut() else {
+        return;
+    };
+    graph.value_info.clear();
+    for o in &mut graph.output {
+        if let Some(pb::type_proto::Value::TensorType(t)) =
+            o.r#type.as_mut().and_then(|t| t.value.as_mut())
+        {
+            t.shape = None;
+        }
+    }
+}
+
+/// A constant tensor's dimensions are sane and its data is as long as they
+/// say (checked before the engine reads it).
+fn check_tensor(t: &pb::TensorProto, what: &str) -> Result<(), String> {
+    let n = check_dims(t, what)?;
     use pb::tensor_proto::DataType as T;
     let width: Option<u64> = match T::try_from(t.data_type) {
         Ok(T::Float | T::Int32 | T::Uint32) => Some(4),
@@ -323,8 +371,57 @@ pub(super) fn plan(checked: &Checked, batch: usize, only: Option<usize>) -> Resu
         .and_then(|m| m.with_input_fact(0, fact.into()))
         .and_then(|m| m.into_optimized())
         .and_then(|m| m.into_runnable())
-        .map_err(|e| format!("the ONNX engine cannot prepare it: {e:#}"))?;
+        .map_err(|e| engine_refusal(checked, batch, &format!("{e:#}")))?;
     Ok(Arc::clone(&plan))
+}
+
+/// The engine's refusal of `checked` at `batch` rotations in a user's words:
+/// the node it stopped at (its name and operator), the fault, what to change
+/// in the export call where that is the fix, and last the engine's own text.
+pub(super) fn engine_refusal(checked: &Checked, batch: usize, engine: &str) -> String {
+    // The engine names a node as `#7 "node_Conv_89"`: the earliest name of
+    // the file's nodes quoted in its text.
+    let node = checked
+        .nodes
+        .iter()
+        .filter(|(name, _)| !name.is_empty())
+        .filter_map(|(name, op)| engine.find(&format!("\"{name}\"")).map(|at| (at, name, op)))
+        .min_by_key(|(at, _, _)| *at);
+    let (fault, hint) = fault_of(engine);
+    let at = match node {
+        Some((_, name, op)) => format!("node `{name}` ({op})"),
+        None => "the model".to_owned(),
+    };
+    let rotations = if batch == 1 { "rotation" } else { "rotations" };
+    format!(
+        "{at} cannot be run on a batch of {batch} {rotations}: {fault}.{hint} (The ONNX engine, tract, said: {engine})"
+    )
+}
+
+/// The fault the engine's text describes, and the change to the export call
+/// that fixes it, if one does.
+fn fault_of(engine: &str) -> (&'static str, &'static str) {
+    if engine.contains("unify") || engine.contains("Unable to") && engine.contains("Val(") {
+        (
+            "its shapes fix the batch to a number where seespot runs another",
+            " Export the batch as a named dimension and compute nothing from the example's batch: \
+             `dynamic_axes={\"scene\": {0: \"rotations\"}}` with `dynamo=False`, or \
+             `dynamic_shapes=({0: torch.export.Dim(\"rotations\")},)` with the default exporter; \
+             a reshape to the example's numbers (`x.view(16, -1)`) fixes the batch where `x.flatten(1)` does not.",
+        )
+    } else if engine.contains("not implemented")
+        || engine.contains("Unimplemented")
+        || engine.contains("unimplemented")
+        || engine.contains("not supported")
+        || engine.contains("Unsupported")
+    {
+        (
+            "it uses a form of its operator that the engine does not run",
+            " Try another `opset_version` in `torch.onnx.export` (seespot reads opsets 9 to 21).",
+        )
+    } else {
+        ("the engine could not work out what it computes", "")
+    }
 }
 
 /// Each output's concrete shape in `plan` (run at `batch` rotations).
@@ -378,7 +475,7 @@ pub(super) fn roles(outputs: &[String]) -> Result<([usize; 2], Option<[usize; 2]
                 [one] => [*one, *one],
                 _ => {
                     return Err(format!(
-                        "outputs {}: the features are two outputs named `{GRASP}` and `{PLACE}`, or one output shared by both primitives",
+                        "outputs {}: the features are two outputs named `{GRASP}` and `{PLACE}` (`output_names=[\"{GRASP}\", \"{PLACE}\"]`), or one output shared by both primitives",
                         names(outputs.iter().map(String::as_str))
                     ));
                 }

@@ -22,6 +22,7 @@
 //! trial, with the file and what is wrong ([`PolicyError::Onnx`]).
 
 pub mod export;
+mod external;
 mod graph;
 
 /// The ONNX file's message type (its protobuf schema), for tools that
@@ -65,6 +66,8 @@ enum Plans {
 pub struct OnnxEmbedder {
     path: PathBuf,
     sha256: String,
+    /// The external data files the model's weights were read from.
+    data_files: Vec<PathBuf>,
     /// Each primitive's features (by [`Primitive::index`]), each plan
     /// computing that output alone.
     features: Arc<[Plans; 2]>,
@@ -103,7 +106,8 @@ impl OnnxEmbedder {
             path: path.to_path_buf(),
             reason,
         };
-        let checked = graph::check(bytes).map_err(refuse)?;
+        let folder = path.parent().unwrap_or(Path::new(""));
+        let checked = graph::check(bytes, folder).map_err(refuse)?;
         // Every output's shape, from the whole model at 16 rotations.
         let whole = graph::plan(&checked, NUM_ROTATIONS, None).map_err(refuse)?;
         graph::check_sizes(&whole).map_err(refuse)?;
@@ -140,6 +144,7 @@ impl OnnxEmbedder {
         let model = Self {
             path: path.to_path_buf(),
             sha256,
+            data_files: checked.data_files.clone(),
             features: pair(features)?,
             q: q.map(pair).transpose()?,
             dim,
@@ -162,6 +167,12 @@ impl OnnxEmbedder {
     /// The file's sha256 (hex), which records carry.
     pub fn sha256(&self) -> &str {
         &self.sha256
+    }
+
+    /// The external data files the model's weights were read from (none for
+    /// a model with every tensor inside it).
+    pub fn data_files(&self) -> &[PathBuf] {
+        &self.data_files
     }
 
     /// Whether the file has Q outputs (and can act as a SPOT-Q policy).
@@ -251,7 +262,9 @@ impl OnnxEmbedder {
     ) -> Result<(), PolicyError> {
         let fail = |e: TractError| PolicyError::Onnx {
             path: self.path.clone(),
-            reason: format!("running the model failed: {e:#}"),
+            reason: format!(
+                "running the model on a batch of {batch} failed (the ONNX engine, tract, said: {e:#})"
+            ),
         };
         let input = Tensor::from_shape(
             &[batch, INPUT_CHANNELS, NET_RESOLUTION, NET_RESOLUTION],
@@ -269,9 +282,27 @@ impl OnnxEmbedder {
     }
 }
 
+/// The external data files the ONNX model at `path` keeps its weights in
+/// (docs/embeddings.md), checked as loading checks them: what a record's
+/// checksums must cover besides the model file.
+pub fn data_files(path: &Path) -> Result<Vec<PathBuf>, PolicyError> {
+    let bytes = seespot_sim::bounds::read_file(path, MAX_FILE_BYTES)
+        .map_err(|e| PolicyError::io(path, e))?;
+    use prost::Message;
+    let proto = ModelProto::decode(bytes.as_slice()).map_err(|e| PolicyError::Onnx {
+        path: path.to_path_buf(),
+        reason: format!("not an ONNX model (the protobuf does not decode: {e})"),
+    })?;
+    let folder = path.parent().unwrap_or(Path::new(""));
+    external::data_files(&proto, folder).map_err(|reason| PolicyError::Onnx {
+        path: path.to_path_buf(),
+        reason,
+    })
+}
+
 /// `count` network inputs (`count x 4 x 112 x 112`) of the bare table: what
 /// a rotated scene reads outside the workspace ([`fill_values`]).
-fn bare_table(count: usize) -> Vec<f32> {
+pub(crate) fn bare_table(count: usize) -> Vec<f32> {
     let fill = fill_values();
     let plane = NET_RESOLUTION * NET_RESOLUTION;
     (0..count * INPUT_CHANNELS * plane)
