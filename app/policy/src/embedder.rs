@@ -1,12 +1,13 @@
 //! [`Embedder`]: one embedding function E_m of an SSR policy set, seespot's
-//! SPOT-Q trunk or a user's ONNX model ([`crate::onnx`]). Both give the
-//! same [`CellAse`]: rotated feature cells, rotated back and sampled at every
+//! SPOT-Q trunk, a user's ONNX model ([`crate::onnx`]) or a function in this
+//! process ([`crate::callable`]). All give the same [`CellAse`]: rotated feature cells, rotated back and sampled at every
 //! action, masked by the common-sense mask.
 
 use std::path::Path;
 
 use seespot_sim::{Heightmaps, Primitive};
 
+use crate::callable::{self, CallableEmbedder};
 use crate::cells::CellAse;
 use crate::embedding::QMap;
 use crate::error::PolicyError;
@@ -23,6 +24,8 @@ pub enum Embedder {
     Spot(PolicyNet),
     /// An ONNX file that follows the embedding contract.
     Onnx(OnnxEmbedder),
+    /// A function that follows it, registered in this process.
+    Callable(CallableEmbedder),
 }
 
 impl From<PolicyNet> for Embedder {
@@ -34,7 +37,12 @@ impl From<PolicyNet> for Embedder {
 impl Embedder {
     /// Loads `path`: an `.onnx` file as an ONNX model, anything else as a
     /// seespot policy file.
+    /// A pseudo-path `callable:<name>` is the function registered under that
+    /// name ([`callable::lookup`]).
     pub fn load(path: &Path) -> Result<Self, PolicyError> {
+        if let Some(found) = callable::lookup(path) {
+            return found.map(Self::Callable);
+        }
         if path
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("onnx"))
@@ -50,6 +58,7 @@ impl Embedder {
         match self {
             Self::Spot(p) => p.meta.embedding_dim,
             Self::Onnx(o) => o.dim,
+            Self::Callable(c) => c.dim,
         }
     }
 
@@ -58,14 +67,14 @@ impl Embedder {
     pub fn spot(&self) -> Option<&PolicyNet> {
         match self {
             Self::Spot(p) => Some(p),
-            Self::Onnx(_) => None,
+            Self::Onnx(_) | Self::Callable(_) => None,
         }
     }
 
     pub fn spot_mut(&mut self) -> Option<&mut PolicyNet> {
         match self {
             Self::Spot(p) => Some(p),
-            Self::Onnx(_) => None,
+            Self::Onnx(_) | Self::Callable(_) => None,
         }
     }
 
@@ -83,6 +92,20 @@ impl Embedder {
                 let rotations = seespot_sim::NUM_ROTATIONS;
                 let f = o.features(&scene.rotated_chw, rotations, primitive)?;
                 Ok(onnx_cells(o, hm, primitive, f, &scene.input, None))
+            }
+            Self::Callable(c) => {
+                let rotations = seespot_sim::NUM_ROTATIONS;
+                let f = c.features(&scene.rotated_chw, rotations, primitive)?;
+                Ok(cell_ase(
+                    hm,
+                    primitive,
+                    f,
+                    &scene.input,
+                    c.cells,
+                    c.dim,
+                    c.stride,
+                    None,
+                ))
             }
         }
     }
@@ -113,6 +136,21 @@ impl Embedder {
                 let f = o.features(&x, 1, primitive)?;
                 Ok(onnx_cells(o, hm, primitive, f, &input, Some(rotation)))
             }
+            Self::Callable(c) => {
+                let input = NetInput::from_heightmaps(hm);
+                let x = rotate_input_batch(&input, &[rotation]);
+                let f = c.features(&x, 1, primitive)?;
+                Ok(cell_ase(
+                    hm,
+                    primitive,
+                    f,
+                    &input,
+                    c.cells,
+                    c.dim,
+                    c.stride,
+                    Some(rotation),
+                ))
+            }
         }
     }
 }
@@ -128,6 +166,7 @@ impl Embedder {
     ) -> Result<Option<QMap>, PolicyError> {
         match self {
             Self::Spot(p) => p.q_values(hm, primitive).map(Some),
+            Self::Callable(_) => Ok(None),
             Self::Onnx(o) => {
                 let scene = SceneInput::new(hm);
                 let rotations = seespot_sim::NUM_ROTATIONS;
@@ -153,6 +192,7 @@ impl Embedder {
         match self {
             Self::Spot(p) => p.meta.task.clone(),
             Self::Onnx(o) => o.path().display().to_string(),
+            Self::Callable(c) => c.path().display().to_string(),
         }
     }
 }
@@ -188,6 +228,7 @@ impl Embedder {
             .ok_or_else(|| PolicyError::Onnx {
                 path: match self {
                     Self::Onnx(o) => o.path().to_path_buf(),
+                    Self::Callable(c) => c.path(),
                     Self::Spot(_) => std::path::PathBuf::new(),
                 },
                 reason: "the model has no Q outputs (`grasp_q`, `place_q`) to act on".into(),

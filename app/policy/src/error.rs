@@ -30,6 +30,10 @@ pub enum PolicyError {
     /// failed to run.
     #[error("{path}: embedding model refused: {reason}")]
     Onnx { path: PathBuf, reason: String },
+    /// An embedding function given in the process (a Python callable)
+    /// breaks the contract, failed, or is not registered.
+    #[error("embedding function `{name}` refused: {reason}")]
+    Callable { name: String, reason: String },
     /// A demonstration cannot be used (the message names it).
     #[error("{0}")]
     Demo(String),

@@ -16,6 +16,7 @@
 
 pub mod actors;
 pub mod bench;
+pub mod callable;
 pub mod cells;
 pub mod cone;
 pub mod curve;
@@ -44,6 +45,7 @@ pub mod transporter;
 pub(crate) mod winograd;
 
 pub use actors::{RandomActor, own_task_eval};
+pub use callable::{CallableEmbedder, FeatureFn};
 pub use cells::{CellAse, Masked};
 pub use embedder::Embedder;
 pub use embedding::{AseMap, EMBEDDING_DIM, QMap};

@@ -82,14 +82,31 @@ impl Embeddings {
     fn check_files(files: &[PathBuf], taken: &[String]) -> Result<(), String> {
         let mut seen: std::collections::BTreeSet<String> = taken.iter().cloned().collect();
         for f in files {
+            // A function registered in this process (`callable:<name>`).
+            if seespot_policy::callable::name_of(f).is_some() {
+                if !seen.insert(model_name(f)) {
+                    return Err(format!(
+                        "{}: two embedding models named `{}`; rename one",
+                        f.display(),
+                        model_name(f)
+                    ));
+                }
+                continue;
+            }
             if f.is_dir() {
                 return Err(format!(
                     "{}: a folder after the first path; --embeddings takes one folder (first), files, or both",
                     f.display()
                 ));
             }
-            if !f.is_file() {
+            if !f.exists() {
                 return Err(format!("{}: no such embedding model file", f.display()));
+            }
+            if !f.is_file() {
+                return Err(format!(
+                    "{}: not a regular file (a device, pipe or socket); an embedding model is an .onnx or .safetensors file",
+                    f.display()
+                ));
             }
             if !seen.insert(model_name(f)) {
                 return Err(format!(
@@ -155,8 +172,11 @@ impl Embeddings {
     }
 }
 
-/// A model file's name: its stem.
+/// A model file's name: its stem (a registered function's name).
 fn model_name(p: &Path) -> String {
+    if let Some(name) = seespot_policy::callable::name_of(p) {
+        return name.to_owned();
+    }
     p.file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| p.display().to_string())
