@@ -401,7 +401,9 @@ pub(super) fn engine_refusal(checked: &Checked, batch: usize, engine: &str) -> S
 /// The fault the engine's text describes, and the change to the export call
 /// that fixes it, if one does.
 fn fault_of(engine: &str) -> (&'static str, &'static str) {
-    if engine.contains("unify") || engine.contains("Unable to") && engine.contains("Val(") {
+    // A shape the file fixed to the example's batch meets another batch:
+    // two shapes that do not unify, or a reshape whose sizes disagree.
+    if engine.contains("unify") || engine.contains("volume mismatch") {
         (
             "its shapes fix the batch to a number where seespot runs another",
             " Export the batch as a named dimension and compute nothing from the example's batch: \
