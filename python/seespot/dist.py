@@ -12,7 +12,7 @@ only, with the dashboard and usage statistics off; on a cluster pass its
 ``address``. Each
 worker runs its Rust threads (rayon) on ``threads_per_worker`` cores.
 
-    python -m seespot.dist --method oracle --task stack --trials 4 --workers 2 --out results
+    python -m seespot.dist --method oracle --task stack --trials 4 --workers 2 --out runs/eval
 """
 
 from __future__ import annotations
@@ -122,7 +122,7 @@ def evaluate(
     *,
     seed: int = 1,
     trials: int = 50,
-    out_dir: str | os.PathLike[str] = "results",
+    out_dir: str | os.PathLike[str] = "runs/eval",
     models_dir: str = "models",
     demos_dir: str = "demos",
     resolution: int = DEFAULT_RESOLUTION,
@@ -261,7 +261,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     p.add_argument("--task", default="all", help="a task id, or all")
     p.add_argument("--trials", type=int, default=50)
     p.add_argument("--seed", type=int, default=1)
-    p.add_argument("--out", default="results")
+    p.add_argument("--out", default="runs/eval", help="where records go (the shipped table only when named: --out results)")
     p.add_argument("--models", default="models")
     p.add_argument("--demos", default="demos")
     p.add_argument("--resolution", type=int, default=DEFAULT_RESOLUTION)

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use seespot_eval::EvalMethod;
 use seespot_eval::Summary;
-use seespot_eval::evaluation::{Evaluation, Finished};
+use seespot_eval::evaluation::{Evaluation, Finished, Recorded};
 use seespot_eval::runner::{EvalConfig, world_config};
 use seespot_sim::{Seeds, TaskId};
 use seespot_ssr::correspond::{CorrespondSettings, Correspondence};
@@ -36,8 +36,11 @@ pub struct EvalArgs {
     /// (never for a reported result).
     #[arg(long)]
     training_seeds: bool,
-    /// Where trial records (`trials/<method>/<task>.jsonl.gz`) and the report go.
-    #[arg(long, default_value = "results")]
+    /// Where trial records (`trials/<method>/<task>.jsonl.gz`) and the report
+    /// go. The shipped results are written only when named: `--out results`
+    /// (as scripts/eval-all does); a seed already recorded there is not run
+    /// again.
+    #[arg(long, default_value = "runs/eval")]
     out: PathBuf,
     #[arg(long, default_value = "models")]
     models: PathBuf,
@@ -133,6 +136,7 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         usize::from,
     );
     let evaluation = Evaluation::start(config, tasks)?.with_jobs(jobs);
+    let found = evaluation.recorded()?;
     let bar = crate::io::progress_bar(evaluation.tasks().len() as u64 * args.trials, false);
     // Every task's trials in one pool of jobs; the message counts per task.
     let mut tally: std::collections::BTreeMap<TaskId, (usize, usize)> = Default::default();
@@ -151,33 +155,71 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         }
     }
     bar.finish_and_clear();
-    let mut doc = serde_json::json!({"method": name, "out": args.out, "seeds": seeds});
+    let accounts: Vec<Account> = found
+        .into_iter()
+        .zip(&per_task)
+        .map(|(found, records)| Account::of(found, records))
+        .collect();
+    // This run's seeds, task by task (a folder may hold more of the run's
+    // seeds, and other runs: the report covers them all).
+    let mut ours: Vec<Summary> = per_task
+        .iter()
+        .zip(evaluation.tasks())
+        .map(|(records, task)| {
+            let mut s = seespot_eval::summarize(records, task.ideal_actions(), 0, 0);
+            s.method.clone_from(&name);
+            s.task = Some(*task);
+            s
+        })
+        .collect();
+    if ours.len() > 1
+        && let Some(mean) = seespot_eval::metrics::mean_over_tasks(&ours)
+    {
+        ours.push(mean);
+    }
+    let mut doc = serde_json::json!({
+        "method": name,
+        "out": args.out,
+        "seeds": seeds,
+        "tasks": accounts,
+        "summaries": ours,
+    });
+    if !args.json {
+        for a in &accounts {
+            outln!("{name} {}: {}", a.task, a.sentence())?;
+        }
+        for s in &ours {
+            outln!(
+                "{name} {}: success {}/{} ({:.0}%), progress {:.0}% ± {:.0}%, action efficiency {}",
+                s.task.map(|t| t.to_string()).unwrap_or("mean".into()),
+                s.successes,
+                s.trials,
+                100.0 * s.success_rate,
+                100.0 * s.progress,
+                100.0 * s.progress_se,
+                s.action_efficiency
+                    .map_or("-".into(), |e| format!("{:.0}%", 100.0 * e)),
+            )?;
+        }
+    }
     match evaluation.finish(args.finetune_steps.max(333))? {
-        Finished::Custom {
-            path,
-            text,
-            summaries,
-        } => {
+        Finished::Custom { path, .. } => {
             if args.json {
                 doc["report"] = serde_json::json!(path);
-                doc["summaries"] = serde_json::json!(summaries);
                 return crate::io::print_json(&doc);
             }
-            outln!("{text}")?;
-            outln!("report: {}", path.display())?;
+            outln!(
+                "report: {} (every custom task's run in {})",
+                path.display(),
+                args.out.display()
+            )?;
         }
         Finished::Table(summary) => {
             for w in &summary.warnings {
                 eprintln!("warning: {w}");
             }
-            let ours: Vec<&Summary> = summary
-                .summaries
-                .iter()
-                .filter(|s| s.method == name)
-                .collect();
             if args.json {
                 for (k, v) in [
-                    ("summaries", serde_json::json!(ours)),
                     ("ccd_vs_l2cd", serde_json::json!(summary.ccd_vs_l2cd)),
                     ("comparisons", serde_json::json!(summary.comparisons)),
                     (
@@ -191,23 +233,82 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
                 }
                 return crate::io::print_json(&doc);
             }
-            for s in ours {
-                outln!(
-                    "{name} {}: success {}/{} ({:.0}%), progress {:.0}% ± {:.0}%, action efficiency {}",
-                    s.task.map(|t| t.as_str()).unwrap_or("mean"),
-                    s.successes,
-                    s.trials,
-                    100.0 * s.success_rate,
-                    100.0 * s.progress,
-                    100.0 * s.progress_se,
-                    s.action_efficiency
-                        .map_or("-".into(), |e| format!("{:.0}%", 100.0 * e)),
-                )?;
-            }
-            outln!("report: {}", args.out.join("summary.md").display())?;
+            let rows: Vec<&Summary> = summary
+                .summaries
+                .iter()
+                .filter(|s| s.task.is_some())
+                .collect();
+            let runs: std::collections::BTreeSet<&str> =
+                rows.iter().map(|s| s.method.as_str()).collect();
+            let n = rows.iter().map(|s| s.trials).sum::<usize>();
+            outln!(
+                "report: {} (every run in {}: {n} trial{} of {} run{})",
+                args.out.join("summary.md").display(),
+                args.out.display(),
+                if n == 1 { "" } else { "s" },
+                runs.len(),
+                if runs.len() == 1 { "" } else { "s" },
+            )?;
         }
     }
     Ok(())
+}
+
+/// What an evaluation did on one task: the seeds it ran and the ones it
+/// found already recorded, in which file.
+#[derive(Debug, serde::Serialize)]
+struct Account {
+    task: TaskId,
+    records: PathBuf,
+    ran: Vec<u64>,
+    found: Vec<u64>,
+}
+
+impl Account {
+    /// `records`: the run's records of the task after it ran.
+    fn of(found: Recorded, records: &[seespot_sim::TrialRecord]) -> Self {
+        let ran = records
+            .iter()
+            .map(|r| r.seed)
+            .filter(|s| found.seeds.binary_search(s).is_err())
+            .collect();
+        Self {
+            task: found.task,
+            records: found.path,
+            ran,
+            found: found.seeds,
+        }
+    }
+
+    /// "ran 2 trials (seeds 5, 7) into FILE; found 2 trials (seeds 1, 3)
+    /// already recorded there", or "nothing run: ...".
+    fn sentence(&self) -> String {
+        let file = self.records.display();
+        match (self.ran.len(), self.found.len()) {
+            (0, 0) => format!("nothing run, nothing recorded ({file})"),
+            (0, n) => format!(
+                "nothing run: {} already recorded in {file}",
+                trials(n, &self.found)
+            ),
+            (n, 0) => format!("ran {} into {file}", trials(n, &self.ran)),
+            (n, m) => format!(
+                "ran {} into {file}; found {} already recorded there",
+                trials(n, &self.ran),
+                trials(m, &self.found)
+            ),
+        }
+    }
+}
+
+/// "1 trial (seed 3)", "2 trials (seeds 1, 3)", "50 trials (seeds 1 to 99)".
+fn trials(n: usize, seeds: &[u64]) -> String {
+    let list = match seeds {
+        [] => String::new(),
+        [s] => format!(" (seed {s})"),
+        [a, b] => format!(" (seeds {a}, {b})"),
+        [a, .., b] => format!(" (seeds {a} to {b})"),
+    };
+    format!("{n} trial{}{list}", if n == 1 { "" } else { "s" })
 }
 
 /// The debugger's decider that records a run's failed trials again.

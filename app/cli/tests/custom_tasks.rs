@@ -25,7 +25,16 @@ fn a_custom_task_evaluates_as_the_committed_records_say() {
         ],
     );
     assert_eq!(code, 0, "{err}");
-    assert!(stdout.contains("Tasks no policy saw"), "{stdout}");
+    // One line per task, as a built-in task's eval prints (issue 59): the
+    // Markdown report is in the file it names.
+    assert!(
+        stdout.contains("random custom:l-shape: success "),
+        "{stdout}"
+    );
+    assert!(!stdout.contains("Tasks no policy saw"), "{stdout}");
+    assert!(stdout.lines().count() <= 3, "{stdout}");
+    let report = std::fs::read_to_string(out.path().join("custom.md")).expect("custom.md");
+    assert!(report.contains("Tasks no policy saw"), "{report}");
     let fresh = seespot_eval::records::read_records(
         &out.path().join("trials/random/custom/l-shape.jsonl.gz"),
     )

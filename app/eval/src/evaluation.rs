@@ -18,7 +18,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
-use seespot_sim::{Actor, Provenance, TaskId, Trial, TrialRecord};
+use seespot_sim::{Actor, Provenance, Split, TaskId, Trial, TrialRecord};
 use seespot_ssr::layout::records_path;
 
 use crate::config::{EvalConfig, EvalError};
@@ -39,6 +39,17 @@ pub struct Evaluation {
     tasks: Vec<TaskId>,
     jobs: usize,
     _lock: OutputLock,
+}
+
+/// One task's records file as an [`Evaluation`] found it
+/// ([`Evaluation::recorded`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Recorded {
+    pub task: TaskId,
+    /// The records file (`<out>/trials/<run>/<task>.jsonl.gz`).
+    pub path: PathBuf,
+    /// The evaluation's seeds already recorded there, ascending.
+    pub seeds: Vec<u64>,
 }
 
 /// What a finished [`Evaluation`] wrote.
@@ -112,6 +123,26 @@ impl Evaluation {
 
     pub fn tasks(&self) -> &[TaskId] {
         &self.tasks
+    }
+
+    /// What each task's records file holds of this evaluation's seeds before
+    /// any trial runs, in [`Self::tasks`] order: what a front end reports as
+    /// found rather than run. The lock is held, so nothing else adds to it.
+    pub fn recorded(&self) -> Result<Vec<Recorded>, EvalError> {
+        let name = self.config.spec().to_string();
+        self.tasks
+            .iter()
+            .map(|&task| {
+                let path = records_path(&self.config.out_dir, &name, task);
+                let mut seeds: Vec<u64> = read_records(&path)?
+                    .iter()
+                    .map(|r| r.seed)
+                    .filter(|s| self.config.seeds.contains(*s))
+                    .collect();
+                seeds.sort_unstable();
+                Ok(Recorded { task, path, seeds })
+            })
+            .collect()
     }
 
     /// Runs (or resumes) every task of the evaluation with one pool of
@@ -353,6 +384,15 @@ pub fn run_tasks_jobs(
     Ok(records)
 }
 
+/// A split as a sentence names it ("a training seed").
+fn split_words(split: Split) -> &'static str {
+    match split {
+        Split::Train => "training",
+        Split::Test => "test",
+        Split::Validation => "validation",
+    }
+}
+
 /// Checks `task`'s records file and readies what its new trials need (the
 /// finetuned models first: the provenance names them with their checksums).
 /// Returns the plan and the file's records of `config.seeds`, by seed. A
@@ -377,6 +417,24 @@ fn prepare(
         .enumerate()
         .filter(|(_, seed)| !done.contains(seed))
         .collect();
+    // A records file holds the seeds of one split (test, validation or
+    // training), so that its report is a result on that split alone.
+    if let (Some(&(_, seed)), Some(other)) = (
+        todo.first(),
+        records
+            .iter()
+            .find(|r| Split::of(r.seed) != config.seeds.split()),
+    ) {
+        return Err(EvalError::Invalid(format!(
+            "{}: holds {} seeds (seed {}); seed {seed} is a {} seed, and a records \
+             file holds one split's seeds; evaluate into another --out (the shipped \
+             validation runs are in results/validation)",
+            path.display(),
+            split_words(Split::of(other.seed)),
+            other.seed,
+            split_words(config.seeds.split()),
+        )));
+    }
     // Made only when there are trials to run (a finished run's report and
     // checks read the files as they are).
     if !todo.is_empty() {
