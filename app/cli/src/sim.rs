@@ -47,6 +47,45 @@ pub struct RunArgs {
     json: bool,
 }
 
+/// The policy file `--policy` names, or an error in the user's terms: a
+/// misspelt `oracle` or `random` is offered the nearest name, and an ONNX
+/// file is refused as what it is (`sim run` runs seespot's policies).
+fn load_policy(path: &Path) -> anyhow::Result<PolicyNet> {
+    let shown = path.display();
+    let bare = path.components().count() == 1 && path.extension().is_none();
+    if bare && !path.exists() {
+        anyhow::bail!(
+            "--policy {shown}: neither `oracle`, `random` nor a policy file{}",
+            seespot_sim::bounds::did_you_mean(&shown.to_string(), ["oracle", "random"])
+        );
+    }
+    if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("onnx"))
+        && path.is_file()
+    {
+        use seespot_policy::tensor_file::Content;
+        use std::io::Read as _;
+        let mut head = Vec::new();
+        std::fs::File::open(path)
+            .and_then(|f| f.take(512).read_to_end(&mut head))
+            .with_context(|| format!("--policy {shown}"))?;
+        let what = match Content::of(&head) {
+            c @ (Content::Text | Content::Empty) => {
+                format!("{c}, not an ONNX or safetensors model")
+            }
+            Content::Other => "an ONNX file".to_owned(),
+        };
+        anyhow::bail!(
+            "--policy {shown}: {what}; `sim run --policy` runs a seespot policy (a \
+             .safetensors file written by `seespot train`, such as models/stack.safetensors). \
+             An ONNX model with Q outputs acts as a policy in `seespot eval --method spot-q \
+             --embeddings FOLDER` (docs/embeddings.md)"
+        );
+    }
+    PolicyNet::load(path).with_context(|| format!("loading policy {shown}"))
+}
+
 pub fn run(cmd: SimCommand) -> anyhow::Result<()> {
     match cmd {
         SimCommand::Run(args) => run_trials(args),
@@ -81,9 +120,7 @@ fn run_trials(args: RunArgs) -> anyhow::Result<()> {
     crate::io::check_trial_seed(seeds.start(), args.training_seeds)?;
     let policy = match args.policy.as_str() {
         "oracle" | "random" => None,
-        path => Some(
-            PolicyNet::load(Path::new(path)).with_context(|| format!("loading policy {path}"))?,
-        ),
+        path => Some(load_policy(Path::new(path))?),
     };
     // The heightmap: the flag's, else the scene's, else the policy's own
     // (a policy sees the resolution it was trained at), else the default.

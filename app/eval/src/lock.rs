@@ -39,6 +39,11 @@ pub enum LockError {
         host: String,
         started: String,
     },
+    /// The folder to lock, or a folder above it, is a file.
+    #[error(
+        "{path}: a file, not a folder; an evaluation writes its records and report into a folder"
+    )]
+    NotAFolder { path: PathBuf },
     #[error("{path}: cannot create the lock file: {source}")]
     Io {
         path: PathBuf,
@@ -114,6 +119,17 @@ impl OutputLock {
             path: path.clone(),
             source,
         };
+        // The nearest path of `dir` and the folders above it that exists
+        // must be a folder.
+        if let Some(file) = dir
+            .ancestors()
+            .find(|a| !a.as_os_str().is_empty() && a.exists())
+            .filter(|a| !a.is_dir())
+        {
+            return Err(LockError::NotAFolder {
+                path: file.to_path_buf(),
+            });
+        }
         std::fs::create_dir_all(dir).map_err(io)?;
         // A few rounds: each one that loses a race with a releasing holder
         // (the file removed under us) starts again.
@@ -221,5 +237,18 @@ mod tests {
         assert_eq!(Holder::parse(&h.to_text()), Some(h));
         assert_eq!(Holder::parse("garbage"), None);
         assert_eq!(Holder::parse(""), None);
+    }
+
+    #[test]
+    fn a_file_where_the_folder_should_be_is_named_as_one() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let file = dir.path().join("records");
+        std::fs::write(&file, "x").expect("write");
+        for out in [file.clone(), file.join("below")] {
+            match OutputLock::acquire(&out) {
+                Err(LockError::NotAFolder { path }) => assert_eq!(path, file),
+                other => panic!("{}: {other:?}", out.display()),
+            }
+        }
     }
 }

@@ -199,6 +199,47 @@ pub fn header(
     .collect()
 }
 
+/// What a file that is not a safetensors file holds, as a user would name
+/// it (from its first bytes).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Content {
+    Empty,
+    /// UTF-8 without control characters other than whitespace.
+    Text,
+    /// Anything else.
+    Other,
+}
+
+impl Content {
+    /// The content of a file whose first bytes (512 are enough) are `head`.
+    pub fn of(head: &[u8]) -> Self {
+        let head = &head[..head.len().min(512)];
+        let text = match std::str::from_utf8(head) {
+            Ok(t) => Some(t),
+            // A multi-byte character cut at the end of the head.
+            Err(e) if e.error_len().is_none() => std::str::from_utf8(&head[..e.valid_up_to()]).ok(),
+            Err(_) => None,
+        };
+        if head.is_empty() {
+            Self::Empty
+        } else if text.is_some_and(|t| t.chars().all(|c| !c.is_control() || c.is_whitespace())) {
+            Self::Text
+        } else {
+            Self::Other
+        }
+    }
+}
+
+impl std::fmt::Display for Content {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::Empty => "an empty file",
+            Self::Text => "a text file",
+            Self::Other => "its first bytes are not a safetensors header",
+        })
+    }
+}
+
 /// Reads and verifies a file written by [`write()`]: header, dtypes (F32 only),
 /// offsets, checksums and finiteness of every tensor.
 pub fn read(path: &Path) -> Result<TensorFile, PolicyError> {
@@ -213,10 +254,12 @@ pub fn read(path: &Path) -> Result<TensorFile, PolicyError> {
         tensor: tensor.to_string(),
         reason,
     };
-    if buf.len() < 8 {
+    // A safetensors file opens with its header's length and the header, a
+    // JSON object.
+    if buf.get(8) != Some(&b'{') {
         return Err(format(format!(
-            "damaged: only {} bytes, no safetensors header",
-            buf.len()
+            "not a safetensors model ({}); a seespot policy is a .safetensors file written by `seespot train`",
+            Content::of(&buf)
         )));
     }
     let mut len8 = [0u8; 8];

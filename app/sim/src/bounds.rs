@@ -114,6 +114,17 @@ mod tests {
     }
 
     #[test]
+    fn a_misspelt_choice_is_offered_the_nearest_name() {
+        let names = ["oracle", "random"];
+        assert_eq!(nearest("orcale", names), Some("oracle"));
+        assert_eq!(nearest("Random", names), Some("random"));
+        assert_eq!(nearest("transporter", names), None);
+        let e = parse_named("ssr-cdd", &["ssr-ccd", "ssr-l2cd"], |n| n, "method")
+            .expect_err("misspelt");
+        assert!(e.contains("did you mean `ssr-ccd`?"), "{e}");
+    }
+
+    #[test]
     fn sigma_is_finite_and_bounded() {
         assert_eq!(parse_sigma("3"), Ok(3.0));
         for bad in ["NaN", "inf", "-1", "1e9", "x"] {
@@ -230,6 +241,55 @@ pub fn parse_named<T: Copy>(
 ) -> Result<T, String> {
     all.iter().copied().find(|c| name(*c) == s).ok_or_else(|| {
         let names: Vec<&str> = all.iter().map(|c| name(*c)).collect();
-        format!("unknown {what} '{s}' (expected {})", names.join(" or "))
+        format!(
+            "unknown {what} '{s}'{} (expected {})",
+            did_you_mean(s, names.iter().copied()),
+            names.join(" or ")
+        )
     })
+}
+
+/// The one of `names` nearest to `s` (a misspelt choice): fewest single-letter
+/// edits, case ignored, within a third of the name's length (at least 2);
+/// `None` when none is that near.
+pub fn nearest<'a>(s: &str, names: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
+    let s = s.to_lowercase();
+    names
+        .into_iter()
+        .map(|n| (edits(&s, &n.to_lowercase()), n))
+        .filter(|(d, n)| *d <= (n.chars().count() / 3).max(2))
+        .min_by_key(|(d, _)| *d)
+        .map(|(_, n)| n)
+}
+
+/// `"; did you mean `NAME`?"` for the [`nearest`] name, or nothing.
+pub fn did_you_mean<'a>(s: &str, names: impl IntoIterator<Item = &'a str>) -> String {
+    nearest(s, names).map_or_else(String::new, |n| format!("; did you mean `{n}`?"))
+}
+
+/// Levenshtein distance (insertions, deletions, substitutions) with a swap of
+/// two neighbouring letters counted as one edit.
+fn edits(a: &str, b: &str) -> usize {
+    let (a, b): (Vec<char>, Vec<char>) = (a.chars().collect(), b.chars().collect());
+    // d[i][j]: edits between a[..i] and b[..j].
+    let mut d = vec![vec![0usize; b.len() + 1]; a.len() + 1];
+    for (i, row) in d.iter_mut().enumerate() {
+        row[0] = i;
+    }
+    for (j, cell) in d[0].iter_mut().enumerate() {
+        *cell = j;
+    }
+    for i in 1..=a.len() {
+        for j in 1..=b.len() {
+            let cost = usize::from(a[i - 1] != b[j - 1]);
+            let mut best = (d[i - 1][j] + 1)
+                .min(d[i][j - 1] + 1)
+                .min(d[i - 1][j - 1] + cost);
+            if i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1] {
+                best = best.min(d[i - 2][j - 2] + 1);
+            }
+            d[i][j] = best;
+        }
+    }
+    d[a.len()][b.len()]
 }

@@ -290,8 +290,9 @@ impl std::str::FromStr for TaskId {
             .ok_or_else(|| {
                 let names: Vec<&str> = Self::ALL.iter().map(|t| t.as_str()).collect();
                 format!(
-                    "unknown task '{s}' (expected one of: {}, or custom:NAME for a task \
+                    "unknown task '{s}'{} (expected one of: {}, or custom:NAME for a task \
                      defined by demos/custom/NAME)",
+                    crate::bounds::did_you_mean(s, names.iter().copied()),
                     names.join(", ")
                 )
             })
