@@ -49,6 +49,7 @@ from seespot._core import (
     run_spec,
     test_seeds,
 )
+from seespot import _core
 from seespot.env import register_envs
 
 __all__ = [
@@ -79,6 +80,7 @@ __all__ = [
     "run_spec",
     "run_trial",
     "test_seeds",
+    "view",
 ]
 
 
@@ -92,7 +94,7 @@ def run_trial(
     demos_dir: str = "demos",
     resolution: int = DEFAULT_RESOLUTION,
     correspond: str | dict[str, Any] | None = None,
-    embeddings: list[str] | None = None,
+    embeddings: Any = None,
 ) -> dict[str, Any]:
     """Runs one trial of ``method`` on ``task`` from ``seed`` and returns its
     record: the object ``seespot eval`` writes as one JSONL line (``index`` is
@@ -100,11 +102,38 @@ def run_trial(
     (SSR only): None for the reference's Correspond, ``"plain"``, or a dict of
     Correspond's settings as records hold them (``{"rematch": "global"}``).
     ``embeddings``
-    (SSR only): a folder of ``<task>.onnx`` files or a list of ONNX files
-    used in place of the SPOT-Q policies (docs/embeddings.md)."""
+    (SSR only): a folder of ``<task>.onnx`` files, a list of ONNX files, or
+    functions (a ``torch.nn.Module``, a callable, a ``(grasp, place)`` pair;
+    :mod:`seespot.embedding`) used in place of the SPOT-Q policies
+    (docs/embeddings.md)."""
     ev = Evaluator(method, task, models_dir, demos_dir, resolution, correspond, embeddings)
     record: dict[str, Any] = json.loads(ev.run(seed, index))
     return record
+
+
+def view(*args: str, embeddings: Any = None) -> int:
+    """Runs the debugger page (``seespot view ARGS``) in this process until
+    Ctrl-C, and returns its exit status. ``embeddings`` as :class:`Ssr` takes
+    them, functions and ``torch.nn.Module`` s included: the page then runs
+    See-SPOT-Run on them with no export (:mod:`seespot.embedding`).
+
+        >>> seespot.view("--task", "row", embeddings=[MyNet()])
+
+    Run it from a folder holding ``models/`` and ``demos/``. In a notebook,
+    start it in a thread (``threading.Thread(target=seespot.view, ...)``):
+    it releases the GIL while it serves."""
+    import threading
+
+    from seespot import cli
+
+    argv = ["view", *args]
+    if embeddings is not None:
+        argv += ["--embeddings", *_core.register_embeddings(embeddings)]
+    if threading.current_thread() is threading.main_thread():
+        return cli.main(argv)
+    # Signal handlers belong to the main thread: a page served from another
+    # thread stops with the process.
+    return _core.cli(["seespot", *argv])
 
 
 def replay(

@@ -33,6 +33,7 @@ __all__ = [
     "record_demo",
     "record_name",
     "records_path",
+    "register_embeddings",
     "rematch",
     "run_spec",
     "test_seeds",
@@ -116,7 +117,7 @@ class Ssr:
         demos_dir: str | os.PathLike[str] = ...,
         method: str = "ssr-ccd",
         correspond: str | Mapping[str, Any] | None = None,
-        embeddings: Sequence[str | os.PathLike[str]] | None = None,
+        embeddings: Any = None,
     ) -> Ssr: ...
     @property
     def policy_names(self) -> list[str]: ...
@@ -134,7 +135,7 @@ class Evaluator:
         demos_dir: str | os.PathLike[str] = ...,
         resolution: int = ...,
         correspond: str | Mapping[str, Any] | None = None,
-        embeddings: Sequence[str | os.PathLike[str]] | None = None,
+        embeddings: Any = None,
         finetune_steps: int = 0,
         finetune_procedure: str = "reference",
         noise: str | os.PathLike[str] | None = None,
@@ -148,6 +149,7 @@ class Evaluator:
 
 def check_resolution(resolution: int) -> int: ...
 def cli(argv: list[str]) -> int: ...
+def register_embeddings(embeddings: Any) -> list[str]: ...
 def demo_dirs(task: str, demos_dir: str | os.PathLike[str] = ...) -> list[pathlib.Path]: ...
 def test_seeds(start: int, count: int) -> list[int]: ...
 def records_path(out_dir: str | os.PathLike[str], method: str, task: str) -> pathlib.Path: ...

@@ -129,13 +129,19 @@ pub fn action_indices(a: [i64; 3], n: usize) -> Result<[usize; 3], (&'static str
 }
 
 /// The embedding set a Python `embeddings` argument names (`None`: the
-/// SPOT-Q policies).
+/// SPOT-Q policies): a folder, ONNX files, or functions
+/// ([`crate::callable`]), registered here.
 pub fn embeddings(
-    paths: Option<Vec<std::path::PathBuf>>,
+    py: Python<'_>,
+    arg: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Option<seespot_ssr::layout::Embeddings>> {
-    paths
-        .map(|p| seespot_ssr::layout::Embeddings::from_paths(&p).map_err(|e| bad("embeddings", e)))
-        .transpose()
+    let Some(arg) = arg else {
+        return Ok(None);
+    };
+    let paths = crate::callable::embedding_paths(py, arg)?;
+    seespot_ssr::layout::Embeddings::from_paths(&paths)
+        .map(Some)
+        .map_err(|e| bad("embeddings", e))
 }
 
 /// Correspond's options from Python: `None` (the reference's, the default),

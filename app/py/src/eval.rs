@@ -30,8 +30,9 @@ impl Evaluator {
     /// `correspond` (SSR only): None (the reference's Correspond), `reference`
     /// or `plain`, or a dict of Correspond's settings as records hold them
     /// (`{"correspond": "reference", "rematch": "global"}`); `embeddings` (SSR
-    /// and SPOT-Q): a folder of `<task>.onnx` files or a list of ONNX files
-    /// (docs/embeddings.md) in place of the SPOT-Q policies; the record name
+    /// and SPOT-Q): a folder of `<task>.onnx` files, a list of ONNX files or
+    /// functions (docs/embeddings.md) in place of the SPOT-Q policies; a
+    /// function's record says it cannot be replayed without it; the record name
     /// then names the set (`ssr-ccd@raw-patches`). `finetune_steps` and
     /// `finetune_procedure` (`reference` or `adam`): the finetuned rows, their
     /// models read from (or made once in) `out_dir/finetuned/`, as
@@ -48,7 +49,7 @@ impl Evaluator {
         demos_dir: PathBuf,
         resolution: i64,
         correspond: Option<&Bound<'_, PyAny>>,
-        embeddings: Option<Vec<PathBuf>>,
+        embeddings: Option<&Bound<'_, PyAny>>,
         finetune_steps: i64,
         finetune_procedure: &str,
         noise: Option<PathBuf>,
@@ -73,7 +74,7 @@ impl Evaluator {
             seeds: Seeds::new(1, 1).map_err(|e| bad("seeds", e))?,
             out_dir,
             layout: seespot_ssr::Layout::new(models_dir, demos_dir)
-                .with_embeddings(arrays::embeddings(embeddings)?),
+                .with_embeddings(arrays::embeddings(py, embeddings)?),
             world,
             correspond,
             finetune_steps,

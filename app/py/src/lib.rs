@@ -20,6 +20,7 @@
 use pyo3::prelude::*;
 
 mod arrays;
+mod callable;
 mod correspond;
 mod demo;
 mod eval;
@@ -35,6 +36,18 @@ mod vector;
 #[pyfunction]
 fn cli(py: Python<'_>, argv: Vec<String>) -> u8 {
     py.detach(move || seespot_cli::run_command_line(argv))
+}
+
+/// Checks and registers `embeddings` (a list of paths and functions, as
+/// `Ssr` takes) and returns them as the paths `seespot view --embeddings`
+/// takes: a function as `callable:<name>`, which the command line run in
+/// this process (`cli`) finds again.
+#[pyfunction]
+fn register_embeddings(py: Python<'_>, embeddings: &Bound<'_, PyAny>) -> PyResult<Vec<String>> {
+    Ok(callable::embedding_paths(py, embeddings)?
+        .into_iter()
+        .map(|p| p.display().to_string())
+        .collect())
 }
 
 #[pymodule]
@@ -58,6 +71,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<eval::Evaluator>()?;
     m.add_class::<eval::OutputLock>()?;
     m.add_function(wrap_pyfunction!(cli, m)?)?;
+    m.add_function(wrap_pyfunction!(register_embeddings, m)?)?;
     m.add_function(wrap_pyfunction!(arrays::check_resolution, m)?)?;
     m.add_function(wrap_pyfunction!(eval::test_seeds, m)?)?;
     m.add_function(wrap_pyfunction!(demo::record_demo, m)?)?;

@@ -51,7 +51,9 @@ impl Ssr {
     /// (Eq. 9); `correspond`: Correspond's options (None for the reference's,
     /// `reference` or `plain`, or a dict of their settings, e.g.
     /// `{"correspond": "reference", "rematch": "global"}`). `embeddings`: a folder
-    /// of `<task>.onnx` files or a list of ONNX files (docs/embeddings.md),
+    /// of `<task>.onnx` files, a list of ONNX files, or functions (a
+    /// `torch.nn.Module`, a callable `float32[R, 4, 112, 112] -> float32[R,
+    /// D, S, S]`, or a `(grasp, place)` pair of them; docs/embeddings.md),
     /// used in place of the SPOT-Q policies.
     #[new]
     #[pyo3(signature = (task, models_dir = "models".into(), demos_dir = "demos".into(), method = "ssr-ccd", correspond = None, embeddings = None))]
@@ -62,12 +64,12 @@ impl Ssr {
         demos_dir: std::path::PathBuf,
         method: &str,
         correspond: Option<&Bound<'_, PyAny>>,
-        embeddings: Option<Vec<std::path::PathBuf>>,
+        embeddings: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let task = arrays::task(task, &demos_dir)?;
         let config = ssr_config(py, method, correspond)?;
         let layout = seespot_ssr::Layout::new(models_dir, demos_dir)
-            .with_embeddings(crate::arrays::embeddings(embeddings)?);
+            .with_embeddings(crate::arrays::embeddings(py, embeddings)?);
         let ssr = py
             .detach(|| SsrPolicy::load(task, &layout, config))
             .map_err(|e| bad("models_dir/demos_dir/embeddings", e))?;
