@@ -442,6 +442,44 @@ fn bench_ssr(
     if json {
         return crate::io::print_json(&report);
     }
-    outln!("{}", serde_json::to_string_pretty(&report)?)?;
+    let d = &report["decision"];
+    outln!(
+        "SSR at {resolution} px with {} (M = {}, D = {}), N = 2 demos, {decisions} decisions:",
+        report["embeddings"].as_str().unwrap_or("-"),
+        dims.len(),
+        dims.iter()
+            .map(usize::to_string)
+            .collect::<Vec<_>>()
+            .join(", "),
+    )?;
+    outln!("| part | median ms | min ms |\n|---|---|---|")?;
+    let c = &report["correspond"];
+    for (part, row, median, min) in [
+        ("whole decision", d, "decision_ms", Some("decision_ms_min")),
+        ("embed the live scene", d, "embed_live_ms", None),
+        ("correspond", d, "correspond_ms", None),
+        (
+            "first decision (embeds the demos too)",
+            d,
+            "first_decision_ms_with_demo_embedding",
+            None,
+        ),
+        (
+            "correspond alone, random cell embeddings",
+            c,
+            "correspond_ms",
+            Some("correspond_min_ms"),
+        ),
+    ] {
+        outln!(
+            "| {part} | {} | {} |",
+            number_cell(row, median),
+            min.map_or("-".to_owned(), |k| number_cell(row, k))
+        )?;
+    }
+    outln!(
+        "(the budget: {} ms a decision at 224 px; --json for every number)",
+        number_cell(d, "target_ms_at_224_px")
+    )?;
     Ok(())
 }

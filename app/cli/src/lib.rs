@@ -49,7 +49,9 @@ enum Command {
     Sim(sim::SimCommand),
     /// Leave-one-out evaluation of SSR and baselines, with the paper's numbers beside.
     Eval(eval::EvalArgs),
-    /// Demonstrations and trials for other tools: a LeRobotDataset v3.0.
+    /// Files for other tools: SPOT-Q policies as ONNX embedding models
+    /// (`export onnx`), demonstrations and trials as a LeRobotDataset v3.0
+    /// (`export lerobot`).
     #[command(subcommand)]
     Export(export::ExportCommand),
     /// The trials of an evaluation with their failure kinds, and how to replay each.
@@ -65,8 +67,18 @@ enum Command {
     /// Run a live SSR trial and serve the browser debugger and the rerun web viewer.
     #[cfg(feature = "viewer")]
     View(view::ViewArgs),
-    /// Write one rerun recording (.rrd) per trial.
+    /// Write one rerun recording (.rrd) per trial. Needs seespot built with
+    /// the `rerun` feature (`cargo build --release -p seespot --features
+    /// rerun`).
     #[cfg(feature = "viewer")]
+    #[cfg_attr(
+        not(feature = "rerun"),
+        command(
+            after_help = "This seespot was built without the `rerun` feature: `record` \
+                              refuses. Build it with `cargo build --release -p seespot \
+                              --features rerun`."
+        )
+    )]
     Record(view::RecordArgs),
     /// Measure speed (`--json` for a machine-readable report).
     #[command(subcommand)]

@@ -358,15 +358,20 @@ fn record_two_runs(args: &RecordArgs, runs: &[String]) -> anyhow::Result<()> {
 
 /// Runs `seespot record`; Ctrl-C finishes the current file and stops.
 pub fn run_record(args: RecordArgs) -> anyhow::Result<()> {
+    crate::io::check_trial_seed(args.seed, args.training_seeds)?;
+    let seeds = seespot_sim::Seeds::new(args.seed, args.trials)?;
+    if args.runs.is_none() {
+        args.decider.load_task(args.task)?;
+    }
+    // Refused before anything is made (the output folder included).
+    if !seespot_viz::recording::AVAILABLE {
+        anyhow::bail!("record: {}", seespot_viz::recording::MISSING);
+    }
     if let Some(runs) = &args.runs {
-        crate::io::check_trial_seed(args.seed, args.training_seeds)?;
         return record_two_runs(&args, runs);
     }
-    crate::io::check_trial_seed(args.seed, args.training_seeds)?;
-    args.decider.load_task(args.task)?;
     let factory = args.decider.factory()?;
     let stop = live::ctrl_c_flag();
-    let seeds = seespot_sim::Seeds::new(args.seed, args.trials)?;
     let bar = crate::io::progress_bar(args.trials, false);
     let opts = live::RecordOptions {
         task: args.task,
