@@ -17,10 +17,21 @@ import sys
 import tempfile
 from pathlib import Path
 
-import numpy as np
-from onnx import TensorProto, checker, helper, numpy_helper, save
+try:
+    import numpy as np
+    from onnx import TensorProto, checker, helper, numpy_helper, save
 
-import seespot
+    import seespot
+except ModuleNotFoundError as e:
+    sys.exit(
+        f"this example needs the seespot package, numpy and onnx, and this Python "
+        f"({sys.executable}) has no module {e.name!r}. From the repository root, either\n"
+        f"  scripts/test-python   # makes .venv-py with all of them (and runs the package's tests)\n"
+        f"  .venv-py/bin/python python/examples/ssr_onnx_network.py --view\n"
+        f"or\n"
+        f"  python3 -m venv .venv && .venv/bin/pip install . onnx   # compiles the Rust core\n"
+        f"  .venv/bin/python python/examples/ssr_onnx_network.py --view"
+    )
 
 
 def build_network(path: Path, depth: int = 16, seed: int = 0) -> Path:

@@ -1,9 +1,8 @@
 //! `seespot export`: SPOT-Q policies as ONNX embedding models, and
 //! demonstrations and evaluation trials in other tools' formats. The
 //! LeRobotDataset writer is the Python package's
-//! (`seespot.export`, pyarrow and Pillow), so this runs it: with the
-//! interpreter that runs the `seespot` console script, or `SEESPOT_PYTHON`,
-//! or `python3`.
+//! (`seespot.export`, pyarrow and Pillow), so this runs it with the first
+//! Python that has it ([`exporter_python`]).
 
 use std::path::PathBuf;
 
@@ -71,26 +70,88 @@ pub fn run(cmd: ExportCommand) -> anyhow::Result<()> {
     if a.overwrite {
         args.push("--overwrite".into());
     }
-    let python = std::env::var_os("SEESPOT_PYTHON").unwrap_or_else(|| "python3".into());
+    let python = exporter_python()?;
     let status = std::process::Command::new(&python)
         .args(&args)
         .status()
-        .map_err(|e| {
-            anyhow::anyhow!(
-                "seespot export runs the Python package's exporter, and `{}` could not start \
-                 ({e}); install the package (pip install '.[lerobot]') or name its \
-                 interpreter in SEESPOT_PYTHON",
-                python.to_string_lossy()
-            )
-        })?;
+        .map_err(|e| anyhow::anyhow!("{}: cannot start ({e})", python.display()))?;
     if !status.success() {
         // The exporter printed why (a bad file, a missing package).
         anyhow::bail!(
             "the exporter (`{} -m seespot.export`) failed ({status})",
-            python.to_string_lossy()
+            python.display()
         );
     }
     Ok(())
+}
+
+/// The modules the exporter imports: the package (with its compiled core),
+/// then its `lerobot` extra.
+const EXPORTER_MODULES: [&str; 4] = ["seespot._core", "numpy", "pyarrow", "PIL"];
+
+/// The Python that runs the exporter: `SEESPOT_PYTHON` when set (the
+/// `seespot` console script sets it to its own interpreter), else the first
+/// of `.venv/bin/python` and `.venv-py/bin/python` (what docs/python.md and
+/// scripts/test-python make) in this folder or one above it, then `python3`,
+/// that imports every module the exporter needs. None does: an error naming
+/// each interpreter tried, the module it lacks, and what to install.
+fn exporter_python() -> anyhow::Result<std::path::PathBuf> {
+    let candidates: Vec<PathBuf> = match std::env::var_os("SEESPOT_PYTHON") {
+        Some(p) => vec![p.into()],
+        None => {
+            let cwd = std::env::current_dir()?;
+            let mut c: Vec<PathBuf> = cwd
+                .ancestors()
+                .flat_map(|d| [".venv", ".venv-py"].map(|v| d.join(v).join("bin/python")))
+                .filter(|p| p.is_file())
+                .collect();
+            c.push("python3".into());
+            c
+        }
+    };
+    let mut tried = Vec::new();
+    for python in candidates {
+        match unusable(&python) {
+            None => return Ok(python),
+            Some(why) => tried.push(format!("{} {why}", python.display())),
+        }
+    }
+    anyhow::bail!(
+        "seespot export lerobot runs the Python package's exporter (seespot.export, with \
+         pyarrow and Pillow), and no Python here has it: {}.\n\
+         Install it from the repository root (it compiles the Rust core):\n  \
+         python3 -m venv .venv && .venv/bin/pip install '.[lerobot]'\n\
+         (seespot then finds .venv by itself), or run scripts/test-python (it makes .venv-py \
+         with every extra), or name an interpreter that has it in SEESPOT_PYTHON",
+        tried.join("; ")
+    )
+}
+
+/// Why `python` cannot run the exporter (the first of [`EXPORTER_MODULES`]
+/// it cannot import, or that it does not start); `None` when it can.
+fn unusable(python: &std::path::Path) -> Option<String> {
+    let probe = format!(
+        "import importlib, sys\n\
+         for m in {EXPORTER_MODULES:?}:\n    \
+         try:\n        importlib.import_module(m)\n    \
+         except ImportError as e:\n        \
+         print(getattr(e, 'name', None) or m)\n        sys.exit(3)\n"
+    );
+    let out = match std::process::Command::new(python)
+        .args(["-c", &probe])
+        .stdin(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .output()
+    {
+        Ok(out) => out,
+        Err(e) => return Some(format!("does not start ({e})")),
+    };
+    let name = String::from_utf8_lossy(&out.stdout).trim().to_owned();
+    match (out.status.success(), name.is_empty()) {
+        (true, _) => None,
+        (false, false) => Some(format!("has no module `{name}`")),
+        (false, true) => Some(format!("failed to import them ({})", out.status)),
+    }
 }
 
 fn run_onnx(a: &OnnxArgs) -> anyhow::Result<()> {
