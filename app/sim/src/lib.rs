@@ -43,6 +43,7 @@ pub mod scene;
 pub mod seeds;
 pub mod task;
 pub mod trial;
+pub mod truth;
 pub mod workspace;
 pub mod world;
 

@@ -237,6 +237,44 @@ impl World {
         &self.config
     }
 
+    /// An exact copy of this world, to try an action on without touching
+    /// it ([`crate::truth`]): the whole physics state (bodies, colliders,
+    /// contacts with their warm-start impulses, islands, the broad phase),
+    /// the block in hand, the noise stream and the step count, so that the
+    /// copy does, bit for bit, what this world would do. A world rebuilt
+    /// from the block poses is not such a copy: its contacts start cold, and
+    /// a place near other blocks lands centimetres apart. Only the
+    /// pipelines are new: rapier keeps scratch space in them, no state.
+    pub fn fork(&self) -> Self {
+        let p = &self.physics;
+        let physics = PhysicsWorld {
+            gravity: p.gravity,
+            integration_parameters: p.integration_parameters,
+            physics_pipeline: rapier3d::prelude::PhysicsPipeline::new(),
+            collision_pipeline: rapier3d::prelude::CollisionPipeline::new(),
+            islands: p.islands.clone(),
+            broad_phase: p.broad_phase.clone(),
+            narrow_phase: p.narrow_phase.clone(),
+            bodies: p.bodies.clone(),
+            colliders: p.colliders.clone(),
+            impulse_joints: p.impulse_joints.clone(),
+            multibody_joints: p.multibody_joints.clone(),
+            soft_bodies: p.soft_bodies.clone(),
+            ccd_solver: p.ccd_solver.clone(),
+        };
+        Self {
+            physics,
+            blocks: self.blocks,
+            colliders: self.colliders,
+            held: self.held,
+            held_offset: self.held_offset,
+            config: self.config,
+            noise_rng: self.noise_rng.clone(),
+            last_pose: self.last_pose,
+            steps: self.steps,
+        }
+    }
+
     pub fn grid(&self) -> Grid {
         self.config.grid
     }

@@ -71,6 +71,18 @@ impl crate::actor::Actor for Oracle {
     }
 }
 
+/// The places the oracle considers for block `block` of `world` (where it
+/// would set the block down to build `task`), as `(x, y, yaw)` in metres and
+/// radians; [`crate::truth`] tries them on copies of the world.
+pub fn place_targets(world: &World, task: TaskId, block: usize) -> Vec<(f32, f32, f32)> {
+    targets(task, &world.block_poses(), block)
+}
+
+/// The place that sets the block in hand of `world` down at `target`.
+pub fn place_for(world: &World, target: (f32, f32, f32)) -> Action {
+    place_action(world, target)
+}
+
 impl Oracle {
     pub fn new(task: TaskId) -> Self {
         Self {

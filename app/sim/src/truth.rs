@@ -1,0 +1,253 @@
+//! The truth about an action: whether a correspondence See-SPOT-Run made is
+//! *right*, worked out by carrying the action out on an exact copy of the
+//! world ([`World::fork`]), so that the copy does, bit for bit, what the
+//! trial would do; the world itself is never touched (docs: DESIGN.md §4,
+//! "The truth of a correspondence"). A simulator offers this, a real robot
+//! does not: it is an instrument for measuring a method, never an input to
+//! one that is compared with the paper's.
+//!
+//! - A **grasp** is *right* when it lifts a block from which one place
+//!   raises progress above its value before the grasp (the oracle's places
+//!   for that block, [`crate::oracle::place_targets`], are tried, each on
+//!   its own copy); *wrong block* when it lifts a block from which none of
+//!   them does (a block that is part of what is built, or of the wrong
+//!   colour where colours matter); a *miss* when it lifts nothing.
+//! - A **place** is *right* when progress rises once the blocks settle;
+//!   *no progress* when it stays; a *reversal* when it falls; *out* when a
+//!   block leaves the workspace.
+//! - The **distance** from the action to the nearest right action, from the
+//!   oracle's geometry: for a grasp, to the centre of a block whose grasp is
+//!   right; for a place, to a right target of the oracle's; in millimetres
+//!   on the table and in rotation steps (22.5 degrees; a cube's grasp and
+//!   place repeat every quarter turn, so 0 to 2).
+
+use serde::{Deserialize, Serialize};
+
+use crate::action::{Action, Primitive, nearest_rotation};
+use crate::blocks::NUM_BLOCKS;
+use crate::task::TaskId;
+use crate::world::{ActionFailure, World};
+
+/// How many of the oracle's places are tried for one block (best-ranked
+/// first).
+pub const PLACES_TRIED: usize = 6;
+
+/// The colours' names, by block id.
+const COLOURS: [&str; NUM_BLOCKS] = ["red", "blue", "green", "yellow"];
+
+/// What an action does, judged on a copy of the world.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    /// A grasp from which a place raises progress, or a place that raises it.
+    Right,
+    /// A grasp of a block from which no place tried raises progress.
+    WrongBlock,
+    /// A grasp that lifts nothing.
+    Miss,
+    /// A place after which progress is where it was.
+    NoProgress,
+    /// A place after which progress is lower.
+    Reversal,
+    /// A place after which a block is out of the workspace.
+    Out,
+}
+
+impl Verdict {
+    pub fn is_right(self) -> bool {
+        self == Self::Right
+    }
+}
+
+/// The truth about one action in one state.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Truth {
+    pub verdict: Verdict,
+    /// The block the grasp lifts, or the block in hand that a place sets
+    /// down.
+    pub block: Option<usize>,
+    /// Progress before the action, and after it (for a right grasp: after
+    /// the first of its places that raises it; else after the action).
+    pub progress_before: u8,
+    pub progress_after: u8,
+    /// Distance to the nearest right action on the table, millimetres, and
+    /// in rotation steps (0 to 2); `None` when no right action was found.
+    pub distance_mm: Option<f32>,
+    pub rotation_steps: Option<u8>,
+    /// The verdict in words, as the page shows it.
+    pub why: String,
+}
+
+/// The truth about `action` (of the primitive `world` expects next) in
+/// `world` for `task`. Deterministic: the same world and action give the
+/// same truth.
+pub fn truth(world: &World, task: TaskId, action: Action) -> Truth {
+    match action.primitive {
+        Primitive::Grasp => grasp_truth(world, task, action),
+        Primitive::Place => place_truth(world, task, action),
+    }
+}
+
+fn progress(world: &World, task: TaskId) -> u8 {
+    task.progress_of(&world.table_blocks())
+}
+
+/// The places tried for the block in hand of `holding` (taken from
+/// `before`, the world before its grasp): the first that raises progress
+/// above `floor`, with the progress it reaches and its target.
+fn raising_place(
+    before: &World,
+    holding: &World,
+    task: TaskId,
+    block: usize,
+    floor: u8,
+) -> Option<(u8, (f32, f32, f32))> {
+    crate::oracle::place_targets(before, task, block)
+        .into_iter()
+        .take(PLACES_TRIED)
+        .find_map(|target| {
+            let mut copy = holding.fork();
+            copy.execute(crate::oracle::place_for(&copy, target));
+            let after = progress(&copy, task);
+            (after > floor && !copy.block_out_of_workspace()).then_some((after, target))
+        })
+}
+
+fn grasp_truth(world: &World, task: TaskId, action: Action) -> Truth {
+    let before = progress(world, task);
+    let mut copy = world.fork();
+    let outcome = copy.execute(action);
+    // Every block whose grasp at its centre is right: the geometry the
+    // distance is read from.
+    let right_blocks: Vec<usize> = (0..NUM_BLOCKS)
+        .filter(|&i| {
+            crate::oracle::grasp_action(world, i).is_some_and(|g| {
+                let mut c = world.fork();
+                c.execute(g).block == Some(i) && raising_place(world, &c, task, i, before).is_some()
+            })
+        })
+        .collect();
+    let poses = world.block_poses();
+    let (x, y) = world.grid().pixel_to_world(action.y, action.x);
+    let nearest = right_blocks
+        .iter()
+        .map(|&i| {
+            let p = poses[i].position;
+            let mm = 1000.0 * ((p[0] - x).powi(2) + (p[1] - y).powi(2)).sqrt();
+            let steps = quarter_steps(action.rotation, nearest_rotation(poses[i].yaw()));
+            (mm, steps)
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0));
+    let (distance_mm, rotation_steps) = nearest.unzip();
+    let Some(block) = outcome.block.filter(|_| outcome.success) else {
+        let how = match outcome.failure {
+            Some(ActionFailure::EmptyPixel) => "no block between the jaws",
+            Some(ActionFailure::TiltedBlock) => "the block is tilted too far",
+            Some(ActionFailure::FingerCollision) => "a finger lands on another block",
+            _ => "nothing caught",
+        };
+        return Truth {
+            verdict: Verdict::Miss,
+            block: None,
+            progress_before: before,
+            progress_after: before,
+            distance_mm,
+            rotation_steps,
+            why: format!("lifts nothing ({how})"),
+        };
+    };
+    let colour = COLOURS[block];
+    match raising_place(world, &copy, task, block, before) {
+        Some((after, _)) => Truth {
+            verdict: Verdict::Right,
+            block: Some(block),
+            progress_before: before,
+            progress_after: after,
+            distance_mm: Some(0.0),
+            rotation_steps: Some(0),
+            why: format!("lifts the {colour} block; a place from it raises progress to {after}"),
+        },
+        None => Truth {
+            verdict: Verdict::WrongBlock,
+            block: Some(block),
+            progress_before: before,
+            progress_after: progress(&copy, task),
+            distance_mm,
+            rotation_steps,
+            why: format!(
+                "lifts the {colour} block; no place from it raises progress above {before}"
+            ),
+        },
+    }
+}
+
+fn place_truth(world: &World, task: TaskId, action: Action) -> Truth {
+    let before = progress(world, task);
+    let block = world.held_block();
+    let mut copy = world.fork();
+    copy.execute(action);
+    let after = progress(&copy, task);
+    let out = copy.block_out_of_workspace();
+    // The oracle's targets for the block in hand that raise progress.
+    let (x, y) = world.grid().pixel_to_world(action.y, action.x);
+    let nearest = block
+        .map(|b| {
+            crate::oracle::place_targets(world, task, b)
+                .into_iter()
+                .take(PLACES_TRIED)
+                .filter(|&t| {
+                    let mut c = world.fork();
+                    c.execute(crate::oracle::place_for(&c, t));
+                    progress(&c, task) > before && !c.block_out_of_workspace()
+                })
+                .map(|(tx, ty, yaw)| {
+                    let mm = 1000.0 * ((tx - x).powi(2) + (ty - y).powi(2)).sqrt();
+                    (mm, quarter_steps(action.rotation, nearest_rotation(yaw)))
+                })
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+        })
+        .unwrap_or_default();
+    let (distance_mm, rotation_steps) = nearest.unzip();
+    let (verdict, why) = if out {
+        (Verdict::Out, "a block leaves the workspace".to_owned())
+    } else if after > before {
+        (
+            Verdict::Right,
+            format!("the place raises progress to {after}"),
+        )
+    } else if after < before {
+        (
+            Verdict::Reversal,
+            format!("the place lowers progress from {before} to {after}"),
+        )
+    } else {
+        (
+            Verdict::NoProgress,
+            format!("the place leaves progress at {after}"),
+        )
+    };
+    Truth {
+        verdict,
+        block,
+        progress_before: before,
+        progress_after: after,
+        distance_mm: if verdict.is_right() {
+            Some(0.0)
+        } else {
+            distance_mm
+        },
+        rotation_steps: if verdict.is_right() {
+            Some(0)
+        } else {
+            rotation_steps
+        },
+        why,
+    }
+}
+
+/// Rotation steps between two gripper rotations, a quarter turn (4 steps)
+/// being the same grasp of a cube: 0 to 2.
+fn quarter_steps(a: usize, b: usize) -> u8 {
+    let d = (a as i64 - b as i64).rem_euclid(4) as u8;
+    d.min(4 - d)
+}
