@@ -11,13 +11,15 @@
 mod absent;
 #[cfg(feature = "rerun")]
 mod rerun_log;
+#[cfg(feature = "rerun")]
+mod web_viewer;
 
 #[cfg(not(feature = "rerun"))]
 pub use absent::{MemoryRecording, Recorder, SharedRecording, WebViewer};
 #[cfg(feature = "rerun")]
-pub use rerun_log::{
-    MemoryRecording, Recorder, SharedRecording, WebViewer, blueprint, two_runs_blueprint,
-};
+pub use rerun_log::{MemoryRecording, Recorder, SharedRecording, blueprint, two_runs_blueprint};
+#[cfg(feature = "rerun")]
+pub use web_viewer::WebViewer;
 
 /// Whether this build writes rerun recordings.
 pub const AVAILABLE: bool = cfg!(feature = "rerun");

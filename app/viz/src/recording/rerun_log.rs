@@ -212,29 +212,6 @@ impl MemoryRecording {
     }
 }
 
-/// rerun's web viewer, served while this lives.
-/// (rerun does not name its server's type: it is kept alive as it is.)
-pub struct WebViewer(#[allow(dead_code)] Box<dyn Send>);
-
-impl WebViewer {
-    /// rerun's web viewer on `bind:port` (0: any free port), showing the
-    /// gRPC stream at `grpc_url`, and the address that opens it.
-    pub fn serve(bind: &str, port: u16, grpc_url: &str) -> crate::error::Result<(Self, String)> {
-        let cfg = rerun::web_viewer::WebViewerConfig {
-            bind_ip: bind.to_owned(),
-            web_port: port.into(),
-            connect_to: vec![grpc_url.to_owned()],
-            open_browser: false,
-            ..Default::default()
-        };
-        let srv = cfg
-            .host_web_viewer()
-            .files(|| "cannot start the rerun web viewer".into())?;
-        let url = format!("{}/?url={}", srv.server_url(), percent_encode(grpc_url));
-        Ok((Self(Box::new(srv)), url))
-    }
-}
-
 /// The stream of a recording, laid out for the shipped policies of fold
 /// `task` until [`Recorder::send_blueprint`] names others.
 fn builder(task: TaskId) -> RecordingStreamBuilder {
@@ -778,7 +755,7 @@ fn heat_image(map: &[f32], n: usize) -> rerun::DepthImage {
 }
 
 /// `rerun+http://…` as a query-string value.
-fn percent_encode(s: &str) -> String {
+pub(super) fn percent_encode(s: &str) -> String {
     s.bytes()
         .map(|b| {
             if b.is_ascii_alphanumeric() || b"-._~".contains(&b) {
