@@ -16,8 +16,9 @@ which the records do not keep).
 ``meta/stats.json``
     Each feature's min, max, mean, std and count.
 ``meta/tasks.parquet``
-    The tasks, by ``task_index`` (a task is the seespot task id, e.g. ``stack``
-    or ``custom:l-shape``).
+    The tasks as LeRobot writes them: a pandas table indexed by the task (the
+    seespot task id, e.g. ``stack`` or ``custom:l-shape``) with its
+    ``task_index`` (:func:`tasks_table`).
 ``meta/episodes/chunk-000/file-000.parquet``
     One row per episode: its task, length, where its frames are
     (``data/chunk_index``, ``data/file_index``, ``dataset_from_index``,
@@ -502,10 +503,7 @@ def _write(episodes: Iterable[_Episode], n: int, out: Path) -> dict[str, Any]:
     ep_file = out / EPISODES_PATH.format(chunk_index=0, file_index=0)
     ep_file.parent.mkdir(parents=True, exist_ok=True)
     pq.write_table(pa.table({k: [row[k] for row in ep_rows] for k in ep_rows[0]}), ep_file)
-    pq.write_table(
-        pa.table({"task_index": pa.array(range(len(tasks)), pa.int64()), "task": pa.array(tasks)}),
-        out / "meta" / "tasks.parquet",
-    )
+    pq.write_table(tasks_table(pa, tasks), out / "meta" / "tasks.parquet")
     info = {
         "codebase_version": CODEBASE_VERSION,
         "robot_type": "seespot-parallel-jaw-gripper",
@@ -523,6 +521,43 @@ def _write(episodes: Iterable[_Episode], n: int, out: Path) -> dict[str, Any]:
     }
     (out / "meta" / "info.json").write_text(json.dumps(info, indent=2))
     return info
+
+
+def tasks_table(pa: Any, tasks: list[str]) -> Any:
+    """``meta/tasks.parquet`` as LeRobot writes it: a pandas table indexed by
+    the task string (index named ``task``) with a ``task_index`` column.
+    LeRobot reads it with ``pd.read_parquet`` and names a frame's task by the
+    row's index (``tasks.iloc[task_index].name``), so the index must be the
+    task, not a number. Written with pyarrow and the pandas metadata that
+    makes ``task`` the index, as ``DataFrame.to_parquet`` writes it, so the
+    export needs no pandas."""
+    pandas_meta = {
+        "index_columns": ["task"],
+        "column_indexes": [
+            {
+                "name": None,
+                "field_name": None,
+                "pandas_type": "unicode",
+                "numpy_type": "object",
+                "metadata": {"encoding": "UTF-8"},
+            }
+        ],
+        "columns": [
+            {
+                "name": "task_index",
+                "field_name": "task_index",
+                "pandas_type": "int64",
+                "numpy_type": "int64",
+                "metadata": None,
+            },
+            {"name": "task", "field_name": "task", "pandas_type": "unicode", "numpy_type": "object", "metadata": None},
+        ],
+        "attributes": {},
+        "creator": {"library": "pyarrow", "version": pa.__version__},
+        "pandas_version": "2.2.3",
+    }
+    table = pa.table({"task_index": pa.array(range(len(tasks)), pa.int64()), "task": pa.array(tasks, pa.string())})
+    return table.replace_schema_metadata({b"pandas": json.dumps(pandas_meta).encode()})
 
 
 def main(argv: list[str] | None = None) -> None:

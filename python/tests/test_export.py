@@ -79,6 +79,46 @@ def test_the_shipped_demonstrations_export_as_a_lerobot_v3_dataset(tmp_path: Pat
     assert stats["action"]["count"] == [sum(steps)]
 
 
+def test_tasks_parquet_is_indexed_by_the_task_as_lerobot_writes_it(tmp_path: Path) -> None:
+    """``meta/tasks.parquet`` is a pandas table whose index is the task string
+    (LeRobot names a frame's task by ``tasks.iloc[task_index].name``; a task
+    column under a numbered index made every frame's task read as 0)."""
+    out = tmp_path / "lerobot"
+    export_demos(ROOT / "demos", out)
+    table = pq.read_table(out / "meta" / "tasks.parquet")
+    pandas_meta = json.loads(table.schema.metadata[b"pandas"])
+    assert pandas_meta["index_columns"] == ["task"]
+    assert table.column_names == ["task_index", "task"]
+    assert str(table.schema.field("task_index").type) == "int64"
+    rows = table.to_pylist()
+    assert [r["task_index"] for r in rows] == list(range(len(rows)))
+    task_of = {r["task_index"]: r["task"] for r in rows}
+    # Every frame's task_index names its episode's task.
+    episodes = pq.read_table(out / "meta" / "episodes" / "chunk-000" / "file-000.parquet").to_pylist()
+    frames = pq.read_table(out / "data" / "chunk-000" / "file-000.parquet").to_pylist()
+    for e in episodes:
+        for f in frames[e["dataset_from_index"] : e["dataset_to_index"]]:
+            assert [task_of[f["task_index"]]] == e["tasks"]
+
+    try:
+        import pandas as pd
+    except ImportError:
+        return
+    tasks = pd.read_parquet(out / "meta" / "tasks.parquet")
+    assert list(tasks.index) == [r["task"] for r in rows]
+    assert all(tasks.iloc[i].name == task_of[i] for i in task_of)
+    assert int(tasks.loc["stack"].task_index) == [r["task"] for r in rows].index("stack")
+
+    # Where LeRobot is installed, through LeRobot itself: a frame's task is its words.
+    try:
+        from lerobot.datasets.lerobot_dataset import LeRobotDataset
+    except ImportError:
+        return
+    ds = LeRobotDataset("seespot/demos", root=out)
+    for e in episodes:
+        assert ds[e["dataset_from_index"]]["task"] == e["tasks"][0]
+
+
 def test_export_refuses_a_folder_that_is_not_empty(tmp_path: Path) -> None:
     (tmp_path / "keep.txt").write_text("mine")
     with pytest.raises(FileExistsError, match="not empty"):
