@@ -37,6 +37,7 @@ function connect() {
     else if (m.type === 'state') onState(m);
     else if (m.type === 'query') onQuery(m);
     else if (m.type === 'error') showError(m.message, m.request, m.kind);
+    else if (m.type === 'busy') onBusy(m);
     else if (m.type === 'demo_saved') {
       app.saved = m.dir; renderDemoStatus(app.state);
       // A custom task can be run once it has a demonstration.
@@ -44,6 +45,15 @@ function connect() {
       if (t.startsWith('custom:')) addTask(t);
     }
   };
+}
+
+/** Long work on the server (protocol.rs `Busy`): what, why and for how
+ *  long so far; gone when `what` is null. The page stays usable. */
+function onBusy(m) {
+  app.busy = m.what ? m : null;
+  const el = $('busy');
+  el.hidden = !m.what;
+  if (m.what) setText(el, `⏳ Preparing ${m.what}: ${m.seconds} s so far${m.why ? `. ${m.why}` : ''}`);
 }
 
 // What each kind of failure is (protocol.rs `ServerMessage::Error.kind`),
@@ -171,12 +181,13 @@ function onState(s) {
   $('progress-bar').style.width = `${(s.progress / 4) * 100}%`;
   $('primitive').textContent = s.holding !== null ? `place (holding)` : s.primitive;
   if (s.end) app.running = false;
-  setText($('end'), s.end ? (s.succeeded ? 'success ✓' : s.end_words) : (app.running ? 'in progress, running…' : 'in progress'));
+  renderEnd(s);
   $('method').textContent = s.method ? s.method.toUpperCase() : '';
   $('decider').textContent = (s.replay ? `${s.replay[0].toUpperCase()}${s.replay.slice(1)}. ` : '')
     + `${s.decider}. ${s.decider_note}` + (s.recording ? ` Recording to ${s.recording}.` : '');
   $('replay-banner').hidden = !s.replay;
   $('replay-banner').textContent = s.replay ? `▶ ${s.replay}` : '';
+  renderFailure(s);
   const ended = !!s.end;
   const demo = s.demonstrate;
   for (const id of ['next-phase', 'next-action', 'run']) $(id).disabled = ended || !!demo;
@@ -184,6 +195,9 @@ function onState(s) {
   $('demo-live').hidden = !demo;
   if (demo) {
     $('demo-undo').disabled = !demo.actions.length;
+    // Nothing to save before the first action.
+    $('demo-save').disabled = !demo.actions.length;
+    $('demo-save').title = demo.actions.length ? 'save the demonstration' : 'nothing to save yet: click the live heightmap to act';
     $('progress').textContent = demo.progress !== null ? `${demo.progress} / 4` : '–';
     $('progress').title = demo.progress !== null ? '' : 'a custom task\'s goal is its final layout: progress is known once it is saved';
     $('progress-bar').style.width = `${((demo.progress ?? 0) / 4) * 100}%`;
@@ -204,6 +218,40 @@ function onState(s) {
   renderEmbeddingControl(s);
   if (s.error) showError(s.error);
   requestFrame();
+}
+
+/** The trial box: how a finished trial ended, a failure in the review's
+ *  words (documents.rs `FailureDoc`), with how the trial ended as its tooltip. */
+function renderEnd(s) {
+  const el = $('end');
+  if (s.demonstrate) { setText(el, 'demonstrating'); return; }
+  if (!s.end) { setText(el, app.running ? 'in progress, running…' : 'in progress'); return; }
+  if (s.succeeded) { setText(el, 'success ✓'); return; }
+  const words = s.failure ? `failed: ${s.failure.label}` : s.end_words;
+  el.textContent = words;
+  el.title = s.failure ? `${words} (as seespot review files it; the trial ${s.end_words.replace(/^failed: /, 'ended: ')})` : words;
+}
+
+/** Why a finished trial failed, and for a known failure of the paper's
+ *  method the same trial with seespot's extensions (one click, or the
+ *  command). The server decides both; the page only words them. */
+function renderFailure(s) {
+  const f = !s.demonstrate && s.end && !s.succeeded ? s.failure : null;
+  const box = $('failure-box');
+  box.hidden = !f;
+  if (!f) return;
+  $('failure-kind').textContent = `Trial failed: ${f.label}.`;
+  $('failure-known').textContent = f.known || '';
+  const x = f.extensions;
+  $('failure-offer').hidden = !x;
+  if (!x) return;
+  const button = $('try-extensions');
+  button.hidden = !x.replay;
+  button.textContent = `▶ The same trial with seespot's extensions${x.outcome ? ` (${x.outcome})` : ''}`;
+  button.title = `${x.label}: ${x.task} seed ${x.seed}, replayed from the review`;
+  button.onclick = () => send({ type: 'replay', method: x.run, task: x.task, seed: x.seed });
+  $('extensions-or').textContent = x.replay ? 'or from a shell:' : `${x.label} on this trial, from a shell:`;
+  $('extensions-command').textContent = x.command;
 }
 
 function shownPair() {
@@ -417,7 +465,9 @@ function draw() {
 
   // Demo side.
   const dm = [];
-  if (p) {
+  // A pair without a demonstration (SPOT-Q's Q map, the TransporterNet's
+  // scores) draws nothing on the demo side.
+  if (p && f.demo) {
     dm.push({ kind: 'point', at: p.demo_action, color: '#ffffff', label: `demo ${act(p.demo_action)}`, ring: true });
     if (p.matched && p.rematch) dm.push({ kind: 'arrow', from: p.matched, to: p.rematch, color: '#ffaa00', label: `C = ${cValue(p)}` });
     if (p.rematch) dm.push({ kind: 'point', at: p.rematch, color: '#ffaa00' });

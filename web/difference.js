@@ -144,7 +144,8 @@ async function load() {
   diff.doc = d;
   $('conn').textContent = `parts at action ${d.first_difference + 1}`; $('conn').className = 'conn ok';
   $('title').textContent = `${d.a.run} against ${d.b.run} · ${d.task} seed ${d.seed}`;
-  $('summary').textContent = `Both took the same ${d.first_difference} action${d.first_difference === 1 ? '' : 's'}; at action ${d.first_difference + 1} `
+  const n = d.first_difference;
+  $('summary').textContent = (n === 0 ? 'They part at their first action: ' : `Both took the same first ${n === 1 ? 'action' : `${n} actions`}; at action ${n + 1} `)
     + `${d.a.run} took ${act(d.a.chosen)} and ${d.b.run} took ${act(d.b.chosen)}. `
     + `${d.a.success ? d.a.run : d.b.run} succeeded in the end, ${d.a.success ? d.b.run : d.a.run} failed.`;
   buildSide('a', d.a); buildSide('b', d.b);

@@ -110,6 +110,12 @@ function replay(t) {
     let m;
     try { m = JSON.parse(ev.data); } catch { return; }
     if (m.type === 'replay') { ws.close(); location.href = '/'; }
+    // A finetuned run's first replay finetunes its models first (minutes).
+    else if (m.type === 'busy' && m.what) {
+      review.busy = m;
+      $('conn').textContent = `preparing ${m.what}: ${m.seconds} s`;
+      $('conn').title = m.why || '';
+    }
     else if (m.type === 'error' && m.request === 'replay') { ws.close(); showError(m.message); }
   };
   ws.onerror = () => showError('cannot reach the seespot server');

@@ -96,8 +96,11 @@ async function save() {
   await page.getByTestId('demo-save').click();
   await page.waitForFunction((b) => window.seespot.saved && window.seespot.saved !== b, before);
   const dir = await page.evaluate(() => window.seespot.saved);
-  // Saving leaves Demonstrate mode; the page still says where it saved.
+  // Saving leaves Demonstrate mode for a fresh start of the trial it
+  // interrupted (issue 59); the page still says where it saved.
   await page.waitForFunction(() => !window.seespot.state.demonstrate);
+  const s = await state();
+  assert.deepEqual([s.task, s.seed, s.steps.length, s.end], ['stack', 1, 0, null]);
   assert.ok(await page.getByTestId('demo-status').isVisible(), 'the saved message is shown');
   assert.equal(await page.getByTestId('demo-status').textContent(), `saved to ${dir}`);
   return dir;
@@ -145,8 +148,10 @@ test('a built-in task demonstrated by clicking the oracle\'s actions saves what 
 test('bad demonstrations are refused with what is wrong', async () => {
   await startDemonstrating('stack', 3);
   const errors = () => page.evaluate(() => window.seespot.errors.join('\n'));
-  // Nothing to save yet: a clear error, and nothing written.
-  await page.getByTestId('demo-save').click();
+  // Nothing to save yet: Save waits for an action (issue 59), and the
+  // server refuses a save sent anyway, with what is wrong; nothing written.
+  assert.ok(await page.getByTestId('demo-save').isDisabled());
+  await page.evaluate(() => window.seespot.ws.send(JSON.stringify({ type: 'demo_save', overwrite: false })));
   await page.waitForFunction(() => window.seespot.errors.some((e) => e.includes('no actions')));
   assert.ok(!existsSync(join(demos, 'stack', '3')));
   // An action outside the workspace (sent as the page would).

@@ -347,10 +347,11 @@ test('a tab closed mid-run stops nothing; the run finishes and every tab sees it
   await page.waitForFunction(() => window.seespot.frameVersion === window.seespot.state.version);
   const s = await api('/api/state');
   assert.ok(s.end);
-  // How it ended, in words (not the record's key).
+  // How it ended, in words (not the record's key): a failure as the
+  // review files it (issue 59).
   const said = await page.getByTestId('end').textContent();
-  assert.equal(said, s.succeeded ? 'success ✓' : s.end_words);
-  assert.ok(!said.includes('-'), said);
+  assert.equal(said, s.succeeded ? 'success ✓' : `failed: ${s.failure.label}`);
+  assert.ok(!said.includes(s.end), said);
   // The table shows the last decision's pairs (the placeholder row is not one).
   const d = await api('/api/decision');
   assert.ok(d && d.pairs.length > 0, 'no explanation record at the end of the run');

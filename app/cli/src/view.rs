@@ -219,7 +219,7 @@ pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
     let rt = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()?;
-    rt.block_on(live::serve_view(
+    let served = rt.block_on(live::serve_view(
         opts,
         factory,
         |urls| {
@@ -245,7 +245,12 @@ pub fn run_view(args: ViewArgs) -> anyhow::Result<()> {
             let _ = out.write_all(text.as_bytes()).and_then(|()| out.flush());
         },
         live::ctrl_c(),
-    ))?;
+    ));
+    // Work still running on a blocking thread when the server stops (a
+    // replay finetuning its models, minutes) is not waited for: the
+    // recording is finished by now, and the process exits.
+    rt.shutdown_timeout(std::time::Duration::from_secs(1));
+    served?;
     if let Some(s) = &args.save {
         outln!("wrote {}", s.display())?;
     }

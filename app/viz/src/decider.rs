@@ -41,6 +41,12 @@ pub trait Decider: Actor + Send {
     ) -> crate::error::Result<Option<(Vec<u8>, Vec<u8>)>> {
         Ok(None)
     }
+
+    /// How SSR runs, for an SSR decider (which of seespot's extensions are
+    /// on); `None` for the others.
+    fn ssr_config(&self) -> Option<seespot_ssr::SsrConfig> {
+        None
+    }
 }
 
 // An actor that decides without demonstrations, policies or an
@@ -82,6 +88,10 @@ impl Decider for SsrPolicy {
 
     fn decision(&self) -> Option<&Decision> {
         self.last_decision()
+    }
+
+    fn ssr_config(&self) -> Option<seespot_ssr::SsrConfig> {
+        Some(*self.config())
     }
 
     fn query(&mut self, _hm: &Heightmaps, q: DemoQuery) -> crate::error::Result<Option<Vec<f32>>> {

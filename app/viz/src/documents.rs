@@ -58,6 +58,9 @@ pub struct StateDoc {
     pub end: Option<TrialEnd>,
     /// [`TrialEnd::words`] of `end`.
     pub end_words: Option<&'static str>,
+    /// Why a finished trial failed, as `seespot review` files it
+    /// ([`crate::failure`]); `None` while it runs and for a success.
+    pub failure: Option<FailureDoc>,
     pub succeeded: bool,
     pub had_reversal: bool,
     /// The decision's method, primitive and test progress.
@@ -91,6 +94,39 @@ pub struct StateDoc {
     /// is one, `blocks`, `holding` and `primitive` and the frames' live
     /// heightmaps are its world's.
     pub demonstrate: Option<DemonstrateDoc>,
+}
+
+/// Why a finished trial failed ([`crate::failure::failure_doc`]).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FailureDoc {
+    /// The review's failure kind (its key in the review's document).
+    pub kind: FailureKind,
+    /// The kind in the review's words ("repeated identical action").
+    pub label: &'static str,
+    /// When the paper's method failed as it is known to: how, and which of
+    /// seespot's extensions was made for it.
+    pub known: Option<&'static str>,
+    /// With `known`: the same trial with seespot's extensions.
+    pub extensions: Option<ExtensionsOffer>,
+}
+
+/// The same trial with seespot's extensions: a replay from the reviewed
+/// evaluation (`replay`: one `{"type": "replay", "method": run, ...}`
+/// away), and the command that opens it from a shell.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ExtensionsOffer {
+    /// The evaluation run (`ssr-ccd-replace`).
+    pub run: &'static str,
+    /// The run in words.
+    pub label: &'static str,
+    pub task: TaskId,
+    pub seed: u64,
+    /// Whether the reviewed evaluation holds this trial of `run`.
+    pub replay: bool,
+    /// How the recorded trial ended ("succeeded in 7 actions"), if recorded.
+    pub outcome: Option<String>,
+    /// The shell command that shows it.
+    pub command: String,
 }
 
 /// A demonstration being made on the page (Demonstrate mode).

@@ -8,6 +8,7 @@
 //! - [`session`]: a trial stepped phase by phase (embed, match, verify, act);
 //! - [`protocol`]: the WebSocket message types shared by the server and the page;
 //! - [`error`]: the debugger's errors, by kind;
+//! - [`failure`]: why a finished trial failed, in the review's words, and the offer of seespot's extensions;
 //! - [`documents`]: the documents the server sends the page and the viser client (state, frame, query, embedding), one schema;
 //! - [`server`]: the local web server behind `web/` (assets, JSON API, WebSocket);
 //! - [`token`]: the per-run access token of a page server bound off loopback;
@@ -20,6 +21,7 @@ pub mod decider;
 pub mod difference;
 pub mod documents;
 pub mod error;
+pub mod failure;
 pub mod live;
 pub mod paths;
 pub mod phase;

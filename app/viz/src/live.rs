@@ -150,10 +150,14 @@ pub async fn serve_view(
     let layout = opts.layout;
     let replay = opts.replay.clone();
     let demos = opts.review.as_ref().map(|r| r.layout.demos.clone());
+    let review_dir = opts.review.as_ref().map(|r| r.dir.clone());
     let session = tokio::task::spawn_blocking(move || {
         let mut s = Session::new(factory, config, recorder)?;
         if let Some(demos) = demos {
             s.set_demos(demos);
+        }
+        if let Some(dir) = review_dir {
+            s.set_review_dir(dir);
         }
         if let Some(poses) = layout {
             s.set_layout(poses);

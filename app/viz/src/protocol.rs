@@ -22,7 +22,8 @@
 //! [`crate::documents`]: `state`, `frame`, `query`, `embedding`):
 //! `{"type": "info", "info": {...}}` once on connect, `{"type": "pong"}`,
 //! `{"type": "replay", "method": ..., "task": ..., "seed": ...}` when a replay
-//! is loaded, and `{"type": "error", "message": "...", "request": "reset"}`
+//! is loaded, `{"type": "busy", "what": ..., "why": ..., "seconds": 12}` to
+//! every tab each second while a replay is being prepared, and `{"type": "error", "message": "...", "request": "reset"}`
 //! naming the request type that failed (or null).
 
 use seespot_sim::TaskId;
@@ -156,6 +157,15 @@ pub enum ServerMessage<'a> {
         method: String,
         task: TaskId,
         seed: u64,
+    },
+    /// Long work the server is doing for a request (preparing a replay
+    /// whose models are finetuned first), sent to every tab once a second
+    /// while it lasts: what, why it is slow, and for how long so far;
+    /// `what: null` when it is over. Other requests are served meanwhile.
+    Busy {
+        what: Option<&'a str>,
+        why: Option<&'a str>,
+        seconds: u64,
     },
     /// A demonstration was saved in `dir` (the state follows).
     DemoSaved {

@@ -100,6 +100,10 @@ pub struct Replay {
     pub factory: DeciderFactory,
     /// What is replayed and how it ended, in one line.
     pub summary: String,
+    /// Why making its decider may take long (models finetuned in memory
+    /// the first time, then cached), if it may; the page shows it while it
+    /// waits.
+    pub slow: Option<String>,
 }
 
 impl std::fmt::Debug for Replay {

@@ -61,6 +61,24 @@ pub fn replay(path: &Path, seed: u64, layout: &Layout) -> crate::error::Result<R
             "failed"
         }
     );
+    // The runs whose models are finetuned in memory (`seespot_eval::memo`):
+    // the Adam variant's and the TransporterNet's; the reference procedure's
+    // are read from `<out>/finetuned/`.
+    let finetunes_in_memory = config.finetune_steps > 0
+        && (config.method == seespot_eval::EvalMethod::Transporter
+            || config.finetune_procedure == seespot_policy::finetune::FinetuneProcedure::Adam);
+    let slow = finetunes_in_memory.then(|| {
+        format!(
+            "{} finetunes its models on the {} demonstrations the first time it is replayed \
+             (1 to 4 minutes on two cores), then reads them from the cache ({})",
+            record.method,
+            record.task,
+            seespot_eval::memo::cache_dir().map_or_else(
+                || "none: no home folder".to_owned(),
+                |d| d.display().to_string()
+            )
+        )
+    });
     Ok(Replay {
         task: record.task,
         seed,
@@ -68,6 +86,7 @@ pub fn replay(path: &Path, seed: u64, layout: &Layout) -> crate::error::Result<R
         noise: config.world.noise,
         factory,
         summary,
+        slow,
     })
 }
 

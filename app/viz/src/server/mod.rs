@@ -31,7 +31,7 @@ use crate::documents::to_text;
 use crate::error::VizError;
 use crate::protocol::{ClientMessage, ServerMessage};
 use crate::review::ReviewSource;
-use crate::session::{PairQuery, Session};
+use crate::session::{PairQuery, PreparedReplay, Session};
 use crate::token::AccessToken;
 use seespot_sim::TaskId;
 
@@ -61,6 +61,8 @@ pub struct AppState {
     difference: Mutex<Option<crate::difference::Difference>>,
     /// Other evaluations the difference view can compare with (folders 1, 2, ...).
     compare: Mutex<Vec<ReviewSource>>,
+    /// The replay being prepared, in words, if one is.
+    preparing: Mutex<Option<String>>,
 }
 
 impl std::fmt::Debug for AppState {
@@ -88,6 +90,7 @@ impl AppState {
             review_doc: Mutex::new(None),
             difference: Mutex::new(None),
             compare: Mutex::new(Vec::new()),
+            preparing: Mutex::new(None),
         })
     }
 
@@ -133,6 +136,11 @@ impl AppState {
         self.session
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    /// What every tab is sent from now on (states, `busy`), as JSON text.
+    pub fn subscribe(&self) -> broadcast::Receiver<String> {
+        self.tx.subscribe()
     }
 
     fn broadcast_state(&self) {
@@ -442,6 +450,20 @@ async fn client(socket: WebSocket, s: Arc<AppState>) {
             Message::Close(_) => break,
             _ => continue,
         };
+        // A replay may take minutes to prepare: it answers on its own task,
+        // so this tab's other requests are served meanwhile.
+        if matches!(
+            ClientMessage::parse(&text),
+            Ok(ClientMessage::Replay { .. })
+        ) {
+            let (s, tx) = (s.clone(), direct_tx.clone());
+            tokio::spawn(async move {
+                if let Some(reply) = handle(&s, &text).await {
+                    let _ = tx.send(reply).await;
+                }
+            });
+            continue;
+        }
         if let Some(reply) = handle(&s, &text).await
             && direct_tx.send(reply).await.is_err()
         {
@@ -494,16 +516,7 @@ pub async fn handle(s: &Arc<AppState>, text: &str) -> Option<String> {
                     Some(kind),
                 ));
             };
-            let m = method.clone();
-            let r = step(st, move |ses| {
-                let replay = src.replay(&m, task, seed)?;
-                ses.load_replay(replay)
-            })
-            .await;
-            return Some(match r {
-                Ok(()) => ServerMessage::Replay { method, task, seed }.to_text(),
-                Err(e) => failed(&e, Some(kind)),
-            });
+            return Some(replay(st, src, method, task, seed).await);
         }
         ClientMessage::Live => {
             step(st, |ses| {
@@ -575,6 +588,97 @@ pub async fn handle(s: &Arc<AppState>, text: &str) -> Option<String> {
         Ok(()) => None,
         Err(e) => Some(failed(&e, Some(kind))),
     }
+}
+
+/// Clears [`AppState::preparing`] when the preparation it guards ends,
+/// however it ends.
+struct Preparing<'a>(&'a AppState);
+
+impl Drop for Preparing<'_> {
+    fn drop(&mut self) {
+        *self
+            .0
+            .preparing
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner) = None;
+    }
+}
+
+/// Loads the replay of trial (`method`, `task`, `seed`) of `src` into the
+/// session. Its decider is made on a blocking thread without holding the
+/// session, since a finetuned run may finetune its models for minutes
+/// first: meanwhile every tab hears `busy` once a second and every other
+/// request is served. One replay is prepared at a time. Returns the reply.
+async fn replay(
+    s: Arc<AppState>,
+    src: ReviewSource,
+    method: String,
+    task: TaskId,
+    seed: u64,
+) -> String {
+    const KIND: Option<&str> = Some("replay");
+    let what = format!("the replay of {method} on {task} seed {seed}");
+    {
+        let mut p = s
+            .preparing
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        if let Some(other) = &*p {
+            return error(
+                format!("{other} is being prepared; wait for it, then ask again"),
+                KIND,
+            );
+        }
+        *p = Some(what.clone());
+    }
+    let _preparing = Preparing(&s);
+    let m = method.clone();
+    let replay = match tokio::task::spawn_blocking(move || src.replay(&m, task, seed)).await {
+        Ok(Ok(r)) => r,
+        Ok(Err(e)) => return failed(&e, KIND),
+        Err(e) => return failed(&e.into(), KIND),
+    };
+    match load_replay(&s, &what, replay).await {
+        Ok(()) => ServerMessage::Replay { method, task, seed }.to_text(),
+        Err(e) => failed(&e, KIND),
+    }
+}
+
+/// Makes `replay`'s decider on a blocking thread, telling every tab once a
+/// second that `what` is being prepared (`busy`), then loads it into the
+/// session; the session is not held meanwhile, so every other request is
+/// served.
+pub async fn load_replay(
+    s: &Arc<AppState>,
+    what: &str,
+    replay: crate::registry::Replay,
+) -> Result<(), VizError> {
+    let why = replay.slow.clone();
+    let started = std::time::Instant::now();
+    let mut work = tokio::task::spawn_blocking(move || PreparedReplay::new(replay));
+    let mut tick = tokio::time::interval(std::time::Duration::from_secs(1));
+    let prepared = loop {
+        tokio::select! {
+            r = &mut work => break r,
+            _ = tick.tick() => {
+                let busy = ServerMessage::Busy {
+                    what: Some(what),
+                    why: why.as_deref(),
+                    seconds: started.elapsed().as_secs(),
+                };
+                let _ = s.tx.send(busy.to_text());
+            }
+        }
+    };
+    // Done, made or not: every tab stops saying it is busy.
+    let done = ServerMessage::Busy {
+        what: None,
+        why: None,
+        seconds: started.elapsed().as_secs(),
+    };
+    let _ = s.tx.send(done.to_text());
+    let prepared = prepared??;
+    step(s.clone(), move |ses| ses.install_replay(prepared)).await
 }
 
 /// Runs actions until the trial ends, `stop` arrives or an action fails; a

@@ -70,6 +70,35 @@ struct Snapshot {
     decided_on: Option<Arc<Heightmaps>>,
 }
 
+/// A replay with its decider made ([`Session::install_replay`]).
+pub struct PreparedReplay {
+    replay: Replay,
+    decider: Box<dyn Decider>,
+    note: String,
+}
+
+impl std::fmt::Debug for PreparedReplay {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PreparedReplay")
+            .field("replay", &self.replay)
+            .finish_non_exhaustive()
+    }
+}
+
+impl PreparedReplay {
+    /// Makes `replay`'s decider for its task and world: loads its models,
+    /// and for a finetuned run whose models are not cached, finetunes them
+    /// (minutes).
+    pub fn new(replay: Replay) -> crate::error::Result<Self> {
+        let (decider, note) = (replay.factory)(replay.task, replay.world())?;
+        Ok(Self {
+            replay,
+            decider,
+            note,
+        })
+    }
+}
+
 /// A trial being stepped, its current decision and the recording.
 pub struct Session {
     factory: DeciderFactory,
@@ -103,6 +132,11 @@ pub struct Session {
     demos: PathBuf,
     /// Where the last demonstration was saved.
     saved_demo: Option<PathBuf>,
+    /// The evaluation the page reviews, where the offer of a known
+    /// failure's trial with seespot's extensions is looked up.
+    review_dir: Option<PathBuf>,
+    /// Why the trial failed, once it has ended in a failure.
+    failure: Option<crate::documents::FailureDoc>,
 }
 
 impl std::fmt::Debug for Session {
@@ -144,6 +178,8 @@ impl Session {
             demonstration: None,
             demos: PathBuf::from("demos"),
             saved_demo: None,
+            review_dir: None,
+            failure: None,
         };
         s.begin();
         Ok(s)
@@ -204,6 +240,13 @@ impl Session {
         self.demos = demos;
     }
 
+    /// The evaluation the page reviews (an output folder of `seespot
+    /// eval`): a known failure of the paper's method offers its trial with
+    /// seespot's extensions from there ([`crate::failure`]).
+    pub fn set_review_dir(&mut self, dir: PathBuf) {
+        self.review_dir = Some(dir);
+    }
+
     /// Enters Demonstrate mode: a demonstration of `task` from the start of
     /// `seed` (default: this trial's), made one click at a time.
     pub fn demonstrate(
@@ -250,10 +293,24 @@ impl Session {
         Ok(())
     }
 
-    /// Leaves Demonstrate mode without saving.
+    /// Leaves Demonstrate mode without saving, for a fresh start of the
+    /// trial it interrupted ([`Self::end_demonstration`]).
     pub fn demo_stop(&mut self) {
+        self.end_demonstration();
+    }
+
+    /// Leaves Demonstrate mode for a fresh start of the trial (task and
+    /// seed) it interrupted: the page comes back to action 1 of that trial,
+    /// not to the middle or the end of the one it left.
+    fn end_demonstration(&mut self) {
         self.demonstration = None;
-        self.version += 1;
+        let (task, seed) = (self.config.task, self.config.seed);
+        // The task is unchanged, so `reset` loads nothing and cannot fail
+        // on a file; a custom task it runs was loaded when it started.
+        if let Err(e) = self.reset(task, seed) {
+            self.last_error = Some(format!("cannot start {task} seed {seed} again: {e}"));
+            self.version += 1;
+        }
     }
 
     /// Saves the demonstration in the format of `seespot demo record`: a
@@ -274,9 +331,8 @@ impl Session {
             seespot_sim::custom::next_demo_dir(&task_dir)?
         };
         seespot_sim::custom::save(&demo, &dir, overwrite)?;
-        self.demonstration = None;
         self.saved_demo = Some(dir.clone());
-        self.version += 1;
+        self.end_demonstration();
         Ok(dir)
     }
 
@@ -318,6 +374,7 @@ impl Session {
         self.decision = None;
         self.decided_on = None;
         self.action = None;
+        self.failure = None;
         self.last_error = None;
         self.history.clear();
         self.viewing = None;
@@ -330,8 +387,21 @@ impl Session {
     /// and resolution replace this session's, and its trial starts from the
     /// beginning. Later resets keep that decider.
     pub fn load_replay(&mut self, r: Replay) -> crate::error::Result<()> {
+        let prepared = PreparedReplay::new(r)?;
+        self.install_replay(prepared)
+    }
+
+    /// [`Self::load_replay`] with the decider already made (by
+    /// [`PreparedReplay::new`], which can take minutes where a replay
+    /// finetunes its models, so the server makes it without holding the
+    /// session).
+    pub fn install_replay(&mut self, p: PreparedReplay) -> crate::error::Result<()> {
+        let PreparedReplay {
+            replay: r,
+            decider,
+            note,
+        } = p;
         let world = r.world();
-        let (decider, note) = (r.factory)(r.task, world)?;
         self.factory = r.factory;
         self.decider = decider;
         self.decider_note = note;
@@ -522,6 +592,14 @@ impl Session {
                     .action
                     .required(|| "no decided action to execute".into())?;
                 self.trial.step(action);
+                if self.trial.end().is_some() {
+                    let paper = self
+                        .decider
+                        .ssr_config()
+                        .is_some_and(|c| crate::failure::is_paper_method(&c));
+                    self.failure =
+                        crate::failure::failure_doc(&self.trial, paper, self.review_dir.as_deref());
+                }
             }
             Phase::Match | Phase::Verify => {}
         }

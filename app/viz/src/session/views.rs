@@ -127,12 +127,20 @@ impl Session {
             None => self.live_state(),
         };
         v.version = self.version;
+        // A demonstration has no phases to revisit; the interrupted trial's
+        // are not its.
+        let kept = if self.demonstration.is_some() {
+            0
+        } else {
+            self.history.len()
+        };
         v.history = Some(HistoryDoc {
-            len: self.history.len(),
+            len: kept,
             viewing: self.viewing,
             phases: self
                 .history
                 .iter()
+                .take(kept)
                 .map(|h| HistoryEntry {
                     action_index: h.state.action_index,
                     action_number: h.state.action_number,
@@ -195,6 +203,7 @@ impl Session {
             blocks: t.world().block_poses(),
             end: t.end(),
             end_words: t.end().map(seespot_sim::TrialEnd::words),
+            failure: self.failure.clone(),
             succeeded: t.succeeded(),
             had_reversal: t.had_reversal(),
             method: decision.map(|d| d.method),
@@ -236,11 +245,34 @@ impl Session {
             demonstrate: None,
         };
         if let Some(d) = &self.demonstration {
+            // The demonstration's own world and nothing of the trial it
+            // interrupted: its task and seed, no executed actions, no end,
+            // no replay, no decision.
             let w = d.world();
+            let actions = d.actions().len();
+            doc.task = d.task();
+            doc.seed = d.seed();
             doc.primitive = w.next_primitive();
             doc.holding = w.held_block();
             doc.blocks = w.block_poses();
             doc.phase = None;
+            doc.action_index = actions;
+            doc.action_number = actions + 1;
+            doc.progress = d.progress().unwrap_or(0);
+            doc.end = None;
+            doc.end_words = None;
+            doc.failure = None;
+            doc.succeeded = false;
+            doc.had_reversal = false;
+            doc.replay = None;
+            doc.steps.clear();
+            doc.method = None;
+            doc.decided_primitive = None;
+            doc.decided_progress = None;
+            doc.l2cd_choice = None;
+            doc.ccd_choice = None;
+            doc.skipped.clear();
+            doc.timing_ms = None;
             doc.pairs.clear();
             doc.chosen = None;
             doc.action = None;
