@@ -190,6 +190,26 @@ test('the top bar, the trial box and the demonstrate box fit at 800 and 1280 px'
   }
 });
 
+test('long work on the server shows on the page as it goes, and goes when it is done', async () => {
+  // The server's `busy` messages (protocol.rs), as a finetuned run's first
+  // replay sends them each second (app/viz/tests/issue_59_page.rs checks
+  // the server side), handed to the page's own handler.
+  const busy = (m) => page.evaluate((m) => window.seespot.ws.onmessage({ data: JSON.stringify({ type: 'busy', ...m }) }), m);
+  for (const width of WIDTHS) {
+    await page.setViewportSize({ width, height: 900 });
+    await busy({ what: 'the replay of transporter-finetuned on stack seed 1', why: 'it finetunes its models first', seconds: 42 });
+    const banner = page.getByTestId('busy');
+    assert.ok(await banner.isVisible());
+    assert.equal(await banner.textContent(),
+      '⏳ Preparing the replay of transporter-finetuned on stack seed 1: 42 s so far. it finetunes its models first');
+    assert.deepEqual(await overflows([]), [], `at ${width} px`);
+    // The page stays usable meanwhile: a control answers.
+    assert.ok(await page.getByTestId('reset').isEnabled());
+    await busy({ what: null, why: null, seconds: 43 });
+    assert.ok(!(await banner.isVisible()));
+  }
+});
+
 test('a SPOT-Q replay\'s demo side draws no demonstration marks', async () => {
   await page.setViewportSize({ width: 1280, height: 900 });
   await page.evaluate(() => window.seespot.ws.send(JSON.stringify({ type: 'replay', method: 'spot-q', task: 'stack', seed: 1 })));
