@@ -109,6 +109,35 @@ def recorded(path: Path) -> dict[int, dict[str, Any]]:
     return {int(r["seed"]): r for r in map(json.loads, read_records(path))}
 
 
+#: The first validation seed (``seespot_sim::seeds::VALIDATION_START``): even
+#: seeds are training seeds, odd seeds below it test seeds, odd seeds from it
+#: validation seeds.
+VALIDATION_START = 10_001
+
+
+def split_of(seed: int) -> str:
+    """The split ``seed`` belongs to: ``training``, ``test`` or ``validation``."""
+    if seed % 2 == 0:
+        return "training"
+    return "test" if seed < VALIDATION_START else "validation"
+
+
+def check_split(path: Path, recorded_seeds: Iterable[int], new_seeds: Iterable[int]) -> None:
+    """Refuses, as ``seespot eval`` does, to add a seed of one split to a
+    records file holding another's: a ``ValueError`` naming the file and both
+    splits (the report over the file would mix them without a word)."""
+    new = next(iter(new_seeds), None)
+    if new is None:
+        return
+    other = next((s for s in recorded_seeds if split_of(s) != split_of(new)), None)
+    if other is not None:
+        raise ValueError(
+            f"{path}: holds {split_of(other)} seeds (seed {other}); seed {new} is a "
+            f"{split_of(new)} seed, and a records file holds one split's seeds; "
+            "evaluate into another --out (the shipped validation runs are in results/validation)"
+        )
+
+
 def append(path: Path, line: str) -> None:
     """Appends one record line as ``seespot eval`` does: a fragment left by a
     kill is cut off first, and the line is synced (a killed run loses no
@@ -176,6 +205,11 @@ def evaluate(
             for m in methods
             for t in tasks
         }
+        # A seed of another split than a file's records is refused before Ray starts.
+        for (m, t), name in names.items():
+            path = Path(records_path(Path(out_dir), name, t))
+            have = recorded(path)
+            check_split(path, have, (s for s in seeds if s not in have))
         return _evaluate_locked(
             ray, methods, tasks, seeds, out_dir, models_dir, demos_dir, resolution,
             correspond, num_workers, threads, address, options, names,
