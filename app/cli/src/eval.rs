@@ -445,7 +445,7 @@ pub struct CorrespondArgs {
 impl CorrespondArgs {
     /// The options the flags name; a flag of the other formulation is
     /// refused (`--smoothing` with `--correspond plain`, ...).
-    fn options(&self) -> anyhow::Result<CorrespondOptions> {
+    pub(crate) fn options(&self) -> anyhow::Result<CorrespondOptions> {
         let settings = CorrespondSettings {
             correspond: self.correspond,
             smooth_sigma: self.smooth_sigma,

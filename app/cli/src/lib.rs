@@ -25,6 +25,7 @@ mod review;
 mod sim;
 mod train;
 mod transporter;
+mod truth;
 #[cfg(feature = "viewer")]
 mod view;
 
@@ -83,6 +84,10 @@ enum Command {
     /// Measure speed (`--json` for a machine-readable report).
     #[command(subcommand)]
     Bench(bench::BenchCommand),
+    /// Is the match right? See-SPOT-Run asked at the states the oracle
+    /// passes through, each correspondence judged by the simulator on a copy
+    /// of the world: match and selection accuracy, C as a verifier.
+    Truth(truth::TruthArgs),
 }
 
 /// Runs the command line `args` (the program name first, as
@@ -144,6 +149,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Demo(c) => demo::run(c),
         Command::Sim(c) => sim::run(c),
         Command::Bench(c) => bench::run(c),
+        Command::Truth(a) => truth::run(a),
         Command::Eval(a) => eval::run(a),
         Command::Export(c) => export::run(c),
         Command::Train(a) => train::run(a),

@@ -18,6 +18,7 @@
 //! - [`review`]: why the failed trials failed.
 
 pub mod config;
+pub mod correspondence;
 pub mod diverge;
 pub mod evaluation;
 pub mod finetuned;

@@ -1,0 +1,201 @@
+//! `seespot truth`: is the match right? The correspondence benchmark
+//! (`seespot_eval::correspondence`): See-SPOT-Run asked at the probe states
+//! the oracle passes through, each pair's F judged on a copy of the world.
+
+use std::io::Write as _;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use seespot_eval::correspondence::{self, ProbeAnswer, Summary, TOLERANCES_MM};
+use seespot_eval::run::EvalMethod;
+use seespot_sim::TaskId;
+use seespot_sim::seeds::{Seeds, Split};
+use seespot_ssr::Layout;
+
+use crate::eval::CorrespondArgs;
+
+#[derive(clap::Args, Debug)]
+pub struct TruthArgs {
+    /// A task id, or `all` for the four.
+    #[arg(long, default_value = "all")]
+    task: String,
+    /// The probe states' starts: `validation` seeds (the default; choose
+    /// settings here) or `test` seeds (ask once per chosen set).
+    #[arg(long, default_value = "validation")]
+    split: Split,
+    /// Starts per task (the oracle's trial from each gives its probe states).
+    #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    starts: u64,
+    /// Models (SPOT-Q policies) folder.
+    #[arg(long, default_value = "models")]
+    models: PathBuf,
+    /// Demonstrations folder.
+    #[arg(long, default_value = "demos")]
+    demos: PathBuf,
+    /// An embedding set in place of the SPOT-Q policies, as `eval --embeddings`
+    /// takes it.
+    #[arg(long, num_args = 1.., value_name = "PATH")]
+    embeddings: Vec<PathBuf>,
+    #[command(flatten)]
+    correspond: CorrespondArgs,
+    /// Also write every probe's answers and the summaries as JSON here.
+    #[arg(long, value_name = "FILE")]
+    json: Option<PathBuf>,
+}
+
+#[derive(serde::Serialize)]
+struct Report<'a> {
+    /// The code that made it: `git rev-parse HEAD`, and whether the tree
+    /// had changes (`git status --porcelain`), when run from a checkout.
+    commit: Option<String>,
+    tree_clean: Option<bool>,
+    command: Vec<String>,
+    set: String,
+    split: Split,
+    starts: u64,
+    rows: Vec<(String, String, Summary)>,
+    answers: &'a [ProbeAnswer],
+}
+
+pub fn run(args: TruthArgs) -> anyhow::Result<()> {
+    let tasks: Vec<TaskId> = if args.task == "all" {
+        TaskId::ALL.to_vec()
+    } else {
+        vec![args.task.parse::<TaskId>().map_err(anyhow::Error::msg)?]
+    };
+    if let Some(t) = tasks.iter().find(|t| !seespot_sim::Oracle::knows(**t)) {
+        anyhow::bail!(
+            "--task {t}: the probe states are the scripted oracle's, which knows the four built-in tasks only"
+        );
+    }
+    if args.split == Split::Train {
+        anyhow::bail!("--split train: the probe states come from validation or test starts");
+    }
+    let seeds: Vec<u64> = Seeds::of(args.split, args.starts).iter().collect();
+    let embeddings = crate::io::embeddings(&args.embeddings)?;
+    let set = embeddings
+        .as_ref()
+        .map(|e| e.label())
+        .unwrap_or_else(|| "spot-q".into());
+    let layout = Layout::new(&args.models, &args.demos).with_embeddings(embeddings);
+    let config = EvalMethod::SsrCcd.ssr_config(args.correspond.options()?);
+    let world = seespot_eval::runner::world_config(seespot_sim::DEFAULT_RESOLUTION);
+    let started = Instant::now();
+    let mut answers: Vec<ProbeAnswer> = Vec::new();
+    let mut err = std::io::stderr().lock();
+    for &task in &tasks {
+        let t = Instant::now();
+        let probes = correspondence::probes(task, &seeds, world);
+        let got = correspondence::ask(&layout, config, task, &probes)?;
+        writeln!(
+            err,
+            "{task}: {} probe states from {} {} starts, {:.1} s",
+            got.len(),
+            seeds.len(),
+            args.split,
+            t.elapsed().as_secs_f64()
+        )?;
+        answers.extend(got);
+    }
+    let total = started.elapsed().as_secs_f64();
+    let mut rows = Vec::new();
+    for task in &tasks {
+        for primitive in seespot_sim::Primitive::ALL {
+            let group: Vec<&ProbeAnswer> = answers
+                .iter()
+                .filter(|a| a.task == *task && a.primitive == primitive)
+                .collect();
+            if !group.is_empty() {
+                rows.push((
+                    task.to_string(),
+                    primitive.to_string(),
+                    correspondence::summarise(&group),
+                ));
+            }
+        }
+    }
+    let all: Vec<&ProbeAnswer> = answers.iter().collect();
+    rows.push(("all".into(), "both".into(), correspondence::summarise(&all)));
+    let mut out = std::io::stdout().lock();
+    writeln!(
+        out,
+        "Is the match right? {set}, {} probe states ({} {} starts per task), {total:.0} s ({:.0} s per thousand)\n",
+        answers.len(),
+        args.starts,
+        args.split,
+        1000.0 * total / answers.len().max(1) as f64
+    )?;
+    writeln!(
+        out,
+        "| task | primitive | probes | match accuracy | SSR CCD picks right | SSR L2CD picks right | CCD only / L2CD only (p) | AUC of -C | AUC of -L | right at C = 0 | CCD within 20 mm |"
+    )?;
+    writeln!(out, "|---|---|---|---|---|---|---|---|---|---|---|")?;
+    let pct = |s: &correspondence::Share| {
+        if s.of == 0 {
+            return "–".to_owned();
+        }
+        format!(
+            "{:.1}% ({}/{}; {:.0}-{:.0})",
+            100.0 * s.value,
+            s.hits,
+            s.of,
+            100.0 * s.low,
+            100.0 * s.high
+        )
+    };
+    let at20 = TOLERANCES_MM.iter().position(|d| *d == 20.0).unwrap_or(0);
+    let auc = |a: &correspondence::Auc| {
+        if a.value.is_nan() {
+            "–".to_owned()
+        } else {
+            format!("{:.3} ± {:.3}", a.value, a.se)
+        }
+    };
+    for (task, primitive, s) in &rows {
+        writeln!(
+            out,
+            "| {task} | {primitive} | {} | {} | {} | {} | {} / {} ({}) | {} | {} | {} | {} |",
+            s.probes,
+            pct(&s.match_accuracy),
+            pct(&s.ccd_selection),
+            pct(&s.l2cd_selection),
+            s.only_ccd,
+            s.only_l2cd,
+            seespot_eval::stats::p_text(s.ccd_vs_l2cd_p),
+            auc(&s.auc_neg_c),
+            auc(&s.auc_neg_l),
+            pct(&s.precision_c0),
+            pct(&s.ccd_within_mm[at20]),
+        )?;
+    }
+    writeln!(
+        out,
+        "\nPercentages with their Wilson 95% intervals; AUC with Hanley and McNeil's standard error. The truth is the simulator's (a copy of the world per action): an instrument, not an input of any method."
+    )?;
+    if let Some(path) = &args.json {
+        let git = |args: &[&str]| {
+            std::process::Command::new("git")
+                .args(args)
+                .output()
+                .ok()
+                .filter(|o| o.status.success())
+                .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_owned())
+        };
+        let report = Report {
+            commit: git(&["rev-parse", "HEAD"]),
+            tree_clean: git(&["status", "--porcelain", "--untracked-files=no"])
+                .map(|s| s.is_empty()),
+            command: std::env::args().collect(),
+            set,
+            split: args.split,
+            starts: args.starts,
+            rows,
+            answers: &answers,
+        };
+        let text = serde_json::to_string(&report)?;
+        std::fs::write(path, text)
+            .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", path.display()))?;
+        writeln!(out, "wrote {}", path.display())?;
+    }
+    Ok(())
+}
