@@ -83,8 +83,7 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
             if json {
                 return crate::io::print_json(&report);
             }
-            outln!("{}", serde_json::to_string_pretty(&report)?)?;
-            Ok(())
+            print_policy_table(&report)
         }
         BenchCommand::Ssr {
             resolution,
@@ -125,6 +124,44 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
         #[cfg(feature = "viewer")]
         BenchCommand::View(args) => crate::view::run_bench_view(args),
     }
+}
+
+/// `bench policy`'s report as a table: each timed part's median and least
+/// wall time.
+fn print_policy_table(report: &serde_json::Value) -> anyhow::Result<()> {
+    outln!(
+        "Q-networks on {} threads ({}):\n| part | median ms | min ms |\n|---|---|---|",
+        report["threads"],
+        report["simd"].as_str().unwrap_or("-"),
+    )?;
+    let mut rows = vec![(
+        "trunk, both primitives, 16 rotations".to_owned(),
+        &report["trunk_both_primitives_16_rotations"],
+    )];
+    for f in report["forward"].as_array().into_iter().flatten() {
+        let px = &f["resolution"];
+        rows.push((
+            format!("Q maps at {px} px, both primitives"),
+            &f["forward_q_both_primitives_16_rotations"],
+        ));
+        rows.push((
+            format!("embeddings with Q at {px} px, both primitives"),
+            &f["embed_with_q_both_primitives_16_rotations"],
+        ));
+    }
+    rows.push((
+        format!("one training step (batch {})", report["train_batch"]),
+        &report["train_step"],
+    ));
+    for (part, t) in rows {
+        outln!(
+            "| {part} | {} | {} |",
+            number_cell(t, "wall_ms_median"),
+            number_cell(t, "wall_ms_min")
+        )?;
+    }
+    outln!("(--json for every number)")?;
+    Ok(())
 }
 
 fn bench_sim(actions: usize, resolution: usize, json: bool) -> anyhow::Result<()> {
@@ -444,13 +481,14 @@ fn bench_ssr(
     }
     let d = &report["decision"];
     outln!(
-        "SSR at {resolution} px with {} (M = {}, D = {}), N = 2 demos, {decisions} decisions:",
+        "SSR at {resolution} px with {} (M = {}, D = {}), N = 2 demos, {decisions} decision{}:",
         report["embeddings"].as_str().unwrap_or("-"),
         dims.len(),
         dims.iter()
             .map(usize::to_string)
             .collect::<Vec<_>>()
             .join(", "),
+        if decisions == 1 { "" } else { "s" },
     )?;
     outln!("| part | median ms | min ms |\n|---|---|---|")?;
     let c = &report["correspond"];

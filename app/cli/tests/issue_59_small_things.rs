@@ -1,6 +1,6 @@
 //! Issue 59, item 9, the command line's small things: `record` says it needs
-//! rerun (and without it makes no folder), `bench ssr` prints a table unless
-//! `--json`, `export --help` names both formats, and a custom task's `eval`
+//! rerun (and without it makes no folder), `bench ssr` and `bench policy`
+//! print a table unless `--json`, `export --help` names both formats, and a custom task's `eval`
 //! prints one line per task as a built-in task's does.
 
 mod common;
@@ -60,6 +60,21 @@ fn issue_59_bench_ssr_prints_a_table_unless_json() {
     assert_eq!(code, 0, "{err}");
     let v: serde_json::Value = serde_json::from_str(&stdout).expect("JSON with --json");
     assert!(v["decision"]["decision_ms"].is_number(), "{v}");
+}
+
+#[test]
+fn issue_59_bench_policy_prints_a_table_unless_json() {
+    let (code, stdout, err) = seespot(&["bench", "policy", "--iterations", "1"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        serde_json::from_str::<serde_json::Value>(&stdout).is_err(),
+        "JSON without --json: {stdout}"
+    );
+    assert!(stdout.contains("| one training step (batch "), "{stdout}");
+    assert!(
+        !stdout.contains("| - | - |"),
+        "a part without its time: {stdout}"
+    );
 }
 
 #[test]
