@@ -203,7 +203,7 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         }
     }
     match evaluation.finish(args.finetune_steps.max(333))? {
-        Finished::Custom { path, .. } => {
+        Finished::Custom(path) => {
             if args.json {
                 doc["report"] = serde_json::json!(path);
                 return crate::io::print_json(&doc);

@@ -57,13 +57,8 @@ pub struct Recorded {
 pub enum Finished {
     /// The four folds' report (`summary.md`, `summary.csv`, `figure4.png`).
     Table(Report),
-    /// The custom tasks' report (`custom.md`), its text, and this run's
-    /// summary per custom task it evaluated (as a built-in fold's).
-    Custom {
-        path: PathBuf,
-        text: String,
-        summaries: Vec<crate::Summary>,
-    },
+    /// The custom tasks' report (`custom.md`): its path.
+    Custom(PathBuf),
 }
 
 impl Evaluation {
@@ -168,29 +163,7 @@ impl Evaluation {
             let text = custom_markdown(out)?;
             std::fs::write(&path, &text)
                 .map_err(|e| EvalError::Invalid(format!("{}: {e}", path.display())))?;
-            let name = self.config.spec().to_string();
-            let mut records = Vec::new();
-            for t in self.tasks.iter().filter(|t| !t.is_builtin()) {
-                let file = records_path(out, &name, *t);
-                if file.is_file() {
-                    let rs = read_records(&file)?;
-                    records.extend(
-                        rs.into_iter()
-                            .filter(|r| self.config.seeds.contains(r.seed)),
-                    );
-                }
-            }
-            let layout = &self.config.layout;
-            let summaries = crate::summarize_all(
-                &records,
-                |_, _| 0,
-                |_, t| crate::metrics::demo_actions(layout, t).unwrap_or(0),
-            );
-            return Ok(Finished::Custom {
-                path,
-                text,
-                summaries,
-            });
+            return Ok(Finished::Custom(path));
         }
         Ok(Finished::Table(write_report(
             out,
