@@ -9,10 +9,23 @@
 #     .venv-py/bin/python python/examples/env_stepping.py
 
 # %%
-import gymnasium as gym
-import numpy as np
+import sys
 
-import seespot  # registers seespot/Stack-v0, Row-v0, Unstack-v0, VerticalSquare-v0
+try:
+    import gymnasium as gym
+    import numpy as np
+
+    import seespot  # registers seespot/Stack-v0, Row-v0, Unstack-v0, VerticalSquare-v0
+except ModuleNotFoundError as e:
+    sys.exit(
+        f"this example needs the seespot package, numpy and gymnasium, and this Python "
+        f"({sys.executable}) has no module {e.name!r}. From the repository root, either\n"
+        f"  scripts/test-python   # makes .venv-py with all of them (and runs the package's tests)\n"
+        f"  .venv-py/bin/python python/examples/env_stepping.py\n"
+        f"or\n"
+        f"  python3 -m venv .venv && .venv/bin/pip install .   # compiles the Rust core\n"
+        f"  .venv/bin/python python/examples/env_stepping.py"
+    )
 
 env = gym.make("seespot/Stack-v0")
 obs, info = env.reset(seed=1)  # odd seeds are the paper's test seeds

@@ -13,7 +13,20 @@
 # The same from the shell: `python -m seespot.dist --method oracle --trials 4 --workers 2 --out runs/ray`.
 
 # %%
-from seespot import dist
+import sys
+
+try:
+    from seespot import dist
+except ModuleNotFoundError as e:
+    sys.exit(
+        f"this example needs the seespot package and Ray, and this Python "
+        f"({sys.executable}) has no module {e.name!r}. From the repository root, either\n"
+        f"  scripts/test-python   # makes .venv-py with all of them (and runs the package's tests)\n"
+        f"  .venv-py/bin/python python/examples/ray_evaluation.py\n"
+        f"or\n"
+        f"  python3 -m venv .venv && .venv/bin/pip install '.[ray]'   # compiles the Rust core\n"
+        f"  .venv/bin/python python/examples/ray_evaluation.py"
+    )
 
 result = dist.evaluate(["oracle", "random"], seed=1, trials=4, out_dir="runs/ray", num_workers=2)
 for (method, task), records in result.items():

@@ -10,9 +10,22 @@
 #     .venv-py/bin/python python/examples/ssr_own_embeddings.py
 
 # %%
-import numpy as np
+import sys
 
-import seespot
+try:
+    import numpy as np
+
+    import seespot
+except ModuleNotFoundError as e:
+    sys.exit(
+        f"this example needs the seespot package and numpy, and this Python "
+        f"({sys.executable}) has no module {e.name!r}. From the repository root, either\n"
+        f"  scripts/test-python   # makes .venv-py with all of them (and runs the package's tests)\n"
+        f"  .venv-py/bin/python python/examples/ssr_own_embeddings.py\n"
+        f"or\n"
+        f"  python3 -m venv .venv && .venv/bin/pip install .   # compiles the Rust core\n"
+        f"  .venv/bin/python python/examples/ssr_own_embeddings.py"
+    )
 
 rng = np.random.default_rng(0)
 W_PROJ = rng.normal(size=(4, 16)).astype(np.float32)  # (r, g, b, depth) -> D = 16

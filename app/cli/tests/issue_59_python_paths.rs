@@ -2,7 +2,8 @@
 //! exactly what to install. `seespot export lerobot` looks for a Python with
 //! the package (`SEESPOT_PYTHON`, then `.venv` and `.venv-py` here or above,
 //! then `python3`) and, with none, names each one tried, the module it lacks
-//! and the install command; the README's ONNX example says what to install.
+//! and the install command; the README's ONNX example and the other examples
+//! say what to install.
 
 use std::path::Path;
 use std::process::Command;
@@ -101,22 +102,36 @@ fn issue_59_export_lerobot_finds_the_repositorys_venv() {
 }
 
 #[test]
-fn issue_59_the_onnx_example_says_what_to_install() {
+fn issue_59_the_examples_say_what_to_install() {
     let dir = tempfile::tempdir().expect("tempdir");
     let Some(python) = bare_python(dir.path()) else {
         eprintln!("no python3 here: nothing to check");
         return;
     };
-    let o = Command::new(&python)
-        .arg(root().join("python/examples/ssr_onnx_network.py"))
-        .arg("--view")
-        .current_dir(root())
-        .output()
-        .expect("run");
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(1), "{err}");
-    assert!(err.contains("has no module 'numpy'"), "{err}");
-    assert!(err.contains("scripts/test-python"), "{err}");
-    assert!(err.contains("pip install . onnx"), "{err}");
-    assert!(!err.contains("Traceback"), "{err}");
+    for (example, missing) in [
+        ("ssr_onnx_network.py --view", "numpy"),
+        ("ssr_own_embeddings.py", "numpy"),
+        ("env_stepping.py", "gymnasium"),
+        ("ray_evaluation.py", "seespot"),
+    ] {
+        let mut words = example.split(' ');
+        let file = words.next().expect("a file");
+        let o = Command::new(&python)
+            .arg(root().join("python/examples").join(file))
+            .args(words)
+            .current_dir(root())
+            .output()
+            .expect("run");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{example}: {err}");
+        for w in [
+            &format!("has no module '{missing}'")[..],
+            "scripts/test-python",
+            "python3 -m venv .venv && .venv/bin/pip install ",
+            &format!("python/examples/{file}"),
+        ] {
+            assert!(err.contains(w), "{example}: no `{w}` in: {err}");
+        }
+        assert!(!err.contains("Traceback"), "{example}: {err}");
+    }
 }
