@@ -24,7 +24,7 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
-use seespot_sim::truth::{Truth, truth};
+use seespot_sim::truth::{Truth, truth_of_pair};
 use seespot_sim::{Action, Oracle, Primitive, TaskId, Trial, World, WorldConfig};
 use seespot_ssr::{Layout, SsrConfig, SsrPolicy};
 
@@ -43,6 +43,9 @@ pub struct Probe {
     /// The oracle's actions before this state.
     pub step: usize,
     pub progress: u8,
+    /// Progress before the oracle's grasp that lifted the block in hand (a
+    /// place is judged as the second half of that pair).
+    pub before_grasp: u8,
     pub primitive: Primitive,
     pub world: World,
 }
@@ -53,8 +56,13 @@ pub fn probes(task: TaskId, seeds: &[u64], world: WorldConfig) -> Vec<Probe> {
     for &seed in seeds {
         let mut trial = Trial::new(world, task, seed);
         let mut oracle = Oracle::new(task);
+        let mut before_grasp = trial.progress();
         while trial.end().is_none() {
+            if trial.world().next_primitive() == Primitive::Grasp {
+                before_grasp = trial.progress();
+            }
             out.push(Probe {
+                before_grasp,
                 task,
                 seed,
                 step: trial.actions(),
@@ -123,7 +131,12 @@ pub fn ask(
                         let t = match seen.iter().find(|(a, _)| *a == pair.matched) {
                             Some((_, t)) => t.clone(),
                             None => {
-                                let t = truth(&p.world, task, pair.matched);
+                                let t = truth_of_pair(
+                                    &p.world,
+                                    task,
+                                    pair.matched,
+                                    Some(p.before_grasp),
+                                );
                                 seen.push((pair.matched, t.clone()));
                                 t
                             }

@@ -12,9 +12,10 @@
 //!   its own copy); *wrong block* when it lifts a block from which none of
 //!   them does (a block that is part of what is built, or of the wrong
 //!   colour where colours matter); a *miss* when it lifts nothing.
-//! - A **place** is *right* when progress rises once the blocks settle;
-//!   *no progress* when it stays; a *reversal* when it falls; *out* when a
-//!   block leaves the workspace.
+//! - A **place** is *right* when progress rises once the blocks settle
+//!   (above its value before the grasp that lifted the block in hand, when
+//!   that is known: [`truth_of_pair`]); *no progress* when it does not; a
+//!   *reversal* when it falls; *out* when a block leaves the workspace.
 //! - The **distance** from the action to the nearest right action, from the
 //!   oracle's geometry: for a grasp, to the centre of a block whose grasp is
 //!   right; for a place, to a right target of the oracle's; in millimetres
@@ -80,11 +81,28 @@ pub struct Truth {
 
 /// The truth about `action` (of the primitive `world` expects next) in
 /// `world` for `task`. Deterministic: the same world and action give the
-/// same truth.
+/// same truth. A place is judged against the progress of the world as it
+/// is (the block in hand not counted); [`truth_of_pair`] judges it against
+/// the progress before the grasp that lifted the block.
 pub fn truth(world: &World, task: TaskId, action: Action) -> Truth {
+    truth_of_pair(world, task, action, None)
+}
+
+/// [`truth`], with a place judged as the second half of a grasp-place pair:
+/// *right* when progress after it is above `before_grasp` (the progress
+/// before the grasp that lifted the block in hand) and not below the
+/// world's now. Progress leaves out the block in hand, so in unstack the
+/// grasp of the tower's top already raises it, and a place elsewhere keeps
+/// it: right as a pair, though progress does not rise at the place.
+pub fn truth_of_pair(
+    world: &World,
+    task: TaskId,
+    action: Action,
+    before_grasp: Option<u8>,
+) -> Truth {
     match action.primitive {
         Primitive::Grasp => grasp_truth(world, task, action),
-        Primitive::Place => place_truth(world, task, action),
+        Primitive::Place => place_truth(world, task, action, before_grasp),
     }
 }
 
@@ -181,8 +199,11 @@ fn grasp_truth(world: &World, task: TaskId, action: Action) -> Truth {
     }
 }
 
-fn place_truth(world: &World, task: TaskId, action: Action) -> Truth {
+fn place_truth(world: &World, task: TaskId, action: Action, before_grasp: Option<u8>) -> Truth {
     let before = progress(world, task);
+    // What a place must get above, and what it must not fall below.
+    let floor = before_grasp.unwrap_or(before);
+    let raises = |after: u8| after > floor && after >= before;
     let block = world.held_block();
     let mut copy = world.fork();
     copy.execute(action);
@@ -198,7 +219,7 @@ fn place_truth(world: &World, task: TaskId, action: Action) -> Truth {
                 .filter(|&t| {
                     let mut c = world.fork();
                     c.execute(crate::oracle::place_for(&c, t));
-                    progress(&c, task) > before && !c.block_out_of_workspace()
+                    raises(progress(&c, task)) && !c.block_out_of_workspace()
                 })
                 .map(|(tx, ty, yaw)| {
                     let mm = 1000.0 * ((tx - x).powi(2) + (ty - y).powi(2)).sqrt();
@@ -210,10 +231,14 @@ fn place_truth(world: &World, task: TaskId, action: Action) -> Truth {
     let (distance_mm, rotation_steps) = nearest.unzip();
     let (verdict, why) = if out {
         (Verdict::Out, "a block leaves the workspace".to_owned())
-    } else if after > before {
+    } else if raises(after) {
         (
             Verdict::Right,
-            format!("the place raises progress to {after}"),
+            if after > before {
+                format!("the place raises progress to {after}")
+            } else {
+                format!("the pair raises progress from {floor} to {after}")
+            },
         )
     } else if after < before {
         (

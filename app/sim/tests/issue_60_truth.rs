@@ -2,7 +2,7 @@
 //! action carried out on it gives, bit for bit, the poses the trial then
 //! reaches), and the labeller judges built scenes as a person would.
 
-use seespot_sim::truth::{Verdict, truth};
+use seespot_sim::truth::{Verdict, truth, truth_of_pair};
 use seespot_sim::world::BlockPose;
 use seespot_sim::{Action, Oracle, Primitive, TaskId, Trial, World, WorldConfig};
 
@@ -32,9 +32,13 @@ fn the_copy_does_bit_for_bit_what_the_trial_does() {
         for seed in [1, 3] {
             let mut trial = Trial::new(WorldConfig::default(), task, seed);
             let mut oracle = Oracle::new(task);
+            let mut before_grasp = trial.progress();
             while trial.end().is_none() && trial.actions() < 10 {
                 let action = oracle.act(trial.world());
-                let label = truth(trial.world(), task, action);
+                if action.primitive == Primitive::Grasp {
+                    before_grasp = trial.progress();
+                }
+                let label = truth_of_pair(trial.world(), task, action, Some(before_grasp));
                 let mut copy = trial.world().fork();
                 copy.execute(action);
                 let before = bits(trial.world());
@@ -57,7 +61,9 @@ fn the_copy_does_bit_for_bit_what_the_trial_does() {
                         assert_eq!(label.progress_after, step.progress_after, "{label:?}");
                         let want = if trial.world().block_out_of_workspace() {
                             Verdict::Out
-                        } else if step.progress_after > step.progress_before {
+                        } else if step.progress_after > before_grasp
+                            && step.progress_after >= step.progress_before
+                        {
                             Verdict::Right
                         } else if step.progress_after < step.progress_before {
                             Verdict::Reversal
@@ -127,6 +133,31 @@ fn built_scenes_are_judged_as_a_person_would() {
     assert!((100.0..=140.0).contains(&d), "{d} mm");
     // The world the labels were worked out on is untouched.
     assert_eq!(bits(&world), bits(&tower_and_two()));
+}
+
+#[test]
+fn an_unstack_place_away_from_the_tower_is_right_as_a_pair() {
+    // A 4-block tower: unstack's progress 1. Its top lifted raises it to 2;
+    // set down on the table it stays 2, which is right for the pair; set
+    // back on the tower it falls to 1.
+    let poses = [0, 1, 2, 3].map(|level| BlockPose::on_table(0.0, 0.0, level, 0.0));
+    let mut world = World::from_poses(WorldConfig::default(), &poses, 0);
+    let task = TaskId::Unstack;
+    assert_eq!(task.progress_of(&world.table_blocks()), 1);
+    let grasp = at(&world, Primitive::Grasp, 0, 0.0, 0.0);
+    assert_eq!(truth(&world, task, grasp).verdict, Verdict::Right);
+    assert!(world.execute(grasp).success);
+    let away = at(&world, Primitive::Place, 0, 0.12, 0.1);
+    let pair = truth_of_pair(&world, task, away, Some(1));
+    assert_eq!(pair.verdict, Verdict::Right, "{pair:?}");
+    assert_eq!(pair.why, "the pair raises progress from 1 to 2");
+    let back = truth_of_pair(
+        &world,
+        task,
+        at(&world, Primitive::Place, 0, 0.0, 0.0),
+        Some(1),
+    );
+    assert_eq!(back.verdict, Verdict::Reversal, "{back:?}");
 }
 
 #[test]
