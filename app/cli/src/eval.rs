@@ -29,7 +29,9 @@ pub struct EvalArgs {
     trials: u64,
     /// First seed; trial i uses seed + 2 i. 1 (the default) gives the test
     /// seeds 1, 3, ...; 10001 the validation seeds, for choosing settings.
-    /// Even seeds are training seeds: refused without --training-seeds.
+    /// Even seeds are training seeds: refused without --training-seeds. A
+    /// records file holds one of these splits: another split's seeds go to
+    /// another --out.
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Allow an even --seed: evaluate on the training and demonstration seeds
@@ -83,7 +85,9 @@ pub struct EvalArgs {
     /// again, phase by phase, with the same inputs; SSR and oracle methods).
     #[arg(long, value_parser = ["failed"])]
     record: Option<String>,
-    /// Print one machine-readable summary object on stdout.
+    /// Print one machine-readable summary object on stdout: `tasks` (per
+    /// task, the records file, the seeds run and the seeds found already
+    /// recorded), `summaries` (this run's seeds) and the report's tests.
     #[arg(long)]
     json: bool,
     /// Trials run at once, each on its own worker with its own actor; a
