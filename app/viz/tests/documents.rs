@@ -53,6 +53,7 @@ fn state_and_frame_documents_keep_their_schema() {
             "end",
             "end_words",
             "error",
+            "failure",
             "had_reversal",
             "history",
             "holding",
