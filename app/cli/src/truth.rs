@@ -3,6 +3,7 @@
 //! the oracle passes through, each pair's F judged on a copy of the world.
 
 use std::io::Write as _;
+
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -41,6 +42,10 @@ pub struct TruthArgs {
     /// Also write every probe's answers and the summaries as JSON here.
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
+    /// Another set's `--json` file on the same probe states: each probe's
+    /// CCD and L2CD picks compared, paired (exact McNemar).
+    #[arg(long, value_name = "FILE")]
+    against: Option<PathBuf>,
 }
 
 #[derive(serde::Serialize)]
@@ -172,6 +177,9 @@ pub fn run(args: TruthArgs) -> anyhow::Result<()> {
         out,
         "\nPercentages with their Wilson 95% intervals; AUC with Hanley and McNeil's standard error. The truth is the simulator's (a copy of the world per action): an instrument, not an input of any method."
     )?;
+    if let Some(path) = &args.against {
+        paired(&mut out, &set, &answers, path)?;
+    }
     if let Some(path) = &args.json {
         let git = |args: &[&str]| {
             std::process::Command::new("git")
@@ -193,9 +201,109 @@ pub fn run(args: TruthArgs) -> anyhow::Result<()> {
             answers: &answers,
         };
         let text = serde_json::to_string(&report)?;
-        std::fs::write(path, text)
+        write_json(path, text.as_bytes())
             .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", path.display()))?;
         writeln!(out, "wrote {}", path.display())?;
     }
     Ok(())
+}
+
+/// This run's picks against another set's on the same probe states (its
+/// `--json` file at `path`), paired by (task, seed, step).
+fn paired(
+    out: &mut impl std::io::Write,
+    set: &str,
+    answers: &[ProbeAnswer],
+    path: &std::path::Path,
+) -> anyhow::Result<()> {
+    let text =
+        read_json(path).map_err(|e| anyhow::anyhow!("{}: cannot read: {e}", path.display()))?;
+    let other: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
+        anyhow::anyhow!("{}: not a `seespot truth --json` file: {e}", path.display())
+    })?;
+    let name = other["set"].as_str().unwrap_or("the other set").to_owned();
+    let key = |v: &serde_json::Value| {
+        (
+            v["task"].as_str().unwrap_or_default().to_owned(),
+            v["seed"].as_u64().unwrap_or_default(),
+            v["step"].as_u64().unwrap_or_default(),
+        )
+    };
+    let theirs: std::collections::BTreeMap<_, _> = other["answers"]
+        .as_array()
+        .ok_or_else(|| anyhow::anyhow!("{}: field `answers` is missing", path.display()))?
+        .iter()
+        .map(|a| (key(a), a))
+        .collect();
+    let right = |a: &serde_json::Value, rule: &str| -> Option<bool> {
+        let i = usize::try_from(a[rule].as_u64()?).ok()?;
+        Some(a["pairs"][i]["truth"]["verdict"].as_str()? == "right")
+    };
+    writeln!(out, "\n{set} against {name}, paired by probe state:\n")?;
+    writeln!(
+        out,
+        "| rule | probes | {set} right | {name} right | only {set} / only {name} | p (exact McNemar) |"
+    )?;
+    writeln!(out, "|---|---|---|---|---|---|")?;
+    for rule in ["ccd", "l2cd"] {
+        let (mut n, mut a_right, mut b_right, mut only_a, mut only_b) = (0, 0, 0, 0, 0);
+        for a in answers {
+            let ours = serde_json::to_value(a)?;
+            let Some(b) = theirs.get(&key(&ours)) else {
+                continue;
+            };
+            let (Some(x), Some(y)) = (right(&ours, rule), right(b, rule)) else {
+                continue;
+            };
+            n += 1;
+            a_right += usize::from(x);
+            b_right += usize::from(y);
+            only_a += usize::from(x && !y);
+            only_b += usize::from(y && !x);
+        }
+        if n == 0 {
+            anyhow::bail!(
+                "{}: no probe state in common with this run (other seeds or tasks?)",
+                path.display()
+            );
+        }
+        writeln!(
+            out,
+            "| SSR {} | {n} | {a_right} | {b_right} | {only_a} / {only_b} | {} |",
+            rule.to_uppercase(),
+            seespot_eval::stats::p_text(seespot_eval::stats::mcnemar_exact(only_a, only_b))
+        )?;
+    }
+    Ok(())
+}
+
+/// Writes `bytes` to `path`, gzipped when its name ends in `.gz`.
+fn write_json(path: &std::path::Path, bytes: &[u8]) -> std::io::Result<()> {
+    if path.extension().is_some_and(|e| e == "gz") {
+        let mut gz = flate2::write::GzEncoder::new(
+            std::fs::File::create(path)?,
+            flate2::Compression::best(),
+        );
+        gz.write_all(bytes)?;
+        gz.finish()?;
+        Ok(())
+    } else {
+        std::fs::write(path, bytes)
+    }
+}
+
+/// Reads `path` as text, gunzipped when its name ends in `.gz` (at most
+/// 256 MiB).
+fn read_json(path: &std::path::Path) -> std::io::Result<String> {
+    use std::io::Read as _;
+    let file = std::fs::File::open(path)?;
+    let mut text = String::new();
+    if path.extension().is_some_and(|e| e == "gz") {
+        flate2::read::GzDecoder::new(file)
+            .take(256 << 20)
+            .read_to_string(&mut text)?;
+    } else {
+        file.take(256 << 20).read_to_string(&mut text)?;
+    }
+    Ok(text)
 }
