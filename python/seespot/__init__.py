@@ -80,6 +80,7 @@ __all__ = [
     "run_spec",
     "run_trial",
     "test_seeds",
+    "truth",
     "view",
 ]
 
@@ -109,6 +110,40 @@ def run_trial(
     ev = Evaluator(method, task, models_dir, demos_dir, resolution, correspond, embeddings)
     record: dict[str, Any] = json.loads(ev.run(seed, index))
     return record
+
+
+def truth(
+    task: str = "all",
+    *,
+    split: str = "validation",
+    starts: int = 20,
+    embeddings: Any = None,
+    models_dir: str = "models",
+    demos_dir: str = "demos",
+) -> dict[str, Any]:
+    """Is the match right? The correspondence benchmark (``seespot truth``,
+    docs/truth.md) in this process: See-SPOT-Run asked at the states the
+    oracle passes through from ``starts`` seeds of ``split`` per task, each
+    pair's F judged by the simulator on a copy of the world. Returns the
+    report: ``rows`` (``[task, primitive, summary]``, the last for all
+    probes: match and selection accuracy, the McNemar test of CCD against
+    L2CD, the AUC of -C and -L, precision at C = 0, CCD's picks within 0 to
+    50 mm), ``answers`` (every probe's pairs with their truth), ``commit``.
+    ``embeddings`` as :class:`Ssr` takes them, functions included."""
+    import tempfile
+    from pathlib import Path
+
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "truth.json"
+        argv = ["seespot", "truth", "--task", task, "--split", split, "--starts", str(starts)]
+        argv += ["--models", str(models_dir), "--demos", str(demos_dir), "--json", str(out)]
+        if embeddings is not None:
+            argv += ["--embeddings", *_core.register_embeddings(embeddings)]
+        code = _core.cli(argv)
+        if code != 0:
+            raise ValueError(f"seespot truth failed (exit {code}); its message is above")
+        report: dict[str, Any] = json.loads(out.read_text())
+        return report
 
 
 def view(*args: str, embeddings: Any = None) -> int:
