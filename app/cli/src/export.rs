@@ -40,11 +40,16 @@ pub struct LerobotArgs {
 #[derive(Args, Debug)]
 pub struct OnnxArgs {
     /// Export every `<task>.safetensors` of this folder to `<out>/<task>.onnx`.
-    #[arg(long, default_value = "models", conflicts_with_all = ["policy", "raw_patches"])]
+    #[arg(long, default_value = "models", conflicts_with_all = ["policy", "raw_patches", "random_init"])]
     models: PathBuf,
     /// Export these policy files instead (each to `<out>/<file stem>.onnx`).
-    #[arg(long, num_args = 1.., value_name = "FILE", conflicts_with = "raw_patches")]
+    #[arg(long, num_args = 1.., value_name = "FILE", conflicts_with_all = ["raw_patches", "random_init"])]
     policy: Vec<PathBuf>,
+    /// Write a SPOT-Q network as initialised before any training, from this
+    /// seed, `<out>/random-init.onnx`: the floor of what embeddings give
+    /// (what chance looks like to `seespot truth`).
+    #[arg(long, value_name = "SEED", conflicts_with = "raw_patches")]
+    random_init: Option<u64>,
     /// Write the raw heightmap-patch control, `<out>/raw-patches.onnx`: each
     /// 16 mm cell's feature is the 5 x 5 cells around it (8 cm) of colour
     /// and depth, D = 100.
@@ -160,6 +165,15 @@ fn run_onnx(a: &OnnxArgs) -> anyhow::Result<()> {
     if a.raw_patches {
         let path = a.out.join("raw-patches.onnx");
         export::write(&export::raw_patches_model(), &path)?;
+        written.push(path);
+    } else if let Some(seed) = a.random_init {
+        let policy = seespot_policy::PolicyNet::new(
+            seespot_sim::TaskId::Stack,
+            seespot_sim::DEFAULT_RESOLUTION,
+            seed,
+        )?;
+        let path = a.out.join("random-init.onnx");
+        export::write(&export::policy_model(&policy)?, &path)?;
         written.push(path);
     } else {
         let policies: Vec<PathBuf> = if a.policy.is_empty() {
