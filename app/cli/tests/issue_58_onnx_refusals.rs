@@ -134,10 +134,9 @@ fn every_listed_refusal_is_in_plain_words_with_the_file() {
         .r#type
         .as_mut()
         .and_then(|t| t.value.as_mut())
+        && let Some(shape) = t.shape.as_mut()
     {
-        if let Some(shape) = t.shape.as_mut() {
-            shape.dim[1].value = Some(pb::tensor_shape_proto::dimension::Value::DimValue(3));
-        }
+        shape.dim[1].value = Some(pb::tensor_shape_proto::dimension::Value::DimValue(3));
     }
     cases.push((write(&m), "dimension 1 is 3"));
     // An operator the engine does not run.

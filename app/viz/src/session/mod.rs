@@ -294,7 +294,7 @@ impl Session {
     }
 
     /// Leaves Demonstrate mode without saving, for a fresh start of the
-    /// trial it interrupted ([`Self::end_demonstration`]).
+    /// trial it interrupted (`end_demonstration`).
     pub fn demo_stop(&mut self) {
         self.end_demonstration();
     }
