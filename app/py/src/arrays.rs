@@ -128,22 +128,6 @@ pub fn action_indices(a: [i64; 3], n: usize) -> Result<[usize; 3], (&'static str
     Ok(out)
 }
 
-/// The embedding set a Python `embeddings` argument names (`None`: the
-/// SPOT-Q policies): a folder, ONNX files, or functions
-/// ([`crate::callable`]), registered here.
-pub fn embeddings(
-    py: Python<'_>,
-    arg: Option<&Bound<'_, PyAny>>,
-) -> PyResult<Option<seespot_ssr::layout::Embeddings>> {
-    let Some(arg) = arg else {
-        return Ok(None);
-    };
-    let paths = crate::callable::embedding_paths(py, arg)?;
-    seespot_ssr::layout::Embeddings::from_paths(&paths)
-        .map(Some)
-        .map_err(|e| bad("embeddings", e))
-}
-
 /// Correspond's options from Python: `None` (the reference's, the default),
 /// a formulation's name (`"reference"` or `"plain"`), or a dict of
 /// `seespot_ssr::correspond::CorrespondSettings`' keys as records hold them

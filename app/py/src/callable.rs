@@ -64,6 +64,22 @@ impl FeatureFn for PyFeatures {
     }
 }
 
+/// The embedding set a Python `embeddings` argument names (`None`: the
+/// SPOT-Q policies): a folder, ONNX files, or functions
+/// ([`crate::callable`]), registered here.
+pub fn embeddings(
+    py: Python<'_>,
+    arg: Option<&Bound<'_, PyAny>>,
+) -> PyResult<Option<seespot_ssr::layout::Embeddings>> {
+    let Some(arg) = arg else {
+        return Ok(None);
+    };
+    let paths = embedding_paths(py, arg)?;
+    seespot_ssr::layout::Embeddings::from_paths(&paths)
+        .map(Some)
+        .map_err(|e| bad("embeddings", e))
+}
+
 /// An `embeddings` argument's items as paths: a path as it is, a function
 /// (or a `(grasp, place)` pair of them) checked and registered, named by
 /// its pseudo-path `callable:<name>`.

@@ -74,7 +74,7 @@ impl Evaluator {
             seeds: Seeds::new(1, 1).map_err(|e| bad("seeds", e))?,
             out_dir,
             layout: seespot_ssr::Layout::new(models_dir, demos_dir)
-                .with_embeddings(arrays::embeddings(py, embeddings)?),
+                .with_embeddings(crate::callable::embeddings(py, embeddings)?),
             world,
             correspond,
             finetune_steps,

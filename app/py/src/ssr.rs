@@ -69,7 +69,7 @@ impl Ssr {
         let task = arrays::task(task, &demos_dir)?;
         let config = ssr_config(py, method, correspond)?;
         let layout = seespot_ssr::Layout::new(models_dir, demos_dir)
-            .with_embeddings(crate::arrays::embeddings(py, embeddings)?);
+            .with_embeddings(crate::callable::embeddings(py, embeddings)?);
         let ssr = py
             .detach(|| SsrPolicy::load(task, &layout, config))
             .map_err(|e| bad("models_dir/demos_dir/embeddings", e))?;
