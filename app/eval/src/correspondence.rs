@@ -201,7 +201,19 @@ fn wilson(k: usize, n: usize) -> (f64, f64, f64) {
     let d = 1.0 + z * z / n;
     let centre = (p + z * z / (2.0 * n)) / d;
     let half = z * ((p * (1.0 - p) + z * z / (4.0 * n)) / n).sqrt() / d;
-    (p, (centre - half).max(0.0), (centre + half).min(1.0))
+    // At k = 0 and k = n the bounds are exactly 0 and 1 (rounding would
+    // leave them a hair inside).
+    let low = if k == 0.0 {
+        0.0
+    } else {
+        (centre - half).max(0.0)
+    };
+    let high = if k == n {
+        1.0
+    } else {
+        (centre + half).min(1.0)
+    };
+    (p, low, high)
 }
 
 /// The area under the ROC curve of `score` for `right` (ties count half),
