@@ -46,6 +46,11 @@ pub struct TruthArgs {
     /// CCD and L2CD picks compared, paired (exact McNemar).
     #[arg(long, value_name = "FILE")]
     against: Option<PathBuf>,
+    /// Ask no embedding set: judge N actions per probe state drawn uniformly
+    /// from those See-SPOT-Run's masks allow (seeded), what chance looks
+    /// like on these states.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=100), conflicts_with_all = ["embeddings", "against"])]
+    chance: Option<u64>,
 }
 
 #[derive(serde::Serialize)]
@@ -82,6 +87,9 @@ pub fn run(args: TruthArgs) -> anyhow::Result<()> {
         .as_ref()
         .map(|e| e.label())
         .unwrap_or_else(|| "spot-q".into());
+    if let Some(draws) = args.chance {
+        return run_chance(&args, &tasks, &seeds, draws as usize);
+    }
     let layout = Layout::new(&args.models, &args.demos).with_embeddings(embeddings);
     let config = EvalMethod::SsrCcd.ssr_config(args.correspond.options()?);
     let world = seespot_eval::runner::world_config(seespot_sim::DEFAULT_RESOLUTION);
@@ -306,4 +314,83 @@ fn read_json(path: &std::path::Path) -> std::io::Result<String> {
         file.take(256 << 20).read_to_string(&mut text)?;
     }
     Ok(text)
+}
+
+/// `seespot truth --chance N`: the verdicts of N allowed actions per probe
+/// state, drawn uniformly (ChaCha8, seed 0), per task and primitive.
+fn run_chance(
+    args: &TruthArgs,
+    tasks: &[TaskId],
+    seeds: &[u64],
+    draws: usize,
+) -> anyhow::Result<()> {
+    let world = seespot_eval::runner::world_config(seespot_sim::DEFAULT_RESOLUTION);
+    let started = Instant::now();
+    let mut answers = Vec::new();
+    for &task in tasks {
+        let probes = correspondence::probes(task, seeds, world);
+        answers.extend(correspondence::chance(task, &probes, draws, 0));
+    }
+    let total = started.elapsed().as_secs_f64();
+    let mut out = std::io::stdout().lock();
+    writeln!(
+        out,
+        "What chance looks like: {draws} actions drawn uniformly from those See-SPOT-Run's masks allow, at each of {} probe states ({} {} starts per task), {total:.0} s\n",
+        answers.len(),
+        args.starts,
+        args.split
+    )?;
+    writeln!(out, "| task | primitive | probes | drawn actions right |")?;
+    writeln!(out, "|---|---|---|---|")?;
+    let mut rows = Vec::new();
+    let groups = tasks
+        .iter()
+        .flat_map(|t| seespot_sim::Primitive::ALL.map(|p| (Some(*t), Some(p))))
+        .chain([(None, None)]);
+    for (task, primitive) in groups {
+        let group: Vec<&correspondence::ChanceAnswer> = answers
+            .iter()
+            .filter(|a| {
+                task.is_none_or(|t| a.task == t) && primitive.is_none_or(|p| a.primitive == p)
+            })
+            .collect();
+        if group.is_empty() {
+            continue;
+        }
+        let verdicts: Vec<_> = group.iter().flat_map(|a| &a.verdicts).collect();
+        let share = correspondence::Share::new(
+            verdicts.iter().filter(|v| v.is_right()).count(),
+            verdicts.len(),
+        );
+        let (t, p) = (
+            task.map_or("all".to_owned(), |t| t.to_string()),
+            primitive.map_or("both".to_owned(), |p| p.to_string()),
+        );
+        writeln!(
+            out,
+            "| {t} | {p} | {} | {:.1}% ({}/{}; {:.0}-{:.0}) |",
+            group.len(),
+            100.0 * share.value,
+            share.hits,
+            share.of,
+            100.0 * share.low,
+            100.0 * share.high
+        )?;
+        rows.push((t, p, share));
+    }
+    if let Some(path) = &args.json {
+        let text = serde_json::to_string(&serde_json::json!({
+            "set": "chance",
+            "draws": draws,
+            "split": args.split,
+            "starts": args.starts,
+            "command": std::env::args().collect::<Vec<_>>(),
+            "rows": rows,
+            "answers": answers,
+        }))?;
+        write_json(path, text.as_bytes())
+            .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", path.display()))?;
+        writeln!(out, "wrote {}", path.display())?;
+    }
+    Ok(())
 }

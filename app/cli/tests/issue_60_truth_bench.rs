@@ -67,6 +67,24 @@ fn the_benchmark_answers_the_same_on_the_same_probe_states() {
 }
 
 #[test]
+fn chance_judges_drawn_allowed_actions_the_same_on_every_run() {
+    let run = || {
+        let (code, out, err) = common::run_in(
+            &common::root(),
+            &["truth", "--task", "stack", "--starts", "1", "--chance", "3"],
+        );
+        assert_eq!(code, 0, "{err}");
+        out.lines()
+            .filter(|l| l.starts_with("| stack |") || l.starts_with("| all |"))
+            .map(str::to_owned)
+            .collect::<Vec<_>>()
+    };
+    let a = run();
+    assert_eq!(a.len(), 3, "{a:?}");
+    assert_eq!(a, run());
+}
+
+#[test]
 fn the_probe_states_are_the_oracles_and_test_seeds_are_asked_only_by_name() {
     let (code, err) = common::run(&["truth", "--task", "custom:l-shape", "--starts", "1"]);
     assert_ne!(code, 0);

@@ -166,6 +166,53 @@ pub fn ask(
         .collect()
 }
 
+/// What chance looks like at one probe state: the verdicts of actions drawn
+/// uniformly from those See-SPOT-Run's masks allow there (the test-time
+/// mask of `seespot_ssr::correspond::reference::ssr_mask`, every rotation).
+#[derive(Clone, Debug, Serialize)]
+pub struct ChanceAnswer {
+    pub task: TaskId,
+    pub seed: u64,
+    pub step: usize,
+    pub primitive: Primitive,
+    pub verdicts: Vec<seespot_sim::truth::Verdict>,
+}
+
+/// `draws` allowed actions per probe state of `task`, drawn from a ChaCha8
+/// stream seeded by (`seed`, the probe's seed and step), each judged as
+/// [`ask`] judges F.
+pub fn chance(task: TaskId, probes: &[Probe], draws: usize, seed: u64) -> Vec<ChanceAnswer> {
+    use rand::{Rng, SeedableRng};
+    probes
+        .par_iter()
+        .map(|p| {
+            let hm = p.world.render();
+            let mask = seespot_ssr::correspond::reference::ssr_mask(&hm, p.primitive, task);
+            let allowed: Vec<usize> = (0..mask.len()).filter(|&i| mask[i]).collect();
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(
+                seed ^ p.seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) ^ ((p.step as u64) << 32),
+            );
+            let n = hm.resolution();
+            let verdicts = (0..draws)
+                .filter(|_| !allowed.is_empty())
+                .map(|_| {
+                    let i = allowed[rng.random_range(0..allowed.len())];
+                    let r = rng.random_range(0..seespot_sim::NUM_ROTATIONS);
+                    let a = Action::new(p.primitive, r, i / n, i % n);
+                    truth_of_pair(&p.world, task, a, Some(p.before_grasp)).verdict
+                })
+                .collect();
+            ChanceAnswer {
+                task,
+                seed: p.seed,
+                step: p.step,
+                primitive: p.primitive,
+                verdicts,
+            }
+        })
+        .collect()
+}
+
 /// A proportion with its Wilson 95% interval.
 #[derive(Clone, Copy, Debug, Serialize)]
 pub struct Share {
