@@ -146,8 +146,12 @@ def export_all(name: str, model: nn.Module, out: Path) -> list[dict]:
     )
     files.append({"file": legacy.name, "kind": "legacy"})
 
+    # The default exporter, in its three forms: weights beside the file at
+    # the default operator set, inline, and inline at opsets 18 and 21.
     rotations = torch.export.Dim("rotations", min=1, max=16)
-    for kind, external in [("dynamo-external", True), ("dynamo-inline", False)]:
+    forms = [("dynamo-external", True, None), ("dynamo-inline", False, None)]
+    forms += [(f"dynamo-opset{opset}", False, opset) for opset in (18, 21)]
+    for kind, external, opset in forms:
         path = out / f"{name}-{kind}.onnx"
         data = out / f"{path.name}.data"
         data.unlink(missing_ok=True)
@@ -160,26 +164,12 @@ def export_all(name: str, model: nn.Module, out: Path) -> list[dict]:
             output_names=["features"],
             dynamic_shapes=({0: rotations},),
             external_data=external,
+            **({} if opset is None else {"opset_version": opset}),
         )
         entry = {"file": path.name, "kind": kind}
         if data.exists():
             entry["data"] = data.name
         files.append(entry)
-    # The operator sets around the default one (18 to 21), weights inline.
-    for opset in (18, 21):
-        path = out / f"{name}-dynamo-opset{opset}.onnx"
-        torch.onnx.export(
-            model,
-            (example,),
-            str(path),
-            dynamo=True,
-            input_names=["scene"],
-            output_names=["features"],
-            dynamic_shapes=({0: rotations},),
-            external_data=False,
-            opset_version=opset,
-        )
-        files.append({"file": path.name, "kind": f"dynamo-opset{opset}"})
     return files
 
 

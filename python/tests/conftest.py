@@ -42,8 +42,18 @@ def serving_view(seespot: Path, *args: str) -> Iterator[tuple[str, subprocess.Po
     """`seespot view --port 0 --no-viewer ARGS` from the repository root:
     yields the page's URL (as printed) and the process, then stops it with
     Ctrl-C (SIGINT) and waits for it."""
+    with serving([str(seespot), "view", "--port", "0", "--no-viewer", *args]) as served:
+        yield served
+
+
+@contextmanager
+def serving(command: list[str]) -> Iterator[tuple[str, subprocess.Popen[str]]]:
+    """Runs `command` (one that serves the page, such as `seespot view` or
+    a Python script calling `seespot.view`) from the repository root:
+    yields the page's URL (as printed) and the process, then stops it with
+    Ctrl-C (SIGINT) and waits for it."""
     proc = subprocess.Popen(
-        [str(seespot), "view", "--port", "0", "--no-viewer", *args],
+        command,
         cwd=ROOT,
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
@@ -59,7 +69,7 @@ def serving_view(seespot: Path, *args: str) -> Iterator[tuple[str, subprocess.Po
                 break
             m = re.search(r"seespot page:\s+(\S+)", line)
             url = m.group(1) if m else None
-        assert url, f"{seespot} view printed no page URL"
+        assert url, f"{command[0]} printed no page URL"
         yield url, proc
     finally:
         proc.send_signal(2)

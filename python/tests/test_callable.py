@@ -110,12 +110,10 @@ def test_a_torch_module_runs_through_the_same_path() -> None:
 def test_the_page_runs_on_a_function(tmp_path: Path) -> None:
     """seespot.view(..., embeddings=[fn]): the page's server, in the Python
     process that holds the function, decides with it."""
-    import re
-    import subprocess
     import sys
     import textwrap
-    import time
 
+    from conftest import serving
     from seespot.viz.viser import DebuggerClient
 
     script = textwrap.dedent(
@@ -129,28 +127,12 @@ def test_the_page_runs_on_a_function(tmp_path: Path) -> None:
         seespot.view("--port", "0", "--no-viewer", "--task", "row", "--seed", "1", embeddings=[strided])
         """
     )
-    proc = subprocess.Popen(
-        [sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
-    )
-    try:
-        url = None
-        deadline = time.monotonic() + 120
-        assert proc.stdout is not None
-        while url is None and time.monotonic() < deadline:
-            line = proc.stdout.readline()
-            if not line and proc.poll() is not None:
-                break
-            m = re.search(r"seespot page:\s+(\S+)", line)
-            url = m.group(1) if m else None
-        assert url, "seespot.view printed no page URL"
+    with serving([sys.executable, "-c", script]) as (url, _):
         client = DebuggerClient(url)
         try:
             client.request({"type": "next_phase"})
             decision = client.get("/api/decision")
         finally:
             client.close()
-        assert [p["policy"] for p in decision["pairs"]] == ["strided", "strided"]
-        assert decision["embed_ms"] > 0
-    finally:
-        proc.send_signal(2)
-        proc.wait(timeout=60)
+    assert [p["policy"] for p in decision["pairs"]] == ["strided", "strided"]
+    assert decision["embed_ms"] > 0

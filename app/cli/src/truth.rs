@@ -55,16 +55,56 @@ pub struct TruthArgs {
 
 #[derive(serde::Serialize)]
 struct Report<'a> {
-    /// The code that made it: `git rev-parse HEAD`, and whether the tree
-    /// had changes (`git status --porcelain`), when run from a checkout.
-    commit: Option<String>,
-    tree_clean: Option<bool>,
-    command: Vec<String>,
+    #[serde(flatten)]
+    made: Made,
     set: String,
     split: Split,
     starts: u64,
     rows: Vec<(String, String, Summary)>,
     answers: &'a [ProbeAnswer],
+}
+
+/// What made a report: the command, and the code (`git rev-parse HEAD`)
+/// with whether its tree had changes (`git status --porcelain`), when run
+/// from a checkout.
+#[derive(serde::Serialize)]
+struct Made {
+    commit: Option<String>,
+    tree_clean: Option<bool>,
+    command: Vec<String>,
+}
+
+impl Made {
+    fn now() -> Self {
+        let git = |args: &[&str]| {
+            std::process::Command::new("git")
+                .args(args)
+                .output()
+                .ok()
+                .filter(|o| o.status.success())
+                .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_owned())
+        };
+        Self {
+            commit: git(&["rev-parse", "HEAD"]),
+            tree_clean: git(&["status", "--porcelain", "--untracked-files=no"])
+                .map(|s| s.is_empty()),
+            command: std::env::args().collect(),
+        }
+    }
+}
+
+/// Writes `report` as JSON to `path` (gzipped when it ends in `.gz`) and
+/// says so on `out`.
+fn write_report(
+    out: &mut impl std::io::Write,
+    path: &std::path::Path,
+    report: &impl serde::Serialize,
+) -> anyhow::Result<()> {
+    let text = serde_json::to_string(report)?;
+    write_json(path, text.as_bytes())
+        .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", path.display()))?;
+    writeln!(out, "wrote {}", path.display())?;
+    Ok(())
 }
 
 pub fn run(args: TruthArgs) -> anyhow::Result<()> {
@@ -189,29 +229,15 @@ pub fn run(args: TruthArgs) -> anyhow::Result<()> {
         paired(&mut out, &set, &answers, path)?;
     }
     if let Some(path) = &args.json {
-        let git = |args: &[&str]| {
-            std::process::Command::new("git")
-                .args(args)
-                .output()
-                .ok()
-                .filter(|o| o.status.success())
-                .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_owned())
-        };
         let report = Report {
-            commit: git(&["rev-parse", "HEAD"]),
-            tree_clean: git(&["status", "--porcelain", "--untracked-files=no"])
-                .map(|s| s.is_empty()),
-            command: std::env::args().collect(),
+            made: Made::now(),
             set,
             split: args.split,
             starts: args.starts,
             rows,
             answers: &answers,
         };
-        let text = serde_json::to_string(&report)?;
-        write_json(path, text.as_bytes())
-            .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", path.display()))?;
-        writeln!(out, "wrote {}", path.display())?;
+        write_report(&mut out, path, &report)?;
     }
     Ok(())
 }
@@ -379,18 +405,27 @@ fn run_chance(
         rows.push((t, p, share));
     }
     if let Some(path) = &args.json {
-        let text = serde_json::to_string(&serde_json::json!({
-            "set": "chance",
-            "draws": draws,
-            "split": args.split,
-            "starts": args.starts,
-            "command": std::env::args().collect::<Vec<_>>(),
-            "rows": rows,
-            "answers": answers,
-        }))?;
-        write_json(path, text.as_bytes())
-            .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", path.display()))?;
-        writeln!(out, "wrote {}", path.display())?;
+        #[derive(serde::Serialize)]
+        struct ChanceReport<'a> {
+            #[serde(flatten)]
+            made: Made,
+            set: &'static str,
+            draws: usize,
+            split: Split,
+            starts: u64,
+            rows: Vec<(String, String, correspondence::Share)>,
+            answers: &'a [correspondence::ChanceAnswer],
+        }
+        let report = ChanceReport {
+            made: Made::now(),
+            set: "chance",
+            draws,
+            split: args.split,
+            starts: args.starts,
+            rows,
+            answers: &answers,
+        };
+        write_report(&mut out, path, &report)?;
     }
     Ok(())
 }

@@ -21,7 +21,7 @@ use seespot_sim::{NUM_ROTATIONS, Primitive};
 
 use crate::error::PolicyError;
 use crate::input::{INPUT_CHANNELS, NET_RESOLUTION};
-use crate::onnx::{MAX_DIM, bare_table};
+use crate::onnx::{MAX_DIM, bare_table, to_channels_last};
 
 /// The prefix that marks a path as a registered function's name.
 pub const PREFIX: &str = "callable:";
@@ -135,17 +135,10 @@ impl CallableEmbedder {
                 self.dim, self.cells
             )));
         }
-        let plane = cells * cells;
+        let per = dim * cells * cells;
         let mut out = vec![0.0f32; values.len()];
-        for (src, dst) in values
-            .chunks_exact(dim * plane)
-            .zip(out.chunks_exact_mut(dim * plane))
-        {
-            for c in 0..dim {
-                for (k, v) in src[c * plane..(c + 1) * plane].iter().enumerate() {
-                    dst[k * dim + c] = *v;
-                }
-            }
+        for (src, dst) in values.chunks_exact(per).zip(out.chunks_exact_mut(per)) {
+            to_channels_last(src, dim, cells * cells, dst);
         }
         Ok(out)
     }

@@ -110,16 +110,16 @@ fn progress(world: &World, task: TaskId) -> u8 {
     task.progress_of(&world.table_blocks())
 }
 
-/// The places tried for the block in hand of `holding` (taken from
-/// `before`, the world before its grasp): the first that raises progress
-/// above `floor`, with the progress it reaches and its target.
+/// Whether one of the places tried for the block in hand of `holding`
+/// (taken from `before`, the world before its grasp) raises progress above
+/// `floor`: the progress the first such place reaches.
 fn raising_place(
     before: &World,
     holding: &World,
     task: TaskId,
     block: usize,
     floor: u8,
-) -> Option<(u8, (f32, f32, f32))> {
+) -> Option<u8> {
     crate::oracle::place_targets(before, task, block)
         .into_iter()
         .take(PLACES_TRIED)
@@ -127,36 +127,50 @@ fn raising_place(
             let mut copy = holding.fork();
             copy.execute(crate::oracle::place_for(&copy, target));
             let after = progress(&copy, task);
-            (after > floor && !copy.block_out_of_workspace()).then_some((after, target))
+            (after > floor && !copy.block_out_of_workspace()).then_some(after)
         })
+}
+
+/// The distance from `action` to the nearest of `targets` (`(x, y, yaw)`,
+/// metres and radians): millimetres on the table and rotation steps.
+fn nearest(
+    world: &World,
+    action: Action,
+    targets: impl Iterator<Item = (f32, f32, f32)>,
+) -> (Option<f32>, Option<u8>) {
+    let (x, y) = world.grid().pixel_to_world(action.y, action.x);
+    targets
+        .map(|(tx, ty, yaw)| {
+            let mm = 1000.0 * ((tx - x).powi(2) + (ty - y).powi(2)).sqrt();
+            (mm, quarter_steps(action.rotation, nearest_rotation(yaw)))
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .unzip()
 }
 
 fn grasp_truth(world: &World, task: TaskId, action: Action) -> Truth {
     let before = progress(world, task);
     let mut copy = world.fork();
     let outcome = copy.execute(action);
-    // Every block whose grasp at its centre is right: the geometry the
-    // distance is read from.
-    let right_blocks: Vec<usize> = (0..NUM_BLOCKS)
-        .filter(|&i| {
+    // The distance to a right grasp, for a grasp that is not one: to the
+    // centre of every block whose grasp at its centre is right.
+    let to_right = || {
+        let poses = world.block_poses();
+        let right = (0..NUM_BLOCKS).filter(|&i| {
             crate::oracle::grasp_action(world, i).is_some_and(|g| {
                 let mut c = world.fork();
                 c.execute(g).block == Some(i) && raising_place(world, &c, task, i, before).is_some()
             })
-        })
-        .collect();
-    let poses = world.block_poses();
-    let (x, y) = world.grid().pixel_to_world(action.y, action.x);
-    let nearest = right_blocks
-        .iter()
-        .map(|&i| {
-            let p = poses[i].position;
-            let mm = 1000.0 * ((p[0] - x).powi(2) + (p[1] - y).powi(2)).sqrt();
-            let steps = quarter_steps(action.rotation, nearest_rotation(poses[i].yaw()));
-            (mm, steps)
-        })
-        .min_by(|a, b| a.0.total_cmp(&b.0));
-    let (distance_mm, rotation_steps) = nearest.unzip();
+        });
+        nearest(
+            world,
+            action,
+            right.map(|i| {
+                let [x, y, _] = poses[i].position;
+                (x, y, poses[i].yaw())
+            }),
+        )
+    };
     let Some(block) = outcome.block.filter(|_| outcome.success) else {
         let how = match outcome.failure {
             Some(ActionFailure::EmptyPixel) => "no block between the jaws",
@@ -164,6 +178,7 @@ fn grasp_truth(world: &World, task: TaskId, action: Action) -> Truth {
             Some(ActionFailure::FingerCollision) => "a finger lands on another block",
             _ => "nothing caught",
         };
+        let (distance_mm, rotation_steps) = to_right();
         return Truth {
             verdict: Verdict::Miss,
             block: None,
@@ -176,7 +191,7 @@ fn grasp_truth(world: &World, task: TaskId, action: Action) -> Truth {
     };
     let colour = COLOURS[block];
     match raising_place(world, &copy, task, block, before) {
-        Some((after, _)) => Truth {
+        Some(after) => Truth {
             verdict: Verdict::Right,
             block: Some(block),
             progress_before: before,
@@ -185,17 +200,20 @@ fn grasp_truth(world: &World, task: TaskId, action: Action) -> Truth {
             rotation_steps: Some(0),
             why: format!("lifts the {colour} block; a place from it raises progress to {after}"),
         },
-        None => Truth {
-            verdict: Verdict::WrongBlock,
-            block: Some(block),
-            progress_before: before,
-            progress_after: progress(&copy, task),
-            distance_mm,
-            rotation_steps,
-            why: format!(
-                "lifts the {colour} block; no place from it raises progress above {before}"
-            ),
-        },
+        None => {
+            let (distance_mm, rotation_steps) = to_right();
+            Truth {
+                verdict: Verdict::WrongBlock,
+                block: Some(block),
+                progress_before: before,
+                progress_after: progress(&copy, task),
+                distance_mm,
+                rotation_steps,
+                why: format!(
+                    "lifts the {colour} block; no place from it raises progress above {before}"
+                ),
+            }
+        }
     }
 }
 
@@ -208,28 +226,7 @@ fn place_truth(world: &World, task: TaskId, action: Action, before_grasp: Option
     let mut copy = world.fork();
     copy.execute(action);
     let after = progress(&copy, task);
-    let out = copy.block_out_of_workspace();
-    // The oracle's targets for the block in hand that raise progress.
-    let (x, y) = world.grid().pixel_to_world(action.y, action.x);
-    let nearest = block
-        .map(|b| {
-            crate::oracle::place_targets(world, task, b)
-                .into_iter()
-                .take(PLACES_TRIED)
-                .filter(|&t| {
-                    let mut c = world.fork();
-                    c.execute(crate::oracle::place_for(&c, t));
-                    raises(progress(&c, task)) && !c.block_out_of_workspace()
-                })
-                .map(|(tx, ty, yaw)| {
-                    let mm = 1000.0 * ((tx - x).powi(2) + (ty - y).powi(2)).sqrt();
-                    (mm, quarter_steps(action.rotation, nearest_rotation(yaw)))
-                })
-                .min_by(|a, b| a.0.total_cmp(&b.0))
-        })
-        .unwrap_or_default();
-    let (distance_mm, rotation_steps) = nearest.unzip();
-    let (verdict, why) = if out {
+    let (verdict, why) = if copy.block_out_of_workspace() {
         (Verdict::Out, "a block leaves the workspace".to_owned())
     } else if raises(after) {
         (
@@ -251,21 +248,31 @@ fn place_truth(world: &World, task: TaskId, action: Action, before_grasp: Option
             format!("the place leaves progress at {after}"),
         )
     };
+    // The distance to a right place, for a place that is not one: to the
+    // oracle's targets for the block in hand that raise progress.
+    let (distance_mm, rotation_steps) = match (verdict, block) {
+        (Verdict::Right, _) => (Some(0.0), Some(0)),
+        (_, None) => (None, None),
+        (_, Some(b)) => nearest(
+            world,
+            action,
+            crate::oracle::place_targets(world, task, b)
+                .into_iter()
+                .take(PLACES_TRIED)
+                .filter(|&t| {
+                    let mut c = world.fork();
+                    c.execute(crate::oracle::place_for(&c, t));
+                    raises(progress(&c, task)) && !c.block_out_of_workspace()
+                }),
+        ),
+    };
     Truth {
         verdict,
         block,
         progress_before: before,
         progress_after: after,
-        distance_mm: if verdict.is_right() {
-            Some(0.0)
-        } else {
-            distance_mm
-        },
-        rotation_steps: if verdict.is_right() {
-            Some(0)
-        } else {
-            rotation_steps
-        },
+        distance_mm,
+        rotation_steps,
         why,
     }
 }

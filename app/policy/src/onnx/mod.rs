@@ -312,7 +312,7 @@ pub(crate) fn bare_table(count: usize) -> Vec<f32> {
 
 /// One item's `depth x cells` values (channels first) into `dst` as
 /// `cells x depth` (channels last).
-fn to_channels_last(src: &[f32], depth: usize, cells: usize, dst: &mut [f32]) {
+pub(crate) fn to_channels_last(src: &[f32], depth: usize, cells: usize, dst: &mut [f32]) {
     for c in 0..depth {
         for (k, v) in src[c * cells..(c + 1) * cells].iter().enumerate() {
             dst[k * depth + c] = *v;
