@@ -245,19 +245,7 @@ mod tests {
     use seespot_sim::{Action, ActionLog};
 
     fn log(a: Action, before: u8, after: u8, ok: bool) -> ActionLog {
-        ActionLog {
-            action: a,
-            progress_before: before,
-            progress_after: after,
-            chosen_policy: None,
-            chosen_demo: None,
-            l: None,
-            c: None,
-            other_method_action: None,
-            decide_ms: 0.0,
-            primitive_success: Some(ok),
-            departures: Vec::new(),
-        }
+        ActionLog::bare(a, before, after, ok)
     }
 
     fn record(end: TrialEnd, reversal: bool, actions_log: Vec<ActionLog>) -> TrialRecord {

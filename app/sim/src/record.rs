@@ -42,6 +42,27 @@ pub struct ActionLog {
     pub departures: Vec<Departure>,
 }
 
+impl ActionLog {
+    /// The log of an action that no method explained: what it did to
+    /// progress and whether its primitive succeeded, no pair, distances or
+    /// departures (a live trial's steps as the review classifies them).
+    pub fn bare(action: Action, progress_before: u8, progress_after: u8, success: bool) -> Self {
+        Self {
+            action,
+            progress_before,
+            progress_after,
+            chosen_policy: None,
+            chosen_demo: None,
+            l: None,
+            c: None,
+            other_method_action: None,
+            decide_ms: 0.0,
+            primitive_success: Some(success),
+            departures: Vec::new(),
+        }
+    }
+}
+
 /// An action an SSR extension masked out of a decision, with the actions
 /// within `radius_m` metres of it, and why: for example a grasp that left
 /// the scene unchanged. Shown as the page, recordings and the review say it:

@@ -31,18 +31,13 @@ pub fn failure_kind(trial: &Trial) -> Option<FailureKind> {
     let log = trial
         .steps()
         .iter()
-        .map(|s| ActionLog {
-            action: s.action,
-            progress_before: s.progress_before,
-            progress_after: s.progress_after,
-            chosen_policy: None,
-            chosen_demo: None,
-            l: None,
-            c: None,
-            other_method_action: None,
-            decide_ms: 0.0,
-            primitive_success: Some(s.outcome.success),
-            departures: Vec::new(),
+        .map(|s| {
+            ActionLog::bare(
+                s.action,
+                s.progress_before,
+                s.progress_after,
+                s.outcome.success,
+            )
         })
         .collect();
     classify(&TrialRecord::new("", 0, trial, log))
