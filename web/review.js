@@ -25,14 +25,18 @@ function pct(k, n) { return n ? `${Math.round((100 * k) / n)}%` : '–'; }
 
 function drawCounts(d) {
   const head = document.createElement('tr');
-  for (const h of ['method', 'fold', 'trials', 'success', ...d.kinds.map((k) => k.label), 'replay']) {
+  for (const h of ['method', 'reads', 'fold', 'trials', 'success', ...d.kinds.map((k) => k.label), 'replay']) {
     const th = document.createElement('th'); th.textContent = h; head.appendChild(th);
   }
   $('counts-head').replaceChildren(head);
   const rows = d.counts.map((c) => {
     const tr = document.createElement('tr');
     tr.dataset.method = c.method; tr.dataset.task = c.task;
-    cell(tr, c.method); cell(tr, c.task); cell(tr, String(c.trials));
+    cell(tr, c.method);
+    const reads = cell(tr, c.reads || '');
+    reads.dataset.testid = 'reads';
+    if (c.reads === 'simulator') reads.title = 'reads the simulator\'s state: a privileged upper reference';
+    cell(tr, c.task); cell(tr, String(c.trials));
     cell(tr, `${c.successes} (${pct(c.successes, c.trials)})`);
     for (const k of d.kinds) {
       const n = c.failures[k.key] || 0;

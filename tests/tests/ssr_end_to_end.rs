@@ -97,7 +97,7 @@ fn live_scene_identical_to_the_demo_scene_reproduces_the_demo_action() {
     let demos = demos(task);
     for method in [Method::SsrCcd, Method::SsrL2cd] {
         let config = SsrConfig {
-            method,
+            rule: method,
             correspond: CorrespondOptions::default(),
             ..SsrConfig::default()
         };
@@ -137,7 +137,7 @@ fn global_rematch_measures_c_from_the_live_match() {
     let task = TaskId::Stack;
     let demos = demos(task);
     let config = SsrConfig {
-        method: Method::SsrCcd,
+        rule: Method::SsrCcd,
         correspond: CorrespondOptions::Reference {
             demo_features: Default::default(),
             smoothing: Default::default(),
@@ -175,7 +175,7 @@ fn global_rematch_measures_c_from_the_live_match() {
         untrained_policies(task),
         demos.clone(),
         SsrConfig {
-            method: Method::SsrCcd,
+            rule: Method::SsrCcd,
             ..SsrConfig::default()
         },
     )
@@ -286,8 +286,7 @@ fn loop_breaking_never_repeats_an_action_that_changed_nothing() {
     use seespot_ssr::policy::LOOP_BREAK_RADIUS;
     let models = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../models/oracle-guided");
     let config = SsrConfig {
-        loop_break: true,
-        put_back_break: false,
+        extensions: seespot_ssr::extension::Extensions::named(&["loop-break"]).expect("valid"),
         ..SsrConfig::default()
     };
     let mut ssr =
@@ -330,7 +329,10 @@ fn regrasp_keeps_away_from_a_failed_grasp_axis_and_says_so() {
     use seespot_ssr::policy::{LOOP_BREAK_RADIUS, regrasp_rotations};
     let models = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../models/oracle-guided");
     let config = EvalMethod::SsrCcdReplace.ssr_config(Default::default());
-    assert!(config.regrasp && config.replace && config.reversal_guard);
+    assert_eq!(
+        config.extensions.names(),
+        ["loop-break", "regrasp", "replace", "reversal-guard"]
+    );
     let world = world_config(112);
     let r = (LOOP_BREAK_RADIUS / world.grid.pixel_size()).round() as usize;
     let (mut tested, mut on_something) = (0, 0);
@@ -600,7 +602,7 @@ fn a_record_replays_exactly_and_is_refused_after_its_files_change() {
         TaskId::Unstack,
         &Layout::new(&models, &demos),
         SsrConfig {
-            method: Method::SsrL2cd,
+            rule: Method::SsrL2cd,
             ..SsrConfig::default()
         },
     )

@@ -429,12 +429,21 @@ test('the review lists the evaluation with the JSONL\'s counts, sorted by failur
     const recs = want.get(r.key);
     assert.ok(recs, `the page lists ${r.key}, which has no records file`);
     const ok = recs.filter((x) => x.success).length;
-    assert.equal(Number(r.cells[2]), recs.length, r.key);
-    assert.equal(r.cells[3].split(' ')[0], String(ok), r.key);
+    // Each run is labelled by the most privileged information it reads, as
+    // its records say (issue 61).
+    const reads = recs[0].provenance && recs[0].provenance.reads;
+    assert.ok(['heightmaps', 'progress', 'simulator'].includes(r.cells[1]), `${r.key}: ${r.cells[1]}`);
+    if (reads) assert.equal(r.cells[1], reads, r.key);
+    assert.equal(Number(r.cells[3]), recs.length, r.key);
+    assert.equal(r.cells[4].split(' ')[0], String(ok), r.key);
     // Every failure has exactly one kind.
-    const byKind = r.cells.slice(4, 4 + kinds).map(Number);
+    const byKind = r.cells.slice(5, 5 + kinds).map(Number);
     assert.equal(byKind.reduce((a, b) => a + b, 0), recs.length - ok, `${r.key}: ${r.cells}`);
   }
+  const readsOf = (m) => rows.find((r) => r.key.startsWith(`${m}/`)).cells[1];
+  assert.equal(readsOf('ssr-ccd'), 'heightmaps');
+  assert.equal(readsOf('ssr-ccd-noloops'), 'progress');
+  assert.equal(readsOf('ssr-ccd-replace'), 'simulator');
   // Listed failures come sorted by kind.
   const order = await review.evaluate(() => {
     const labels = window.seespotReview.data.kinds.map((k) => k.label);

@@ -73,7 +73,9 @@ pub fn run(args: ReviewArgs) -> anyhow::Result<()> {
         return crate::io::print_json(&serde_json::json!({"counts": rows, "trials": trials}));
     }
     outln!(
-        "{} trials in {}\n\n| method | fold | trials | success | {} |\n|---|---|---|---|{}",
+        "{} trials in {} (reads: the most privileged information a method reads; \
+         simulator = a privileged upper reference)\n\n\
+         | method | reads | fold | trials | success | {} |\n|---|---|---|---|---|{}",
         trials.len(),
         args.dir.display(),
         FailureKind::ALL
@@ -85,7 +87,11 @@ pub fn run(args: ReviewArgs) -> anyhow::Result<()> {
     )?;
     for (m, t, n, ok, kinds) in &table {
         let cells: Vec<String> = kinds.iter().map(|c| c.to_string()).collect();
-        outln!("| {m} | {t} | {n} | {ok} | {} |", cells.join(" | "))?;
+        let reads = seespot_eval::run::reads(m);
+        outln!(
+            "| {m} | {reads} | {t} | {n} | {ok} | {} |",
+            cells.join(" | ")
+        )?;
     }
     let can =
         |t: &&seespot_eval::review::ReviewedTrial| matches!(replays.get(&t.file), Some(Ok(())));

@@ -69,25 +69,15 @@ struct Report<'a> {
 /// from a checkout.
 #[derive(serde::Serialize)]
 struct Made {
-    commit: Option<String>,
-    tree_clean: Option<bool>,
+    #[serde(flatten)]
+    code: Option<seespot_sim::record::Code>,
     command: Vec<String>,
 }
 
 impl Made {
     fn now() -> Self {
-        let git = |args: &[&str]| {
-            std::process::Command::new("git")
-                .args(args)
-                .output()
-                .ok()
-                .filter(|o| o.status.success())
-                .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_owned())
-        };
         Self {
-            commit: git(&["rev-parse", "HEAD"]),
-            tree_clean: git(&["status", "--porcelain", "--untracked-files=no"])
-                .map(|s| s.is_empty()),
+            code: seespot_sim::record::Code::of_checkout(),
             command: std::env::args().collect(),
         }
     }

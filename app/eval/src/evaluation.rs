@@ -418,7 +418,7 @@ fn prepare(
     let prov = provenance(config, task)?;
     if let Some(other) = records
         .iter()
-        .find(|r| r.provenance.as_ref() != Some(&prov))
+        .find(|r| !r.provenance.as_ref().is_some_and(|p| p.same_inputs(&prov)))
     {
         let what = match &other.provenance {
             None => "records without provenance (made before seespot recorded it)".to_owned(),

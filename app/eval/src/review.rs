@@ -192,6 +192,10 @@ pub struct Replayable {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct CountRow {
     pub method: String,
+    /// The most privileged information the method reads
+    /// ([`crate::run::reads`]): `simulator` marks a privileged upper
+    /// reference.
+    pub reads: &'static str,
     pub task: TaskId,
     pub trials: usize,
     pub successes: usize,
@@ -228,6 +232,7 @@ pub fn count_rows(
                 },
             };
             CountRow {
+                reads: crate::run::reads(&method),
                 method,
                 task,
                 trials: n,

@@ -20,51 +20,18 @@ use std::sync::OnceLock;
 
 use seespot_policy::finetune::FinetuneProcedure;
 use seespot_ssr::correspond::{CUnit, CorrespondOptions, DemoFeatures, Rematch, Smoothing};
+use seespot_ssr::extension::Information;
+use seespot_ssr::preset::Preset;
 
 /// A method of the evaluation table; its name (`ssr-ccd`, ...) is the
-/// records' and the command line's.
-#[derive(
-    Clone,
-    Copy,
-    Debug,
-    PartialEq,
-    Eq,
-    Hash,
-    PartialOrd,
-    Ord,
-    strum::IntoStaticStr,
-    strum::VariantArray,
-)]
-#[strum(serialize_all = "kebab-case")]
+/// records' and the command line's. See-SPOT-Run's methods are the presets
+/// of [`seespot_ssr::preset::PRESETS`] (the paper's two rules and seespot's
+/// labelled extensions); the associated constants name the ones code asks
+/// for by name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum EvalMethod {
-    /// SSR acting on the smallest cycle consistency distance (Eq. 8).
-    SsrCcd,
-    /// SSR acting on the smallest embedding distance (Eq. 9).
-    SsrL2cd,
-    /// seespot's extension, not the paper's: SSR CCD that does not repeat an
-    /// action which left the scene unchanged ([`seespot_ssr::policy::LOOP_BREAK_RADIUS`]).
-    #[strum(serialize = "ssr-ccd-loopbreak")]
-    SsrCcdLoopBreak,
-    /// seespot's extension, not the paper's: loop breaking, and a grasp whose
-    /// block was put back where it was (the scene changed by less than one
-    /// block's footprint since that grasp, progress unchanged) is not taken
-    /// again while progress stays ([`seespot_ssr::policy::PutBack`]).
-    #[strum(serialize = "ssr-ccd-noloops")]
-    SsrCcdNoLoops,
-    /// seespot's extension, not the paper's: loop and put-back breaking,
-    /// and no grasp on a block whose removal would lower progress
-    /// ([`seespot_ssr::policy::guarded_blocks`]).
-    SsrCcdGuarded,
-    /// seespot's extension, not the paper's: the reversal guard's method,
-    /// and a failed grasp on something masks only its grasp axis there, so
-    /// another angle at the same spot stays allowed
-    /// ([`seespot_ssr::policy::regrasp_rotations`]).
-    SsrCcdRegrasp,
-    /// seespot's extension, not the paper's: regrasp's method with
-    /// put-back breaking's grasp mask swapped for replacing: a place that
-    /// left progress where it was is masked until progress changes, so the
-    /// block is tried elsewhere ([`seespot_ssr::policy::Replacing`]).
-    SsrCcdReplace,
+    /// See-SPOT-Run as a preset names it.
+    Ssr(Preset),
     /// The test task's own SPOT-Q policy, greedy: the ceiling row.
     SpotQ,
     /// The scripted oracle.
@@ -77,70 +44,75 @@ pub enum EvalMethod {
     Transporter,
 }
 
+#[allow(non_upper_case_globals)]
 impl EvalMethod {
-    pub const ALL: [EvalMethod; 11] = [
-        Self::SsrCcd,
-        Self::SsrL2cd,
-        Self::SsrCcdLoopBreak,
-        Self::SsrCcdNoLoops,
-        Self::SsrCcdGuarded,
-        Self::SsrCcdRegrasp,
-        Self::SsrCcdReplace,
-        Self::SpotQ,
-        Self::Oracle,
-        Self::Random,
-        Self::Transporter,
-    ];
+    /// SSR acting on the smallest cycle consistency distance (Eq. 8).
+    pub const SsrCcd: Self = Self::Ssr(Preset::SSR_CCD);
+    /// SSR acting on the smallest embedding distance (Eq. 9).
+    pub const SsrL2cd: Self = Self::Ssr(Preset::SSR_L2CD);
+    /// seespot's extension, not the paper's: loop breaking.
+    pub const SsrCcdLoopBreak: Self = Self::Ssr(Preset::LOOP_BREAK);
+    /// seespot's extension: loop and put-back breaking.
+    pub const SsrCcdNoLoops: Self = Self::Ssr(Preset::NO_LOOPS);
+    /// seespot's extension: loop and put-back breaking, reversal guard.
+    pub const SsrCcdGuarded: Self = Self::Ssr(Preset::GUARDED);
+    /// seespot's extension: the reversal guard's method and regrasp.
+    pub const SsrCcdRegrasp: Self = Self::Ssr(Preset::REGRASP);
+    /// seespot's extension: loop breaking, regrasp, replacing, reversal guard.
+    pub const SsrCcdReplace: Self = Self::Ssr(Preset::REPLACE);
+
+    /// Every method: SSR's presets in table order, then the others.
+    pub fn all() -> &'static [EvalMethod] {
+        static ALL: OnceLock<Vec<EvalMethod>> = OnceLock::new();
+        ALL.get_or_init(|| {
+            Preset::all()
+                .map(Self::Ssr)
+                .chain([Self::SpotQ, Self::Oracle, Self::Random, Self::Transporter])
+                .collect()
+        })
+    }
+
+    /// The method's name, as records and the command line spell it.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Ssr(p) => p.name(),
+            Self::SpotQ => "spot-q",
+            Self::Oracle => "oracle",
+            Self::Random => "random",
+            Self::Transporter => "transporter",
+        }
+    }
 
     /// The method named `s`, if any.
     pub fn parse(s: &str) -> Option<Self> {
         s.parse().ok()
     }
 
-    /// How See-SPOT-Run runs as this method with `correspond`: CCD (also
-    /// for the extensions) or L2CD, and which extensions are on. Methods
-    /// that are not SSR get the paper's SSR CCD.
+    /// How See-SPOT-Run runs as this method with `correspond`: its
+    /// preset's rule and extensions. Methods that are not SSR get the
+    /// paper's SSR CCD.
     pub fn ssr_config(self, correspond: CorrespondOptions) -> seespot_ssr::SsrConfig {
-        seespot_ssr::SsrConfig {
-            method: if self == Self::SsrL2cd {
-                seespot_ssr::explain::Method::SsrL2cd
-            } else {
-                seespot_ssr::explain::Method::SsrCcd
-            },
-            correspond,
-            loop_break: matches!(
-                self,
-                Self::SsrCcdLoopBreak
-                    | Self::SsrCcdNoLoops
-                    | Self::SsrCcdGuarded
-                    | Self::SsrCcdRegrasp
-                    | Self::SsrCcdReplace
-            ),
-            put_back_break: matches!(
-                self,
-                Self::SsrCcdNoLoops | Self::SsrCcdGuarded | Self::SsrCcdRegrasp
-            ),
-            reversal_guard: matches!(
-                self,
-                Self::SsrCcdGuarded | Self::SsrCcdRegrasp | Self::SsrCcdReplace
-            ),
-            regrasp: matches!(self, Self::SsrCcdRegrasp | Self::SsrCcdReplace),
-            replace: self == Self::SsrCcdReplace,
-        }
+        let preset = match self {
+            Self::Ssr(p) => p,
+            _ => Preset::SSR_CCD,
+        };
+        seespot_ssr::SsrConfig::preset(preset, correspond)
     }
 
     /// Whether the method is See-SPOT-Run (faithful or extended).
     pub fn is_ssr(self) -> bool {
-        matches!(
-            self,
-            Self::SsrCcd
-                | Self::SsrL2cd
-                | Self::SsrCcdLoopBreak
-                | Self::SsrCcdNoLoops
-                | Self::SsrCcdGuarded
-                | Self::SsrCcdRegrasp
-                | Self::SsrCcdReplace
-        )
+        matches!(self, Self::Ssr(_))
+    }
+
+    /// The most privileged information the method reads to act: SSR's
+    /// presets by their extensions; SPOT-Q, the TransporterNet and random
+    /// actions read heightmaps; the oracle reads the simulator.
+    pub fn information(self) -> Information {
+        match self {
+            Self::Ssr(p) => p.information(),
+            Self::Oracle => Information::Simulator,
+            Self::SpotQ | Self::Random | Self::Transporter => Information::Heightmaps,
+        }
     }
 
     /// Whether the method runs SPOT-Q policies' networks (SSR embeds with
@@ -150,7 +122,20 @@ impl EvalMethod {
     }
 }
 
-seespot_sim::named_choice!(EvalMethod, "method");
+/// The most privileged information run `name` reads to act (`heightmaps`,
+/// `progress`, `simulator`), or `—` for a name that is no run's.
+pub fn reads(name: &str) -> &'static str {
+    name.parse::<RunSpec>()
+        .map_or("—", |s| s.information().as_str())
+}
+
+impl FromStr for EvalMethod {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        seespot_sim::bounds::parse_named(s, Self::all(), Self::as_str, "method")
+    }
+}
 
 /// How SSR's correspondence departs from the reference code's Correspond, as
 /// far as it makes a run different (settings that do not, such as the plain
@@ -440,7 +425,7 @@ impl RunSpec {
     /// Every valid spec, in order.
     pub fn all() -> Vec<Self> {
         let mut out = Vec::new();
-        for method in EvalMethod::ALL {
+        for &method in EvalMethod::all() {
             let variants: Vec<CorrespondName> = if method.is_ssr() {
                 CorrespondName::all().collect()
             } else {
@@ -500,24 +485,18 @@ impl RunSpec {
         self.method.is_ssr()
     }
 
+    /// The most privileged information the run's method reads
+    /// ([`EvalMethod::information`]).
+    pub fn information(&self) -> Information {
+        self.method.information()
+    }
+
     /// The name the report and the page show (`SSR CCD`, `Good Robot
     /// finetuned`, `SSR CCD, sensor noise`, ...); the paper's table uses the
     /// same names.
     pub fn display_name(&self) -> String {
         let base = match (self.method, self.is_finetuned()) {
-            (EvalMethod::SsrCcd, _) => "SSR CCD",
-            (EvalMethod::SsrL2cd, _) => "SSR L2CD",
-            (EvalMethod::SsrCcdLoopBreak, _) => "Extension: SSR CCD + loop breaking",
-            (EvalMethod::SsrCcdNoLoops, _) => "Extension: SSR CCD + loop and put-back breaking",
-            (EvalMethod::SsrCcdGuarded, _) => {
-                "Extension: SSR CCD + loop and put-back breaking + reversal guard"
-            }
-            (EvalMethod::SsrCcdRegrasp, _) => {
-                "Extension: SSR CCD + loop and put-back breaking + reversal guard + regrasp"
-            }
-            (EvalMethod::SsrCcdReplace, _) => {
-                "Extension: SSR CCD + loop breaking + reversal guard + regrasp + replacing"
-            }
+            (EvalMethod::Ssr(p), _) => p.def().display,
             (EvalMethod::SpotQ, false) => "SPOT-Q",
             (EvalMethod::SpotQ, true) => "Good Robot finetuned",
             (EvalMethod::Transporter, false) => "TransporterNet",
@@ -630,7 +609,11 @@ impl FromStr for RunSpec {
                 "`{s}` is not a seespot run name (a method, {}, with its variants, e.g. \
                  ssr-ccd-plain, ssr-ccd-finetuned, good-robot-finetuned, ssr-ccd-noisy, \
                  ssr-ccd@raw-patches)",
-                EvalMethod::ALL.map(|m| m.as_str()).join(", ")
+                EvalMethod::all()
+                    .iter()
+                    .map(|m| m.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
             )
         })
     }

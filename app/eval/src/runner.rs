@@ -104,16 +104,7 @@ pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalE
         Ok(out)
     };
     match (config.method, config.finetune_steps) {
-        (
-            EvalMethod::SsrCcd
-            | EvalMethod::SsrL2cd
-            | EvalMethod::SsrCcdLoopBreak
-            | EvalMethod::SsrCcdNoLoops
-            | EvalMethod::SsrCcdGuarded
-            | EvalMethod::SsrCcdRegrasp
-            | EvalMethod::SsrCcdReplace,
-            _,
-        ) => {
+        (EvalMethod::Ssr(_), _) => {
             for (_, path) in config.layout.policy_files(task) {
                 paths.push(path);
             }
@@ -170,6 +161,8 @@ pub fn provenance(config: &EvalConfig, task: TaskId) -> Result<Provenance, EvalE
         seespot_version: seespot_sim::VERSION.to_owned(),
         settings,
         files,
+        code: seespot_sim::record::Code::of_checkout(),
+        reads: Some(config.method.information().as_str().to_owned()),
     })
 }
 
@@ -312,13 +305,7 @@ pub fn make_actor(
 ) -> Result<Box<dyn Actor + Send + Sync>, EvalError> {
     config.check_embeddings(&[])?;
     Ok(match config.method {
-        EvalMethod::SsrCcd
-        | EvalMethod::SsrL2cd
-        | EvalMethod::SsrCcdLoopBreak
-        | EvalMethod::SsrCcdNoLoops
-        | EvalMethod::SsrCcdGuarded
-        | EvalMethod::SsrCcdRegrasp
-        | EvalMethod::SsrCcdReplace => Box::new(ssr_policy(config, task)?),
+        EvalMethod::Ssr(_) => Box::new(ssr_policy(config, task)?),
         EvalMethod::SpotQ => Box::new(spot_q_actor(config, task)?),
         EvalMethod::Transporter => Box::new(TransporterActor::new(transporter_net(config, task)?)),
         EvalMethod::Oracle => Box::new(Oracle::new(task)),

@@ -59,7 +59,19 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     )?;
     m.add(
         "METHODS",
-        seespot_eval::EvalMethod::ALL.map(|m| m.as_str()).to_vec(),
+        seespot_eval::EvalMethod::all()
+            .iter()
+            .map(|m| m.as_str())
+            .collect::<Vec<_>>(),
+    )?;
+    // seespot's extensions of See-SPOT-Run: (name, information it reads,
+    // the extensions it needs), in the order they run.
+    m.add(
+        "EXTENSIONS",
+        seespot_ssr::extension::REGISTRY
+            .iter()
+            .map(|d| (d.name, d.information.as_str(), d.needs.to_vec()))
+            .collect::<Vec<_>>(),
     )?;
     m.add("NUM_ROTATIONS", seespot_sim::NUM_ROTATIONS)?;
     m.add("DEFAULT_RESOLUTION", seespot_sim::DEFAULT_RESOLUTION)?;

@@ -28,8 +28,8 @@ pub fn ssr_config(
     method: &str,
     correspond: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<SsrConfig> {
-    let ssr: Vec<&str> = seespot_eval::EvalMethod::ALL
-        .into_iter()
+    let ssr: Vec<&str> = seespot_eval::EvalMethod::all()
+        .iter()
         .filter(|m| m.is_ssr())
         .map(|m| m.as_str())
         .collect();
@@ -54,9 +54,13 @@ impl Ssr {
     /// of `<task>.onnx` files, a list of ONNX files, or functions (a
     /// `torch.nn.Module`, a callable `float32[R, 4, 112, 112] -> float32[R,
     /// D, S, S]`, or a `(grasp, place)` pair of them; docs/embeddings.md),
-    /// used in place of the SPOT-Q policies.
+    /// used in place of the SPOT-Q policies. `extensions`: seespot's
+    /// extensions by name (`seespot.EXTENSIONS` lists them with the
+    /// information each reads), in place of the method's own; they act in
+    /// `act`, which sees the trial (`decide` is one decision without them).
     #[new]
-    #[pyo3(signature = (task, models_dir = "models".into(), demos_dir = "demos".into(), method = "ssr-ccd", correspond = None, embeddings = None))]
+    #[pyo3(signature = (task, models_dir = "models".into(), demos_dir = "demos".into(), method = "ssr-ccd", correspond = None, embeddings = None, extensions = None))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
         task: &str,
@@ -65,15 +69,80 @@ impl Ssr {
         method: &str,
         correspond: Option<&Bound<'_, PyAny>>,
         embeddings: Option<&Bound<'_, PyAny>>,
+        extensions: Option<Vec<String>>,
     ) -> PyResult<Self> {
         let task = arrays::task(task, &demos_dir)?;
-        let config = ssr_config(py, method, correspond)?;
+        let mut config = ssr_config(py, method, correspond)?;
+        if let Some(names) = extensions {
+            let names: Vec<&str> = names.iter().map(String::as_str).collect();
+            config.extensions = seespot_ssr::extension::Extensions::named(&names)
+                .map_err(|e| bad("extensions", e))?;
+        }
         let layout = seespot_ssr::Layout::new(models_dir, demos_dir)
             .with_embeddings(crate::callable::embeddings(py, embeddings)?);
         let ssr = py
             .detach(|| SsrPolicy::load(task, &layout, config))
             .map_err(|e| bad("models_dir/demos_dir/embeddings", e))?;
         Ok(Self { ssr })
+    }
+
+    /// The extensions on, by name, in the order they run.
+    #[getter]
+    fn extensions(&self) -> Vec<&'static str> {
+        self.ssr.config().extensions.names()
+    }
+
+    /// The most privileged information the method reads: `heightmaps`,
+    /// `progress` or `simulator` (a privileged upper reference).
+    #[getter]
+    fn information(&self) -> &'static str {
+        self.ssr.config().information().as_str()
+    }
+
+    /// The method's title (its preset's, or the rule with its extensions).
+    #[getter]
+    fn title(&self) -> String {
+        self.ssr.config().title()
+    }
+
+    /// One decision in `trial`'s current state with the extensions on (a
+    /// trial with no action taken starts them afresh). Returns a dict:
+    /// `action` `(rotation, y, x)` for `trial.step`, `primitive`, and
+    /// `departures`, one dict per action an extension masked (`action`,
+    /// `radius_m`, `why`).
+    fn act<'py>(
+        &mut self,
+        py: Python<'py>,
+        trial: &mut crate::trial::Trial,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        use seespot_sim::actor::Actor;
+        if trial.trial.end().is_some() {
+            return Err(bad("trial", "the trial has ended; make a new one"));
+        }
+        let ssr = &mut self.ssr;
+        let t = &mut trial.trial;
+        let choice = py
+            .detach(|| {
+                if t.actions() == 0 {
+                    ssr.begin_trial(t);
+                }
+                let hm = t.world_mut().observe();
+                ssr.act(t, &hm)
+            })
+            .map_err(|e| bad("trial", e))?;
+        let out = PyDict::new(py);
+        out.set_item("primitive", choice.action.primitive.as_str())?;
+        out.set_item("action", action_tuple(&choice.action))?;
+        let departures = PyList::empty(py);
+        for dep in choice.pair.map(|p| p.departures).unwrap_or_default() {
+            let e = PyDict::new(py);
+            e.set_item("action", action_tuple(&dep.action))?;
+            e.set_item("radius_m", dep.radius_m)?;
+            e.set_item("why", dep.why)?;
+            departures.append(e)?;
+        }
+        out.set_item("departures", departures)?;
+        Ok(out)
     }
 
     /// The names of the M embedding models (a SPOT-Q policy's task), in

@@ -142,6 +142,58 @@ pub struct Provenance {
     /// sha256 (hex) of every file the method read (models, demonstration files),
     /// by path relative to where it was run.
     pub files: std::collections::BTreeMap<String, String>,
+    /// The code that ran the trial: the checkout's commit and whether its
+    /// tracked files had changes (absent in records made before seespot
+    /// recorded it, and when run outside a git checkout). Not an input:
+    /// records made by two commits with the same inputs may share a file
+    /// ([`Provenance::same_inputs`]), and git's history then shows which
+    /// commit made which trial.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub code: Option<Code>,
+    /// The most privileged information the method read to act: `heightmaps`,
+    /// `progress` (the scalar See-SPOT-Run already reads) or `simulator`
+    /// (block poses, unseen scenes: a privileged upper reference). Follows
+    /// from the method's name; absent in records made before seespot
+    /// recorded it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reads: Option<String>,
+}
+
+/// The code that made a record: `git rev-parse HEAD` and whether
+/// `git status --porcelain --untracked-files=no` was empty.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Code {
+    pub commit: String,
+    pub tree_clean: bool,
+}
+
+impl Code {
+    /// The checkout the process runs in, if it runs in one and git is there.
+    pub fn of_checkout() -> Option<Self> {
+        let git = |args: &[&str]| {
+            std::process::Command::new("git")
+                .args(args)
+                .stderr(std::process::Stdio::null())
+                .output()
+                .ok()
+                .filter(|o| o.status.success())
+                .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_owned())
+        };
+        Some(Self {
+            commit: git(&["rev-parse", "HEAD"])?,
+            tree_clean: git(&["status", "--porcelain", "--untracked-files=no"])?.is_empty(),
+        })
+    }
+}
+
+impl Provenance {
+    /// Whether two records were made from the same inputs (version,
+    /// settings, files), whichever code commit made each.
+    pub fn same_inputs(&self, other: &Provenance) -> bool {
+        self.seespot_version == other.seespot_version
+            && self.settings == other.settings
+            && self.files == other.files
+    }
 }
 
 fn empty_settings() -> serde_json::Value {

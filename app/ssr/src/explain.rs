@@ -109,32 +109,12 @@ pub struct Decision {
     pub ccd_choice: usize,
     #[serde(default)]
     pub l2cd_choice: usize,
-    /// Loop breaking (seespot's extension): actions whose neighbourhood was
-    /// masked because they left the scene unchanged; empty for the paper's
-    /// method.
-    #[serde(default)]
-    pub excluded: Vec<Action>,
-    /// Regrasp (seespot's extension): failed grasps on something whose
-    /// neighbourhood was masked on their grasp axis only
-    /// ([`crate::policy::regrasp_rotations`]); empty for the paper's method
-    /// and absent from older records.
+    /// seespot's extensions: each action whose neighbourhood an extension
+    /// masked in this decision, the neighbourhood's half side in metres and
+    /// why, in the order the extensions run; empty for the paper's methods.
+    /// The page and recordings show these words.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub regrasp: Vec<Action>,
-    /// Put-back breaking (seespot's extension): grasps whose neighbourhood
-    /// was masked because their block was put back where it was; empty for
-    /// the paper's method and absent from older records.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub put_back: Vec<Action>,
-    /// Replacing (seespot's extension): places whose neighbourhood was
-    /// masked because they left progress where it was; empty for the
-    /// paper's method and absent from older records.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub replaced: Vec<Action>,
-    /// Reversal guard (seespot's extension): the centres of the blocks whose
-    /// grasps were masked because taking them would lower progress; empty
-    /// for the paper's method and absent from older records.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub guarded: Vec<Action>,
+    pub departures: Vec<Departure>,
 }
 
 /// Around an action that left the scene unchanged, the loop-breaking extension
@@ -179,106 +159,7 @@ impl Decision {
             correspond_ms: 0.0,
             ccd_choice: 0,
             l2cd_choice: 0,
-            excluded: Vec::new(),
-            regrasp: Vec::new(),
-            put_back: Vec::new(),
-            replaced: Vec::new(),
-            guarded: Vec::new(),
+            departures: Vec::new(),
         }
-    }
-
-    /// Where an extension departed from SSR CCD in this decision: each
-    /// action whose neighbourhood it masked, why, and the neighbourhood's
-    /// half side in metres ([`LOOP_BREAK_RADIUS`], or [`GUARD_RADIUS`] for
-    /// a guarded block); empty for the
-    /// paper's methods. The page and recordings show these words.
-    pub fn departures(&self) -> Vec<Departure> {
-        fn departure(why: &'static str, radius_m: f32) -> impl Fn(&Action) -> Departure {
-            move |a| Departure {
-                action: *a,
-                radius_m,
-                why: why.to_owned(),
-            }
-        }
-        self.excluded
-            .iter()
-            .map(departure(LEFT_UNCHANGED, LOOP_BREAK_RADIUS))
-            .chain(
-                self.regrasp
-                    .iter()
-                    .map(departure(REGRASP, LOOP_BREAK_RADIUS)),
-            )
-            .chain(
-                self.put_back
-                    .iter()
-                    .map(departure(PUT_BACK, LOOP_BREAK_RADIUS)),
-            )
-            .chain(
-                self.replaced
-                    .iter()
-                    .map(departure(REPLACED, LOOP_BREAK_RADIUS)),
-            )
-            .chain(self.guarded.iter().map(departure(GUARDED, GUARD_RADIUS)))
-            .collect()
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn departures_name_each_masked_action_and_why() {
-        let a = Action::new(Primitive::Grasp, 3, 40, 50);
-        let b = Action::new(Primitive::Grasp, 5, 60, 70);
-        let c = Action::new(Primitive::Place, 2, 80, 90);
-        let d = Decision {
-            method: Method::SsrCcd,
-            primitive: Primitive::Grasp,
-            progress: 1,
-            resolution: 224,
-            pairs: Vec::new(),
-            chosen: 0,
-            action: Action::new(Primitive::Grasp, 0, 1, 1),
-            embed_ms: 0.0,
-            correspond_ms: 0.0,
-            ccd_choice: 0,
-            l2cd_choice: 0,
-            excluded: vec![a],
-            regrasp: vec![b],
-            put_back: vec![b],
-            replaced: vec![c],
-            guarded: vec![a],
-        };
-        let r = LOOP_BREAK_RADIUS;
-        let said: Vec<(Action, String, f32)> = d
-            .departures()
-            .into_iter()
-            .map(|x| (x.action, x.why, x.radius_m))
-            .collect();
-        assert_eq!(
-            said,
-            vec![
-                (a, LEFT_UNCHANGED.to_owned(), r),
-                (b, REGRASP.to_owned(), r),
-                (b, PUT_BACK.to_owned(), r),
-                (c, REPLACED.to_owned(), r),
-                (a, GUARDED.to_owned(), GUARD_RADIUS)
-            ]
-        );
-        assert_eq!(
-            d.departures()[0].to_string(),
-            "grasp r3 (40, 50) and the 2 cm around it skipped: it left the scene unchanged"
-        );
-        // The paper's methods depart from nothing.
-        let plain = Decision {
-            excluded: Vec::new(),
-            regrasp: Vec::new(),
-            put_back: Vec::new(),
-            replaced: Vec::new(),
-            guarded: Vec::new(),
-            ..d
-        };
-        assert!(plain.departures().is_empty());
     }
 }

@@ -6,9 +6,11 @@
 pub mod bench;
 pub mod correspond;
 pub mod explain;
+pub mod extension;
 pub mod layout;
 pub mod pca;
 pub mod policy;
+pub mod preset;
 
 pub use correspond::{
     CorrespondOptions, Match, ccd, distance_map, match_queries, match_queries_with, rematch,

@@ -368,11 +368,7 @@ impl Actor for FeatureDecider {
             correspond_ms: t1.elapsed().as_secs_f64() * 1e3,
             ccd_choice,
             l2cd_choice,
-            excluded: Vec::new(),
-            put_back: Vec::new(),
-            regrasp: Vec::new(),
-            replaced: Vec::new(),
-            guarded: Vec::new(),
+            departures: Vec::new(),
         });
         Ok(choice)
     }

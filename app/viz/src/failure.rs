@@ -46,11 +46,7 @@ pub fn failure_kind(trial: &Trial) -> Option<FailureKind> {
 /// Whether `config` is the paper's method: SSR (CCD or L2CD) with none of
 /// seespot's extensions on.
 pub fn is_paper_method(config: &SsrConfig) -> bool {
-    !(config.loop_break
-        || config.put_back_break
-        || config.reversal_guard
-        || config.regrasp
-        || config.replace)
+    config.extensions.is_empty()
 }
 
 /// How the paper's method comes to fail as `kind`, and which of seespot's

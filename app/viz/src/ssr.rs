@@ -55,9 +55,10 @@ pub fn load_with(
         "policies"
     };
     let note = format!(
-        "{what} {} from {source}, demos from {}",
+        "{what} {} from {source}, demos from {}; reads {}",
         policy.policy_names().join(", "),
-        layout.task_demos(task).display()
+        layout.task_demos(task).display(),
+        policy.config().information().words()
     );
     prepared(policy, world, note)
 }

@@ -1,6 +1,7 @@
 //! Paired comparisons between runs (exact McNemar), how often CCD and L2CD
 //! disagree, and the distribution of C.
 
+use seespot_ssr::preset::Preset;
 use std::path::{Path, PathBuf};
 
 use seespot_sim::{TaskId, TrialRecord};
@@ -61,7 +62,7 @@ pub fn check_provenance(files: &[(PathBuf, Vec<TrialRecord>)]) -> Result<(), Str
                     r.seed
                 ));
             };
-            if Some(p) != first.provenance.as_ref() {
+            if !first.provenance.as_ref().is_some_and(|f| f.same_inputs(p)) {
                 return Err(format!(
                     "{}: the record of seed {} was made with other inputs than the \
                      record of seed {}",
@@ -107,79 +108,37 @@ pub fn ssr_runs(records: &[TrialRecord]) -> Vec<RunSpec> {
 /// The pairs of runs the report tests on paired seeds (exact McNemar), with
 /// what each comparison asks; pairs without shared seeds are skipped. Runs
 /// are [`RunSpec`] values, so a comparison cannot name a run that
-/// does not exist.
-pub fn planned_comparisons() -> [(RunSpec, RunSpec, &'static str); 21] {
-    use crate::run::EvalMethod::{
-        Random, SpotQ, SsrCcd, SsrCcdGuarded, SsrCcdLoopBreak, SsrCcdNoLoops, SsrCcdRegrasp,
-        SsrCcdReplace, SsrL2cd, Transporter,
-    };
-    use RunSpec;
+/// does not exist. SSR's extensions' comparisons come from the presets'
+/// table ([`seespot_ssr::preset::PRESETS`]).
+pub fn planned_comparisons() -> Vec<(RunSpec, RunSpec, &'static str)> {
+    use crate::run::EvalMethod;
+    use crate::run::EvalMethod::{Random, SpotQ, Transporter};
     let run = RunSpec::new;
+    let (ssr_ccd, ssr_l2cd) = (EvalMethod::SsrCcd, EvalMethod::SsrL2cd);
     // Both methods have a policy to finetune.
     let finetuned = |spec: RunSpec| spec.finetuned().unwrap_or(spec);
     let adam = |spec: RunSpec| {
         spec.finetuned_by(seespot_policy::finetune::FinetuneProcedure::Adam)
             .unwrap_or(spec)
     };
-    [
+    let mut out = vec![(
+        run(ssr_ccd),
+        run(ssr_l2cd),
+        "the paper's central comparison (Eq. 8 vs Eq. 9)",
+    )];
+    for p in Preset::all() {
+        for a in p.def().compare {
+            out.push((
+                run(EvalMethod::Ssr(p)),
+                run(preset_or_transporter(a.against)),
+                a.why,
+            ));
+        }
+    }
+    out.extend([
         (
-            run(SsrCcd),
-            run(SsrL2cd),
-            "the paper's central comparison (Eq. 8 vs Eq. 9)",
-        ),
-        (
-            run(SsrCcdLoopBreak),
-            run(SsrCcd),
-            "seespot's extension against the faithful method",
-        ),
-        (
-            run(SsrCcdNoLoops),
-            run(SsrCcd),
-            "seespot's loop and put-back breaking against the faithful method",
-        ),
-        (
-            run(SsrCcdNoLoops),
-            run(SsrCcdLoopBreak),
-            "what put-back breaking adds to loop breaking",
-        ),
-        (
-            run(SsrCcdNoLoops),
-            run(Transporter),
-            "seespot's extension against the few-shot baseline trained on the test task's demonstrations",
-        ),
-        (
-            run(SsrCcdGuarded),
-            run(SsrCcdNoLoops),
-            "what the reversal guard adds to put-back breaking",
-        ),
-        (
-            run(SsrCcdRegrasp),
-            run(SsrCcdGuarded),
-            "what regrasp adds to the reversal guard",
-        ),
-        (
-            run(SsrCcdReplace),
-            run(SsrCcdRegrasp),
-            "replacing in place of put-back breaking, with regrasp",
-        ),
-        (
-            run(SsrCcdReplace),
-            run(SsrCcd),
-            "seespot's extensions together (loop breaking, reversal guard, regrasp, replacing) against the faithful method",
-        ),
-        (
-            run(SsrCcdReplace),
-            run(SsrCcdLoopBreak),
-            "seespot's extensions together (loop breaking, reversal guard, regrasp, replacing) against loop breaking alone",
-        ),
-        (
-            run(SsrCcdReplace),
-            run(Transporter),
-            "seespot's extensions together (loop breaking, reversal guard, regrasp, replacing) against the few-shot baseline trained on the test task's demonstrations",
-        ),
-        (
-            run(SsrCcd).noisy(),
-            run(SsrCcd),
+            run(ssr_ccd).noisy(),
+            run(ssr_ccd),
             "sensor noise against none",
         ),
         (
@@ -188,33 +147,33 @@ pub fn planned_comparisons() -> [(RunSpec, RunSpec, &'static str); 21] {
             "sensor noise against none, for the task's own policy",
         ),
         (
-            finetuned(run(SsrCcd)),
-            run(SsrCcd),
+            finetuned(run(ssr_ccd)),
+            run(ssr_ccd),
             "1k finetuning steps (the reference's procedure) against none",
         ),
         (
-            adam(run(SsrCcd)),
-            run(SsrCcd),
+            adam(run(ssr_ccd)),
+            run(ssr_ccd),
             "seespot's Adam finetuning variant against none",
         ),
         (
-            finetuned(run(SsrCcd)),
-            adam(run(SsrCcd)),
+            finetuned(run(ssr_ccd)),
+            adam(run(ssr_ccd)),
             "the reference's finetuning against seespot's Adam variant",
         ),
         (
             finetuned(run(SpotQ)),
-            run(SsrCcd),
+            run(ssr_ccd),
             "\"Good Robot\" finetuned against SSR",
         ),
         (
             run(SpotQ),
-            run(SsrCcd),
+            run(ssr_ccd),
             "the test task's own policy against SSR",
         ),
-        (run(SsrCcd), run(Random), "SSR against random actions"),
+        (run(ssr_ccd), run(Random), "SSR against random actions"),
         (
-            run(SsrCcd),
+            run(ssr_ccd),
             run(Transporter),
             "SSR against the few-shot baseline trained on the same demonstrations",
         ),
@@ -223,17 +182,25 @@ pub fn planned_comparisons() -> [(RunSpec, RunSpec, &'static str); 21] {
             run(Transporter),
             "TransporterNet finetuned from another task against trained from scratch",
         ),
-    ]
+    ]);
+    out
+}
+
+/// The method a preset's comparison names: a preset, or the TransporterNet
+/// (the table's test checks every name).
+fn preset_or_transporter(name: &str) -> crate::run::EvalMethod {
+    Preset::named(name)
+        .map(crate::run::EvalMethod::Ssr)
+        .unwrap_or(crate::run::EvalMethod::Transporter)
 }
 
 /// [`planned_comparisons`], then per embedding set the records hold (runs
 /// named `<run>@<set>`): SSR CCD and SSR L2CD on the set against the same
-/// method on the SPOT-Q policies, and CCD against L2CD on the set.
+/// method on the SPOT-Q policies, CCD against L2CD on the set, and the
+/// presets' comparisons that the table asks on every set.
 pub fn report_comparisons(records: &[TrialRecord]) -> Vec<(RunSpec, RunSpec, String)> {
-    use crate::run::EvalMethod::{
-        SsrCcd, SsrCcdGuarded, SsrCcdLoopBreak, SsrCcdNoLoops, SsrCcdRegrasp, SsrCcdReplace,
-        SsrL2cd,
-    };
+    use crate::run::EvalMethod;
+    let (ssr_ccd, ssr_l2cd) = (EvalMethod::SsrCcd, EvalMethod::SsrL2cd);
     let mut out: Vec<(RunSpec, RunSpec, String)> = planned_comparisons()
         .into_iter()
         .map(|(a, b, why)| (a, b, why.to_owned()))
@@ -252,66 +219,37 @@ pub fn report_comparisons(records: &[TrialRecord]) -> Vec<(RunSpec, RunSpec, Str
         };
         let set = l.as_str();
         out.push((
-            on(SsrCcd),
-            RunSpec::new(SsrCcd),
+            on(ssr_ccd),
+            RunSpec::new(ssr_ccd),
             format!("embedding set {set} against the SPOT-Q policies"),
         ));
         out.push((
-            on(SsrL2cd),
-            RunSpec::new(SsrL2cd),
+            on(ssr_l2cd),
+            RunSpec::new(ssr_l2cd),
             format!("embedding set {set} against the SPOT-Q policies"),
         ));
         out.push((
-            on(SsrCcd),
-            on(SsrL2cd),
+            on(ssr_ccd),
+            on(ssr_l2cd),
             format!("the paper's central comparison on embedding set {set}"),
         ));
-        out.push((
-            on(SsrCcdLoopBreak),
-            on(SsrCcd),
-            format!("loop breaking against the faithful method on embedding set {set}"),
-        ));
-        out.push((
-            on(SsrCcdNoLoops),
-            on(SsrCcdLoopBreak),
-            format!("what put-back breaking adds to loop breaking on embedding set {set}"),
-        ));
-        out.push((
-            on(SsrCcdNoLoops),
-            RunSpec::new(SsrCcdNoLoops),
-            format!("embedding set {set} against the SPOT-Q policies, with both extensions"),
-        ));
-        out.push((
-            on(SsrCcdGuarded),
-            on(SsrCcdNoLoops),
-            format!("what the reversal guard adds to put-back breaking on embedding set {set}"),
-        ));
-        out.push((
-            on(SsrCcdRegrasp),
-            on(SsrCcdGuarded),
-            format!("what regrasp adds to the reversal guard on embedding set {set}"),
-        ));
-        out.push((
-            on(SsrCcdReplace),
-            on(SsrCcdRegrasp),
-            format!(
-                "replacing in place of put-back breaking, with regrasp, on embedding set {set}"
-            ),
-        ));
-        out.push((
-            on(SsrCcdReplace),
-            on(SsrCcd),
-            format!(
-                "seespot's extensions together (loop breaking, reversal guard, regrasp, replacing) against the faithful method on embedding set {set}"
-            ),
-        ));
-        out.push((
-            on(SsrCcdReplace),
-            RunSpec::new(SsrCcdReplace),
-            format!(
-                "embedding set {set} against the SPOT-Q policies, with the extensions together"
-            ),
-        ));
+        for p in Preset::all() {
+            let m = EvalMethod::Ssr(p);
+            for a in p.def().compare.iter().filter(|a| a.on_sets) {
+                out.push((
+                    on(m),
+                    on(preset_or_transporter(a.against)),
+                    format!("{} on embedding set {set}", a.why),
+                ));
+            }
+            if let Some(with) = p.def().set_against_spot_q {
+                out.push((
+                    on(m),
+                    RunSpec::new(m),
+                    format!("embedding set {set} against the SPOT-Q policies, {with}"),
+                ));
+            }
+        }
     }
     out
 }

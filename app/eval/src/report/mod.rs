@@ -198,6 +198,8 @@ mod tests {
                 seespot_version: "0.1.0".into(),
                 settings: serde_json::json!({"correspond": "reference"}),
                 files: [("models/row.safetensors".to_owned(), sum.to_owned())].into(),
+                code: None,
+                reads: None,
             });
         }
         rs
@@ -299,8 +301,11 @@ mod tests {
     fn tables_have_every_row() {
         let s = summarize_all(&records(), |_, _| 0, |_, _| 12);
         let md = markdown_table(&s, true);
-        assert!(md.contains("| SSR CCD (seespot) | 75% / 88% ± 1"), "{md}");
-        assert!(md.contains("| *SSR CCD (paper)* | *24% / 75%* |"));
+        assert!(
+            md.contains("| SSR CCD (seespot) | heightmaps | 75% / 88% ± 1"),
+            "{md}"
+        );
+        assert!(md.contains("| *SSR CCD (paper)* | | *24% / 75%* |"));
         assert!(md.contains("*SPOT-Q (paper)*"));
         assert!(md.contains("| SSR L2CD | mean | 16 | 25% |"), "{md}");
         let c = csv(&s);
@@ -311,7 +316,39 @@ mod tests {
             "{}",
             lines[5]
         );
-        assert!(lines.iter().all(|l| l.split(',').count() == 17));
+        assert!(lines.iter().all(|l| l.split(',').count() == 18));
+        assert!(lines[5].ends_with(",heightmaps"), "{}", lines[5]);
+    }
+
+    /// The headline is the best extension without simulator state; the
+    /// best with it is shown below as the upper reference it is.
+    #[test]
+    fn beyond_the_paper_heads_with_the_best_method_without_simulator_state() {
+        let renamed: Vec<TrialRecord> = records()
+            .into_iter()
+            .map(|mut r| {
+                r.method = match r.method.as_str() {
+                    "ssr-ccd" => "ssr-ccd-loopbreak".into(),
+                    _ => "ssr-ccd-replace".into(),
+                };
+                r
+            })
+            .collect();
+        let s = summarize_all(&renamed, |_, _| 0, |_, _| 12);
+        let md = markdown_table(&s, false);
+        let (fair, privileged) = md
+            .split_once("Upper reference")
+            .expect("an upper reference line");
+        assert!(
+            fair.contains("read no simulator state: **Extension: SSR CCD + loop breaking**"),
+            "{md}"
+        );
+        assert!(fair.contains("reads heightmaps"), "{fair}");
+        assert!(
+            privileged.contains("`ssr-ccd-replace`, reads simulator"),
+            "{privileged}"
+        );
+        assert!(md.contains("| simulator |"), "{md}");
     }
 
     #[test]
@@ -361,9 +398,19 @@ mod tests {
             ("ssr-ccd", "transporter"),
             ("transporter-finetuned", "transporter"),
         ];
+        // In this order (the presets' table adds its new methods' pairs
+        // after these).
+        let mut at = names.iter();
+        for (a, b) in want {
+            assert!(
+                at.any(|(x, y)| x == a && y == b),
+                "({a}, {b}) missing or out of order in {names:?}"
+            );
+        }
+        assert_eq!(names[..11].len(), 11);
         assert_eq!(
-            names,
-            want.map(|(a, b)| (a.to_owned(), b.to_owned())).to_vec()
+            names.last().map(|(a, _)| a.as_str()),
+            Some("transporter-finetuned")
         );
     }
 }

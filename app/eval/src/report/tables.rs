@@ -70,17 +70,26 @@ pub fn markdown_table(summaries: &[Summary], include_paper: bool) -> String {
         }
     }
     let columns: Vec<Option<TaskId>> = TaskId::ALL.iter().map(|&t| Some(t)).chain([None]).collect();
-    let mut md = String::new();
-    md.push_str("### Trial success / progress (± standard error)\n\n| method |");
+    let mut md = beyond_the_paper(&rows);
+    md.push_str(
+        "### Trial success / progress (± standard error)\n\n\
+         *reads*: the most privileged information a method reads to act \
+         (heightmaps; progress, the scalar See-SPOT-Run already reads; simulator, \
+         block poses or unseen scenes: a privileged upper reference).\n\n| method | reads |",
+    );
     for c in &columns {
         md.push_str(&format!(" {} |", task_name(*c)));
     }
-    md.push_str("\n|---|");
+    md.push_str("\n|---|---|");
     md.push_str(&"---|".repeat(columns.len()));
     md.push('\n');
     let mut shown_paper: Vec<String> = Vec::new();
     for m in &methods {
-        md.push_str(&format!("| {} (seespot) |", display_method(m)));
+        md.push_str(&format!(
+            "| {} (seespot) | {} |",
+            display_method(m),
+            reads(m)
+        ));
         for c in &columns {
             let cell =
                 rows.iter()
@@ -158,7 +167,7 @@ pub fn markdown_table(summaries: &[Summary], include_paper: bool) -> String {
 
 pub(super) fn paper_row(name: &str, columns: &[Option<TaskId>]) -> String {
     let paper = paper_results();
-    let mut row = format!("| *{name} (paper)* |");
+    let mut row = format!("| *{name} (paper)* | |");
     for c in columns {
         let cell = paper
             .iter()
@@ -172,10 +181,70 @@ pub(super) fn paper_row(name: &str, columns: &[Option<TaskId>]) -> String {
     row
 }
 
+/// The most privileged information run `method` reads (`heightmaps`,
+/// `progress`, `simulator`; `—` for a name that is no run's).
+pub fn reads(method: &str) -> &'static str {
+    crate::run::reads(method)
+}
+
+/// The report's "beyond the paper" headline: the seespot extension with the
+/// highest mean success over the four tasks among those that read no
+/// simulator state, and the best one that does, shown as the privileged
+/// upper reference it is; empty when no extension has all four tasks.
+pub fn beyond_the_paper(rows: &[Summary]) -> String {
+    use seespot_ssr::extension::Information;
+    let means: Vec<(&Summary, crate::run::RunSpec)> = rows
+        .iter()
+        .filter(|s| s.task.is_none())
+        .filter_map(|s| Some((s, s.method.parse::<crate::run::RunSpec>().ok()?)))
+        .filter(|(_, spec)| {
+            spec.is_ssr()
+                && !spec.is_finetuned()
+                && !spec.is_noisy()
+                && matches!(spec.method(), crate::run::EvalMethod::Ssr(p) if !p.extensions().is_empty())
+        })
+        .collect();
+    let best = |fair: bool| {
+        means
+            .iter()
+            .filter(|(_, spec)| (spec.information() < Information::Simulator) == fair)
+            .max_by(|a, b| a.0.success_rate.total_cmp(&b.0.success_rate))
+    };
+    let line = |(s, spec): &(&Summary, crate::run::RunSpec)| {
+        let per_task: Vec<String> = rows
+            .iter()
+            .filter(|r| r.method == s.method && r.task.is_some())
+            .map(|r| format!("{} {}", task_name(r.task), pct(r.success_rate)))
+            .collect();
+        format!(
+            "**{}** (`{}`, reads {}): {} of {} trials ({})",
+            spec.display_name(),
+            s.method,
+            spec.information().as_str(),
+            pct(s.success_rate),
+            s.trials,
+            per_task.join(", ")
+        )
+    };
+    let mut md = String::new();
+    if let Some(fair) = best(true) {
+        md.push_str("### Beyond the paper\n\nThe best of seespot's extensions that read no simulator state: ");
+        md.push_str(&line(fair));
+        md.push_str(".\n");
+        if let Some(privileged) = best(false) {
+            md.push_str("\nUpper reference, reading the simulator's state (not a method a robot could run as is): ");
+            md.push_str(&line(privileged));
+            md.push_str(".\n");
+        }
+        md.push('\n');
+    }
+    md
+}
+
 /// Every summary (plus mean rows, see [`with_means`]) as CSV with a header; rates
 /// are fractions in [0, 1], empty cells where a metric is undefined.
 pub fn csv(summaries: &[Summary]) -> String {
-    const HEADER: [&str; 17] = [
+    const HEADER: [&str; 18] = [
         "method",
         "task",
         "trials",
@@ -193,6 +262,7 @@ pub fn csv(summaries: &[Summary]) -> String {
         "annotated_actions",
         "compute_efficiency",
         "sample_efficiency",
+        "reads",
     ];
     let f6 = |v: f64| format!("{v:.6}");
     let opt = |x: Option<f64>| x.map_or(String::new(), f6);
@@ -223,6 +293,7 @@ pub fn csv(summaries: &[Summary]) -> String {
             s.annotated_actions.to_string(),
             f6(s.compute_efficiency),
             opt(s.sample_efficiency),
+            reads(&s.method).to_owned(),
         ]);
     }
     let bytes = w.into_inner().unwrap_or_default();

@@ -12,13 +12,12 @@
 //! 4. **Act**: execute `F` of the pair with the smallest C (SSR CCD, Eq. 8) or the
 //!    smallest L (SSR L2CD, Eq. 9).
 //!
-//! **Loop breaking (seespot's extension, not the paper's):** with
-//! [`SsrConfig::loop_break`], an action that left the scene bit-identical (a
-//! failed grasp) is not repeated: while the scene stays unchanged, the next
-//! decisions mask the pixels within [`LOOP_BREAK_RADIUS`] of every such action
-//! of the same primitive, so Match moves to the next-best action. The faithful
-//! methods never do this; their records are named `ssr-ccd` / `ssr-l2cd`, the
-//! extension's `ssr-ccd-loopbreak`.
+//! **seespot's extensions (not the paper's):** with a non-empty
+//! [`SsrConfig::extensions`], each decision first hears every extension
+//! ([`crate::extension`]): what they mask, around which actions and why,
+//! is masked in the live maps before Correspond, and the decision keeps it
+//! as its departures. The faithful methods (`ssr-ccd` / `ssr-l2cd`) have
+//! none; the named combinations are [`crate::preset`]'s.
 //!
 //! By default Correspond is computed as the reference code did
 //! ([`correspond::reference`]: test-time masks per task, smoothed squared
@@ -30,15 +29,10 @@
 //! [`seespot_policy::AseMap`]s from them.
 
 mod choose;
-mod guard;
-mod put_back;
-mod regrasp;
-mod replace;
+pub use crate::extension::{
+    PutBack, Replacing, guarded_blocks, regrasp_applies, regrasp_rotations,
+};
 pub use choose::{choose, chosen_pair};
-pub use guard::guarded_blocks;
-pub use put_back::PutBack;
-pub use regrasp::{regrasp_applies, regrasp_rotations};
-pub use replace::Replacing;
 
 use std::collections::HashMap;
 use std::path::PathBuf;
@@ -46,55 +40,69 @@ use std::time::Instant;
 
 use seespot_policy::{CellAse, Embedder, PolicyError};
 use seespot_sim::actor::{Actor, ActorError, Choice};
+use seespot_sim::record::Departure;
 use seespot_sim::{Action, Demo, DemoError, Heightmaps, Primitive, TaskId, Trial};
 
 use crate::correspond::{self, CorrespondOptions};
 use crate::explain::{Decision, Method, PairExplanation};
+use crate::extension::{Extension, Extensions, Information, Mask, Seen};
 pub use crate::layout::DEMO_SEEDS;
 use crate::layout::Layout;
+use crate::preset::Preset;
 
 /// The extensions' mask radii (defined beside the decision record, whose
 /// departures name them).
 pub use crate::explain::{GUARD_RADIUS, LOOP_BREAK_RADIUS};
 
-/// How SSR runs.
+/// How SSR runs: the rule it acts on, how it corresponds, and seespot's
+/// extensions on top (none for the paper's method).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SsrConfig {
-    pub method: Method,
+    /// CCD (Eq. 8) or L2CD (Eq. 9).
+    pub rule: Method,
     pub correspond: CorrespondOptions,
-    /// seespot's loop-breaking extension (module docs); off for the paper's
-    /// method.
-    pub loop_break: bool,
-    /// seespot's put-back-breaking extension ([`PutBack`]), on top of loop
-    /// breaking; off for the paper's method.
-    pub put_back_break: bool,
-    /// seespot's reversal guard ([`guarded_blocks`]), on top of loop and
-    /// put-back breaking: no grasp on a block whose removal would lower
-    /// progress; off for the paper's method.
-    pub reversal_guard: bool,
-    /// seespot's regrasp ([`regrasp_rotations`]), on top of the reversal
-    /// guard: a failed grasp on something masks only its own grasp axis,
-    /// so a grasp at another angle there stays allowed; off for the
-    /// paper's method.
-    pub regrasp: bool,
-    /// seespot's replacing ([`Replacing`]): a place that left progress
-    /// where it was is masked until progress changes, so the block is
-    /// tried elsewhere; it takes the place of put-back breaking's grasp
-    /// mask. Off for the paper's method.
-    pub replace: bool,
+    /// seespot's extensions ([`crate::extension`]), a checked set.
+    pub extensions: Extensions,
 }
 
 impl Default for SsrConfig {
     fn default() -> Self {
+        Self::preset(Preset::SSR_CCD, CorrespondOptions::default())
+    }
+}
+
+impl SsrConfig {
+    /// The method `preset` names, corresponding as `correspond` says.
+    pub fn preset(preset: Preset, correspond: CorrespondOptions) -> Self {
         Self {
-            method: Method::SsrCcd,
-            correspond: CorrespondOptions::default(),
-            loop_break: false,
-            put_back_break: false,
-            reversal_guard: false,
-            regrasp: false,
-            replace: false,
+            rule: preset.rule(),
+            correspond,
+            extensions: preset.extensions(),
         }
+    }
+
+    /// The preset this configuration is, if one is.
+    pub fn as_preset(&self) -> Option<Preset> {
+        Preset::all().find(|p| p.rule() == self.rule && p.extensions() == self.extensions)
+    }
+
+    /// The most privileged information the method reads.
+    pub fn information(&self) -> Information {
+        self.extensions.information()
+    }
+
+    /// The method's title: its preset's, or the rule with its extensions'
+    /// phrases.
+    pub fn title(&self) -> String {
+        if let Some(p) = self.as_preset() {
+            return p.def().title.to_owned();
+        }
+        let rule = match self.rule {
+            Method::SsrL2cd => "See-SPOT-Run L2CD",
+            _ => "See-SPOT-Run CCD",
+        };
+        let parts: Vec<&str> = self.extensions.defs().map(|d| d.phrase).collect();
+        format!("{rule} + {} (seespot's extension)", parts.join(" + "))
     }
 }
 
@@ -124,32 +132,6 @@ pub struct DemoQuery {
     pub x: usize,
 }
 
-/// What the extensions masked at one decision, each list empty for the
-/// paper's method (the decision record keeps them: [`Decision::departures`]).
-#[derive(Debug, Default)]
-struct Masked {
-    /// Loop breaking's repeats, masked at every rotation.
-    excluded: Vec<Action>,
-    /// Regrasp's repeats, masked on their grasp axis only.
-    regrasp: Vec<Action>,
-    /// Put-back breaking's grasps.
-    put_back: Vec<Action>,
-    /// Replacing's places.
-    replaced: Vec<Action>,
-    /// The reversal guard's blocks.
-    guarded: Vec<Action>,
-}
-
-impl Masked {
-    fn is_empty(&self) -> bool {
-        self.excluded.is_empty()
-            && self.regrasp.is_empty()
-            && self.put_back.is_empty()
-            && self.replaced.is_empty()
-            && self.guarded.is_empty()
-    }
-}
-
 /// See-SPOT-Run for one test task.
 #[derive(Debug)]
 pub struct SsrPolicy {
@@ -166,15 +148,8 @@ pub struct SsrPolicy {
     /// leaves the scene bit-identical, and the same input gives the same
     /// decision, so it is reused instead of recomputed.
     last: Option<(Heightmaps, u8, Primitive, Decision)>,
-    /// Loop breaking: the actions that left the current scene unchanged.
-    excluded: Vec<Action>,
-    /// Put-back breaking: the grasps whose blocks were put back.
-    put_back: PutBack,
-    /// Replacing: the places that left progress where it was.
-    replacing: Replacing,
-    /// Reversal guard: the centres of the blocks a grasp must leave alone in
-    /// the current scene (as grasps at rotation 0).
-    guarded: Vec<Action>,
+    /// The extensions of this trial, each with the information it may read.
+    extensions: Vec<(Information, Box<dyn Extension>)>,
 }
 
 impl SsrPolicy {
@@ -231,10 +206,7 @@ impl SsrPolicy {
             demo_cache: HashMap::new(),
             live: Vec::new(),
             last: None,
-            excluded: Vec::new(),
-            put_back: PutBack::default(),
-            replacing: Replacing::default(),
-            guarded: Vec::new(),
+            extensions: config.extensions.make(),
         })
     }
 
@@ -246,8 +218,9 @@ impl SsrPolicy {
         &self.config
     }
 
-    pub fn set_method(&mut self, method: Method) {
-        self.config.method = method;
+    /// Acts on `rule` (CCD or L2CD) from the next decision on.
+    pub fn set_method(&mut self, rule: Method) {
+        self.config.rule = rule;
     }
 
     pub fn demos(&self) -> &[Demo] {
@@ -359,24 +332,26 @@ impl SsrPolicy {
         if let Some((last_hm, p, k, d)) = &self.last
             && *p == progress
             && *k == primitive
-            && d.method == self.config.method
+            && d.method == self.config.rule
             && last_hm == hm
         {
             return Ok(d.clone());
         }
-        let decision = self.decide_fresh(hm, progress, primitive, false)?;
+        let decision = self.decide_fresh(hm, progress, primitive, false, Vec::new())?;
         self.last = Some((hm.clone(), progress, primitive, decision.clone()));
         Ok(decision)
     }
 
-    /// A decision from scratch; with `same_scene`, `hm` is the scene of the
-    /// last decision and its live embeddings are reused (only the masks change).
+    /// A decision from scratch under the extensions' `masks`; with
+    /// `same_scene`, `hm` is the scene of the last decision and its live
+    /// embeddings are reused (only the masks change).
     fn decide_fresh(
         &mut self,
         hm: &Heightmaps,
         progress: u8,
         primitive: Primitive,
         same_scene: bool,
+        masks: Vec<Mask>,
     ) -> Result<Decision, SsrError> {
         let n = hm.resolution();
         for d in &self.demos {
@@ -418,7 +393,7 @@ impl SsrPolicy {
                 live.set_pixel_mask(&mask);
             }
         }
-        let masked = self.exclude_repeats(primitive, hm);
+        let departures = self.apply_masks(masks, primitive, hm);
         let embed_ms = t.elapsed().as_secs_f64() * 1e3;
         let steps: Vec<usize> = (0..self.demos.len())
             .map(|d| {
@@ -516,7 +491,7 @@ impl SsrPolicy {
         }
         let correspond_ms = t.elapsed().as_secs_f64() * 1e3;
         // Act.
-        let chosen = choose(&pairs, self.config.method, opts.mode());
+        let chosen = choose(&pairs, self.config.rule, opts.mode());
         let ccd_choice = choose(&pairs, Method::SsrCcd, opts.mode());
         let l2cd_choice = choose(&pairs, Method::SsrL2cd, opts.mode());
         // The explanation's heatmaps (not part of the timed Correspond step).
@@ -535,7 +510,7 @@ impl SsrPolicy {
                 correspond::cells::distance_map_cells(demo_map, &f, p.demo_action.rotation);
         }
         Ok(Decision {
-            method: self.config.method,
+            method: self.config.rule,
             primitive,
             progress,
             resolution: n,
@@ -546,102 +521,43 @@ impl SsrPolicy {
             correspond_ms,
             ccd_choice,
             l2cd_choice,
-            excluded: masked.excluded,
-            regrasp: masked.regrasp,
-            put_back: masked.put_back,
-            replaced: masked.replaced,
-            guarded: masked.guarded,
+            departures,
         })
     }
 
-    /// The extensions' masks: masks the neighbourhood of every excluded
-    /// action of `primitive` (and of every put-back grasp, replaced place
-    /// and guarded block) in the live maps, unless that would leave no
-    /// action allowed. Returns the actions whose neighbourhood was masked.
-    fn exclude_repeats(&mut self, primitive: Primitive, hm: &Heightmaps) -> Masked {
-        let of_primitive = |v: &[Action]| -> Vec<Action> {
-            v.iter()
-                .copied()
-                .filter(|a| a.primitive == primitive)
-                .collect()
-        };
-        // With regrasp, a failed grasp on something keeps its other angles.
-        let (regrasp, excluded): (Vec<Action>, Vec<Action>) = of_primitive(&self.excluded)
-            .into_iter()
-            .partition(|a| self.config.regrasp && regrasp_applies(a, hm));
-        let mut masked = Masked {
-            excluded,
-            regrasp,
-            put_back: if self.config.put_back_break {
-                of_primitive(&self.put_back.grasps)
-            } else {
-                Vec::new()
-            },
-            replaced: if self.config.replace {
-                of_primitive(&self.replacing.places)
-            } else {
-                Vec::new()
-            },
-            guarded: of_primitive(&self.guarded),
-        };
-        if masked.is_empty() {
-            return masked;
+    /// Masks the extensions' `masks` of `primitive` in the live maps: all of
+    /// them if some action is left allowed; else all but those that yield;
+    /// else none. Returns what was masked, as departures.
+    fn apply_masks(
+        &mut self,
+        mut masks: Vec<Mask>,
+        primitive: Primitive,
+        hm: &Heightmaps,
+    ) -> Vec<Departure> {
+        masks.retain(|m| m.action.primitive == primitive);
+        if masks.is_empty() {
+            return Vec::new();
         }
         let n = hm.resolution();
         let pixel = hm.grid.pixel_size();
         let rotations = self.live.first().map_or(0, |m| m.mask.len() / (n * n));
-        let forbid_of = |guard: &[Action]| {
-            let mut forbid = vec![false; rotations * n * n];
-            let mut square = |a: &Action, radius: f32, on: &[usize]| {
-                let r = (radius / pixel).round() as usize;
-                for &k in on {
-                    for y in a.y.saturating_sub(r)..=(a.y + r).min(n - 1) {
-                        for x in a.x.saturating_sub(r)..=(a.x + r).min(n - 1) {
-                            forbid[(k * n + y) * n + x] = true;
-                        }
-                    }
-                }
-            };
-            let every: Vec<usize> = (0..rotations).collect();
-            for a in masked
-                .excluded
-                .iter()
-                .chain(&masked.put_back)
-                .chain(&masked.replaced)
-            {
-                square(a, LOOP_BREAK_RADIUS, &every);
-            }
-            for a in &masked.regrasp {
-                square(
-                    a,
-                    LOOP_BREAK_RADIUS,
-                    &regrasp_rotations(a.rotation, rotations),
-                );
-            }
-            for a in guard {
-                square(a, GUARD_RADIUS, &every);
-            }
-            forbid
-        };
         let leaves_some = |forbid: &[bool]| {
             self.live
                 .iter()
                 .all(|m| m.mask.iter().zip(forbid).any(|(&ok, &no)| ok && !no))
         };
-        // Every mask if some action is left; else without the guard (the
-        // repeats stay forbidden); else none.
-        let mut forbid = forbid_of(&masked.guarded);
+        let mut forbid = crate::extension::forbidden(&masks, rotations, n, pixel);
         if !leaves_some(&forbid) {
-            forbid = forbid_of(&[]);
+            masks.retain(|m| !m.yields);
+            forbid = crate::extension::forbidden(&masks, rotations, n, pixel);
             if !leaves_some(&forbid) {
-                return Masked::default();
+                return Vec::new();
             }
-            masked.guarded.clear();
         }
         for live in &mut self.live {
             live.forbid_actions(&forbid);
         }
-        masked
+        masks.iter().map(Mask::departure).collect()
     }
 
     /// Click-to-query: the ASE of the demo pixel `q` names (at the demo step's
@@ -746,84 +662,45 @@ pub fn demo_step(demo: &Demo, progress: u8, primitive: Primitive) -> Option<usiz
 /// whose explanation record stays available as [`SsrPolicy::last_decision`].
 impl Actor for SsrPolicy {
     fn name(&self) -> String {
-        match self.config.method {
-            Method::SsrCcd if self.config.replace => {
-                "See-SPOT-Run CCD + loop breaking + reversal guard + regrasp + replacing (seespot's extension)"
-                    .to_owned()
-            }
-            Method::SsrCcd if self.config.regrasp => {
-                "See-SPOT-Run CCD + loop and put-back breaking + reversal guard + regrasp (seespot's extension)"
-                    .to_owned()
-            }
-            Method::SsrCcd if self.config.reversal_guard => {
-                "See-SPOT-Run CCD + loop and put-back breaking + reversal guard (seespot's extension)"
-                    .to_owned()
-            }
-            Method::SsrCcd if self.config.put_back_break => {
-                "See-SPOT-Run CCD + loop and put-back breaking (seespot's extension)".to_owned()
-            }
-            Method::SsrCcd if self.config.loop_break => {
-                "See-SPOT-Run CCD + loop breaking (seespot's extension)".to_owned()
-            }
-            Method::SsrCcd => "See-SPOT-Run CCD".to_owned(),
-            Method::SsrL2cd => "See-SPOT-Run L2CD".to_owned(),
-            Method::Transporter => "TransporterNet".to_owned(),
-            Method::SpotQ => "SPOT-Q (greedy)".to_owned(),
-        }
+        self.config.title()
     }
 
     fn begin_trial(&mut self, _trial: &Trial) {
-        self.excluded.clear();
-        self.put_back = PutBack::default();
-        self.replacing = Replacing::default();
-        self.guarded.clear();
+        self.extensions = self.config.extensions.make();
     }
 
     fn act(&mut self, trial: &Trial, hm: &Heightmaps) -> Result<Choice, ActorError> {
         let (progress, primitive) = (trial.progress(), trial.world().next_primitive());
-        let d = if self.config.loop_break {
+        let d = if self.extensions.is_empty() {
+            self.decide(hm, progress, primitive)?
+        } else {
             // The scene the last action was chosen in, unchanged: that action
-            // did nothing, so it joins the excluded ones.
+            // did nothing.
             let repeat = match &self.last {
                 Some((h, p, k, last)) if *p == progress && *k == primitive && h == hm => {
                     Some(last.action)
                 }
                 _ => None,
             };
-            match repeat {
-                Some(a) => self.excluded.push(a),
-                None => self.excluded.clear(),
+            let seen = Seen::new(hm, primitive, repeat, self.task, progress, trial);
+            let mut masks = Vec::new();
+            for (level, e) in &mut self.extensions {
+                e.before(&seen.at(*level), &mut masks);
             }
-            if self.config.put_back_break {
-                self.put_back.observe(hm, progress, primitive);
-            }
-            if self.config.replace {
-                self.replacing.observe(progress, primitive);
-            }
-            self.guarded = if self.config.reversal_guard && primitive == Primitive::Grasp {
-                guarded_blocks(trial, self.task)
-            } else {
-                Vec::new()
-            };
-            let d = self.decide_fresh(hm, progress, primitive, repeat.is_some())?;
-            if self.config.put_back_break {
-                self.put_back.chose(hm, progress, d.action);
-            }
-            if self.config.replace {
-                self.replacing.chose(progress, d.action);
+            let d = self.decide_fresh(hm, progress, primitive, repeat.is_some(), masks)?;
+            for (level, e) in &mut self.extensions {
+                e.after(&seen.at(*level), d.action);
             }
             self.last = Some((hm.clone(), progress, primitive, d.clone()));
             d
-        } else {
-            self.decide(hm, progress, primitive)?
         };
         let mut pair = chosen_pair(
             &d.pairs,
             d.chosen,
-            self.config.method,
+            self.config.rule,
             self.config.correspond.mode(),
         );
-        pair.departures = d.departures();
+        pair.departures = d.departures.clone();
         Ok(Choice {
             action: d.action,
             pair: Some(pair),

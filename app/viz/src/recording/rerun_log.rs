@@ -657,7 +657,7 @@ impl Recorder {
                 ));
             }
             // Where an extension departed from SSR CCD, as the page says it.
-            for departure in d.departures() {
+            for departure in &d.departures {
                 s.push_str(&format!("\nExtension: {departure}.\n"));
             }
         }

@@ -219,7 +219,7 @@ impl Session {
                 .filter(|_| shown(Phase::Verify))
                 .map(|d| d.ccd_choice),
             action: if phase.is_some() { self.action } else { None },
-            skipped: decision.map(|d| d.departures()).unwrap_or_default(),
+            skipped: decision.map(|d| d.departures.clone()).unwrap_or_default(),
             timing_ms: decision.map(|d| TimingDoc {
                 embed: d.embed_ms,
                 correspond: d.correspond_ms,

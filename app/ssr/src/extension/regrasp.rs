@@ -3,10 +3,36 @@
 //! that left the scene unchanged. When the grasp came down on something, the
 //! usual cause is its angle (the jaws closing across a block's diagonal, or a
 //! finger landing on a neighbour), and the same spot at another angle may
-//! work; so only the failed grasp's own axis is masked there.
+//! work; so only the failed grasp's own axis is masked there. Reads the
+//! heightmaps (what lies under the grasp).
 
 use seespot_sim::blocks::BLOCK_SIZE;
 use seespot_sim::{Action, Heightmaps, Primitive};
+
+use super::{Around, Extension, Mask, Seen};
+use crate::explain::{LEFT_UNCHANGED, REGRASP};
+
+/// Narrows loop breaking's masks of failed grasps on something to their
+/// grasp axis ([`regrasp_rotations`]).
+#[derive(Clone, Debug, Default)]
+pub struct Regrasp;
+
+impl Extension for Regrasp {
+    fn before(&mut self, seen: &Seen, masks: &mut Vec<Mask>) {
+        let applies = |m: &Mask| m.why == LEFT_UNCHANGED && regrasp_applies(&m.action, seen.hm);
+        let narrowed: Vec<Mask> = masks
+            .iter()
+            .filter(|m| applies(m))
+            .map(|m| Mask {
+                around: Around::Axis,
+                why: REGRASP,
+                ..m.clone()
+            })
+            .collect();
+        masks.retain(|m| !applies(m));
+        masks.extend(narrowed);
+    }
+}
 
 /// Whether a repeat of `a` in scene `hm` is masked on its grasp axis only:
 /// a grasp whose pixel lies on something at least half a block high. A grasp
@@ -71,5 +97,18 @@ mod tests {
         assert!(!regrasp_applies(&on_table, &hm), "the bare table");
         let place = Action::new(Primitive::Place, 3, top / n, top % n);
         assert!(!regrasp_applies(&place, &hm), "places are loop breaking's");
+        // As an extension, on heightmaps alone: loop breaking's mask of the
+        // grasp on the block is narrowed to its axis, the bare one stays.
+        let seen = Seen::heightmaps(&hm, Primitive::Grasp, None, TaskId::Stack);
+        let r = crate::explain::LOOP_BREAK_RADIUS;
+        let mut masks = vec![
+            Mask::every(on_block, r, LEFT_UNCHANGED),
+            Mask::every(on_table, r, LEFT_UNCHANGED),
+        ];
+        Regrasp.before(&seen, &mut masks);
+        assert_eq!(masks[0].action, on_table);
+        assert_eq!(masks[0].around, Around::Every);
+        assert_eq!((masks[1].action, masks[1].around), (on_block, Around::Axis));
+        assert_eq!(masks[1].why, REGRASP);
     }
 }

@@ -3,6 +3,31 @@
 
 use seespot_sim::{Action, Primitive, TaskId, Trial};
 
+use super::{Extension, GUARD_RADIUS, Mask, Seen};
+use crate::explain::GUARDED;
+
+/// [`guarded_blocks`] as an extension: at each grasp decision, the blocks
+/// whose removal would lower progress are masked (a mask that gives way
+/// first when nothing else would be left). Reads the simulator.
+#[derive(Clone, Debug, Default)]
+pub struct ReversalGuard;
+
+impl Extension for ReversalGuard {
+    fn before(&mut self, seen: &Seen, masks: &mut Vec<Mask>) {
+        if seen.primitive != Primitive::Grasp {
+            return;
+        }
+        masks.extend(
+            guarded_blocks(seen.trial(), seen.task)
+                .into_iter()
+                .map(|a| Mask {
+                    yields: true,
+                    ..Mask::every(a, GUARD_RADIUS, GUARDED)
+                }),
+        );
+    }
+}
+
 /// **Reversal guard (seespot's extension, not the paper's):** the blocks a
 /// grasp must leave alone in `trial`'s scene, as grasps at their centres:
 /// those whose removal from the table would lower the progress SSR already
@@ -70,5 +95,14 @@ mod tests {
         assert!(!at(&poses[2]) && !at(&poses[3]), "free blocks: {guarded:?}");
         // Unstack's progress rises as the tower comes down: nothing guarded.
         assert!(guarded_blocks(&trial, TaskId::Unstack).is_empty());
+        // As an extension it reads the simulator's trial (and panics
+        // without it: `Seen::trial`).
+        let hm = trial.world().render();
+        let seen = Seen::new(&hm, Primitive::Grasp, None, TaskId::Stack, 2, &trial)
+            .at(super::super::Information::Simulator);
+        let mut masks = Vec::new();
+        ReversalGuard.before(&seen, &mut masks);
+        assert_eq!(masks.len(), guarded.len());
+        assert!(masks.iter().all(|m| m.yields && m.why == GUARDED));
     }
 }

@@ -3,6 +3,9 @@
 
 use seespot_sim::{Action, Primitive};
 
+use super::{Extension, LOOP_BREAK_RADIUS, Mask, Seen};
+use crate::explain::REPLACED;
+
 /// **Replacing (seespot's extension, not the paper's):** a place that left
 /// progress where it was is not used again while progress stays. At each
 /// grasp decision whose progress is the progress of the last grasp
@@ -13,18 +16,18 @@ use seespot_sim::{Action, Primitive};
 /// so is a block set down beside a row instead of at its end. The block
 /// itself stays free to grasp (replacing takes the place of put-back
 /// breaking's grasp mask), so SSR picks it again and sets it down at the
-/// next-best place it finds.
+/// next-best place it finds. Reads progress.
 #[derive(Clone, Debug, Default)]
 pub struct Replacing {
     /// The progress at the last grasp decision, and the place chosen since.
     last: Option<(u8, Option<Action>)>,
     /// The places that left progress where it was, at the current progress.
-    pub(super) places: Vec<Action>,
+    pub(crate) places: Vec<Action>,
 }
 
 impl Replacing {
     /// Called at each decision before it is made: updates the replaced places.
-    pub(super) fn observe(&mut self, progress: u8, primitive: Primitive) {
+    pub(crate) fn observe(&mut self, progress: u8, primitive: Primitive) {
         if primitive != Primitive::Grasp {
             return;
         }
@@ -43,7 +46,7 @@ impl Replacing {
 
     /// Called after a decision: remembers a grasp decision's progress and
     /// the place after it.
-    pub(super) fn chose(&mut self, progress: u8, action: Action) {
+    pub(crate) fn chose(&mut self, progress: u8, action: Action) {
         match action.primitive {
             Primitive::Grasp => self.last = Some((progress, None)),
             Primitive::Place => {
@@ -52,6 +55,21 @@ impl Replacing {
                 }
             }
         }
+    }
+}
+
+impl Extension for Replacing {
+    fn before(&mut self, seen: &Seen, masks: &mut Vec<Mask>) {
+        self.observe(seen.progress(), seen.primitive);
+        masks.extend(
+            self.places
+                .iter()
+                .map(|a| Mask::every(*a, LOOP_BREAK_RADIUS, REPLACED)),
+        );
+    }
+
+    fn after(&mut self, seen: &Seen, action: Action) {
+        self.chose(seen.progress(), action);
     }
 }
 
@@ -91,5 +109,30 @@ mod tests {
         r.chose(2, other);
         r.observe(3, Primitive::Grasp);
         assert!(r.places.is_empty());
+    }
+
+    /// As an extension, at its declared level (progress; the heightmaps
+    /// are not read).
+    #[test]
+    fn as_an_extension_it_reads_progress() {
+        let trial = seespot_sim::Trial::new(
+            seespot_sim::WorldConfig::default(),
+            seespot_sim::TaskId::Row,
+            1,
+        );
+        let hm = trial.world().render();
+        let seen = |k| Seen::heightmaps(&hm, k, None, seespot_sim::TaskId::Row).with_progress(2);
+        let place = Action::new(Primitive::Place, 5, 60, 70);
+        let mut r = Replacing::default();
+        let mut masks = Vec::new();
+        r.before(&seen(Primitive::Grasp), &mut masks);
+        r.after(
+            &seen(Primitive::Grasp),
+            Action::new(Primitive::Grasp, 3, 40, 50),
+        );
+        r.before(&seen(Primitive::Place), &mut masks);
+        r.after(&seen(Primitive::Place), place);
+        r.before(&seen(Primitive::Grasp), &mut masks);
+        assert_eq!((masks[0].action, masks[0].why), (place, REPLACED));
     }
 }

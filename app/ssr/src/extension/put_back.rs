@@ -4,6 +4,9 @@
 
 use seespot_sim::{Action, Heightmaps, Primitive};
 
+use super::{Extension, LOOP_BREAK_RADIUS, Mask, Seen};
+use crate::explain::PUT_BACK;
+
 /// **Put-back breaking (seespot's extension, not the paper's):** a grasp
 /// whose block came back where it was is not taken again. At each grasp
 /// decision after a place (a grasp that lifted nothing is loop breaking's,
@@ -14,12 +17,13 @@ use seespot_sim::{Action, Heightmaps, Primitive};
 /// back; it joins the put-back grasps, whose neighbourhood
 /// ([`super::LOOP_BREAK_RADIUS`]) is masked at every grasp decision until progress
 /// changes. The thresholds are the block's geometry, fixed before any run.
+/// Reads the heightmaps and progress.
 #[derive(Clone, Debug, Default)]
 pub struct PutBack {
     /// The depth heightmap, action and progress of the last grasp.
     last_grasp: Option<(Vec<f32>, Action, u8)>,
     /// The grasps whose blocks were put back, at the current progress.
-    pub(super) grasps: Vec<Action>,
+    pub(crate) grasps: Vec<Action>,
     /// Whether a place decision came after the last grasp: without one, the
     /// grasp lifted nothing (its scene is unchanged, which loop breaking
     /// handles), and kept here it would mask a block it never moved until
@@ -42,7 +46,7 @@ impl PutBack {
     }
 
     /// Called at each decision before it is made: updates the put-back grasps.
-    pub(super) fn observe(&mut self, hm: &Heightmaps, progress: u8, primitive: Primitive) {
+    pub(crate) fn observe(&mut self, hm: &Heightmaps, progress: u8, primitive: Primitive) {
         if primitive != Primitive::Grasp {
             self.placed = true;
             return;
@@ -63,11 +67,26 @@ impl PutBack {
     }
 
     /// Called after a decision: remembers a grasp and its scene.
-    pub(super) fn chose(&mut self, hm: &Heightmaps, progress: u8, action: Action) {
+    pub(crate) fn chose(&mut self, hm: &Heightmaps, progress: u8, action: Action) {
         if action.primitive == Primitive::Grasp {
             self.last_grasp = Some((hm.depth.clone(), action, progress));
             self.placed = false;
         }
+    }
+}
+
+impl Extension for PutBack {
+    fn before(&mut self, seen: &Seen, masks: &mut Vec<Mask>) {
+        self.observe(seen.hm, seen.progress(), seen.primitive);
+        masks.extend(
+            self.grasps
+                .iter()
+                .map(|a| Mask::every(*a, LOOP_BREAK_RADIUS, PUT_BACK)),
+        );
+    }
+
+    fn after(&mut self, seen: &Seen, action: Action) {
+        self.chose(seen.hm, seen.progress(), action);
     }
 }
 
@@ -119,5 +138,26 @@ mod tests {
         pb.observe(&moved, 2, Primitive::Place);
         pb.observe(&moved, 2, Primitive::Grasp);
         assert!(pb.grasps.is_empty());
+    }
+
+    /// As an extension, at its declared level (heightmaps and progress).
+    #[test]
+    fn as_an_extension_it_reads_heightmaps_and_progress() {
+        let trial = Trial::new(WorldConfig::default(), TaskId::Stack, 1);
+        let hm = trial.world().render();
+        let seen = |k| Seen::heightmaps(&hm, k, None, TaskId::Stack).with_progress(1);
+        let grasp = Action::new(Primitive::Grasp, 3, 40, 50);
+        let mut pb = PutBack::default();
+        let mut masks = Vec::new();
+        pb.before(&seen(Primitive::Grasp), &mut masks);
+        pb.after(&seen(Primitive::Grasp), grasp);
+        pb.before(&seen(Primitive::Place), &mut masks);
+        pb.after(
+            &seen(Primitive::Place),
+            Action::new(Primitive::Place, 0, 9, 9),
+        );
+        pb.before(&seen(Primitive::Grasp), &mut masks);
+        assert_eq!(masks.len(), 1);
+        assert_eq!((masks[0].action, masks[0].why), (grasp, PUT_BACK));
     }
 }
