@@ -161,6 +161,48 @@ pub const PRESETS: &[PresetDef] = &[
         ],
         set_against_spot_q: Some("with the extensions together"),
     },
+    PresetDef {
+        name: "ssr-ccd-unguarded",
+        rule: Method::SsrCcd,
+        extensions: &["loop-break", "regrasp", "replace"],
+        title: "See-SPOT-Run CCD + loop breaking + regrasp + replacing (seespot's extension, no simulator state)",
+        display: "Extension: SSR CCD + loop breaking + regrasp + replacing",
+        compare: &[against(
+            "ssr-ccd-replace",
+            "what the reversal guard (simulator state) adds to loop breaking, regrasp and replacing",
+        )],
+        set_against_spot_q: None,
+    },
+    PresetDef {
+        name: "ssr-ccd-built",
+        rule: Method::SsrCcd,
+        extensions: &["loop-break", "regrasp", "replace", "built-guard"],
+        title: "See-SPOT-Run CCD + loop breaking + regrasp + replacing + built guard (seespot's extension, no simulator state)",
+        display: "Extension: SSR CCD + loop breaking + regrasp + replacing + built guard",
+        compare: &[
+            against(
+                "ssr-ccd-unguarded",
+                "what the built guard (progress) adds to loop breaking, regrasp and replacing",
+            ),
+            against(
+                "ssr-ccd-replace",
+                "the built guard (progress) against the reversal guard (simulator state)",
+            ),
+            against(
+                "ssr-ccd",
+                "seespot's extensions without simulator state against the faithful method",
+            ),
+            against_here(
+                "ssr-ccd-loopbreak",
+                "seespot's extensions without simulator state against loop breaking alone",
+            ),
+            against_here(
+                "transporter",
+                "seespot's extensions without simulator state against the few-shot baseline trained on the test task's demonstrations",
+            ),
+        ],
+        set_against_spot_q: Some("with the extensions without simulator state"),
+    },
 ];
 
 /// A preset: an index into [`PRESETS`] (ordered as the table is).

@@ -14,6 +14,7 @@
 //! at its declared level). Method names ([`crate::preset`]) are sets of
 //! extensions on top of a rule (CCD or L2CD).
 
+mod built_guard;
 mod guard;
 mod loop_break;
 mod put_back;
@@ -271,6 +272,13 @@ pub const REGISTRY: &[ExtensionDef] = &[
         needs: &[],
         phrase: "reversal guard",
         make: || Box::<guard::ReversalGuard>::default(),
+    },
+    ExtensionDef {
+        name: "built-guard",
+        information: Information::Progress,
+        needs: &[],
+        phrase: "built guard",
+        make: || Box::<built_guard::BuiltGuard>::default(),
     },
 ];
 
