@@ -316,8 +316,12 @@ function renderPairs(s) {
   // Where an extension of SSR departed from SSR CCD: the actions it masked, and why.
   const skipped = s.skipped || [];
   $('departures').hidden = !skipped.length;
-  $('departures').textContent = skipped.map((k) => `Extension: ${act(k.action)} and the `
-    + `${+(k.radius_m * 100).toFixed(1)} cm around it skipped: ${k.why}.`).join(' ');
+  $('departures').textContent = skipped.map((k) => {
+    const cm = +(k.radius_m * 100).toFixed(1);
+    return k.outside
+      ? `Extension: every ${k.action.primitive} but the ${cm} cm around (${k.action.y}, ${k.action.x}) skipped: ${k.why}.`
+      : `Extension: ${act(k.action)} and the ${cm} cm around it skipped: ${k.why}.`;
+  }).join(' ');
   if (!s.pairs.length) {
     const tr = document.createElement('tr');
     tr.innerHTML = `<td colspan="7" class="pending">${s.phase ? 'this decider gives no explanation' : 'step to the embed phase'}</td>`;

@@ -73,6 +73,12 @@ pub struct Departure {
     pub action: Action,
     pub radius_m: f32,
     pub why: String,
+    /// Every action of the primitive was masked except those within
+    /// `radius_m` of `action` (the action is where the decision was sent,
+    /// not what it was kept from); false, and absent from the record, for
+    /// the usual mask.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub outside: bool,
 }
 
 impl std::fmt::Display for Departure {
@@ -81,15 +87,20 @@ impl std::fmt::Display for Departure {
         let cm = format!("{:.1}", self.radius_m * 100.0);
         let cm = cm.trim_end_matches(".0");
         let a = &self.action;
-        write!(
-            f,
-            "{} r{} ({}, {}) and the {cm} cm around it skipped: {}",
-            a.primitive.as_str(),
-            a.rotation,
-            a.y,
-            a.x,
-            self.why
-        )
+        let (p, r, y, x) = (a.primitive.as_str(), a.rotation, a.y, a.x);
+        if self.outside {
+            write!(
+                f,
+                "every {p} but the {cm} cm around ({y}, {x}) skipped: {}",
+                self.why
+            )
+        } else {
+            write!(
+                f,
+                "{p} r{r} ({y}, {x}) and the {cm} cm around it skipped: {}",
+                self.why
+            )
+        }
     }
 }
 
@@ -160,7 +171,8 @@ pub struct Provenance {
 }
 
 /// The code that made a record: `git rev-parse HEAD` and whether
-/// `git status --porcelain --untracked-files=no` was empty.
+/// `git status --porcelain --untracked-files=no` was empty outside
+/// `results/` and `runs/` (the outputs evaluations write as they go).
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Code {
     pub commit: String,
@@ -181,7 +193,18 @@ impl Code {
         };
         Some(Self {
             commit: git(&["rev-parse", "HEAD"])?,
-            tree_clean: git(&["status", "--porcelain", "--untracked-files=no"])?.is_empty(),
+            // Evaluations rewrite their reports and records under results/
+            // (and runs/) as they go: those are outputs, not the code.
+            tree_clean: git(&[
+                "status",
+                "--porcelain",
+                "--untracked-files=no",
+                "--",
+                ":(top)",
+                ":(top,exclude)results",
+                ":(top,exclude)runs",
+            ])?
+            .is_empty(),
         })
     }
 }

@@ -203,6 +203,29 @@ pub const PRESETS: &[PresetDef] = &[
         ],
         set_against_spot_q: Some("with the extensions without simulator state"),
     },
+    PresetDef {
+        name: "ssr-ccd-undo",
+        rule: Method::SsrCcd,
+        extensions: &["loop-break", "regrasp", "replace", "built-guard", "undo"],
+        title: "See-SPOT-Run CCD + loop breaking + regrasp + replacing + built guard + undo (seespot's extension, no simulator state)",
+        display: "Extension: SSR CCD + loop breaking + regrasp + replacing + built guard + undo",
+        compare: &[
+            against("ssr-ccd-built", "what undo adds to the built guard"),
+            against(
+                "ssr-ccd-replace",
+                "the built guard and undo (progress) against the reversal guard (simulator state)",
+            ),
+            against(
+                "ssr-ccd",
+                "seespot's extensions with undo, without simulator state, against the faithful method",
+            ),
+            against_here(
+                "transporter",
+                "seespot's extensions with undo, without simulator state, against the few-shot baseline trained on the test task's demonstrations",
+            ),
+        ],
+        set_against_spot_q: Some("with undo, without simulator state"),
+    },
 ];
 
 /// A preset: an index into [`PRESETS`] (ordered as the table is).

@@ -20,6 +20,7 @@ mod loop_break;
 mod put_back;
 mod regrasp;
 mod replace;
+mod undo;
 
 pub use guard::guarded_blocks;
 pub use loop_break::LoopBreak;
@@ -183,6 +184,9 @@ pub struct Mask {
     /// Whether the mask gives way first when the masks together would leave
     /// no action allowed (then every mask gives way).
     pub yields: bool,
+    /// Masks every action of the primitive *but* the square (sends the
+    /// decision there) instead of the square.
+    pub outside: bool,
 }
 
 impl Mask {
@@ -194,6 +198,7 @@ impl Mask {
             around: Around::Every,
             why,
             yields: false,
+            outside: false,
         }
     }
 
@@ -203,6 +208,7 @@ impl Mask {
             action: self.action,
             radius_m: self.radius_m,
             why: self.why.to_owned(),
+            outside: self.outside,
         }
     }
 }
@@ -279,6 +285,13 @@ pub const REGISTRY: &[ExtensionDef] = &[
         needs: &[],
         phrase: "built guard",
         make: || Box::<built_guard::BuiltGuard>::default(),
+    },
+    ExtensionDef {
+        name: "undo",
+        information: Information::Progress,
+        needs: &["built-guard"],
+        phrase: "undo",
+        make: || Box::<undo::Undo>::default(),
     },
 ];
 
@@ -372,10 +385,16 @@ pub fn forbidden(masks: &[Mask], rotations: usize, n: usize, pixel: f32) -> Vec<
                 &axis
             }
         };
+        let (ys, xs) = (
+            a.y.saturating_sub(r)..=(a.y + r).min(n - 1),
+            a.x.saturating_sub(r)..=(a.x + r).min(n - 1),
+        );
         for &k in on {
-            for y in a.y.saturating_sub(r)..=(a.y + r).min(n - 1) {
-                for x in a.x.saturating_sub(r)..=(a.x + r).min(n - 1) {
-                    forbid[(k * n + y) * n + x] = true;
+            for y in 0..n {
+                for x in 0..n {
+                    if (ys.contains(&y) && xs.contains(&x)) != m.outside {
+                        forbid[(k * n + y) * n + x] = true;
+                    }
                 }
             }
         }
@@ -438,6 +457,14 @@ mod tests {
         let forbid = forbidden(&[axis], 16, n, 0.002);
         assert_eq!(forbid.iter().filter(|&&f| f).count(), 25 * 6);
         assert!(forbid[(3 * n + 10) * n + 10] && !forbid[(5 * n + 10) * n + 10]);
+        // Outside: everything but the square, at every rotation.
+        let outside = Mask {
+            outside: true,
+            ..every
+        };
+        let forbid = forbidden(&[outside], 16, n, 0.002);
+        assert_eq!(forbid.iter().filter(|&&f| !f).count(), 25 * 16);
+        assert!(!forbid[(3 * n + 10) * n + 10] && forbid[(3 * n + 20) * n + 20]);
     }
 
     #[test]
