@@ -226,6 +226,42 @@ pub const PRESETS: &[PresetDef] = &[
         ],
         set_against_spot_q: Some("with undo, without simulator state"),
     },
+    PresetDef {
+        name: "ssr-ccd-undo-wide",
+        rule: Method::SsrCcd,
+        extensions: &[
+            "loop-break",
+            "regrasp",
+            "replace",
+            "built-guard",
+            "undo-wide",
+        ],
+        title: "See-SPOT-Run CCD + loop breaking + regrasp + replacing + built guard + undo within 3 cm (seespot's extension, no simulator state)",
+        display: "Extension: SSR CCD + loop breaking + regrasp + replacing + built guard + undo (3 cm)",
+        compare: &[
+            against(
+                "ssr-ccd-built",
+                "what undo within 3 cm adds to the built guard",
+            ),
+            against(
+                "ssr-ccd-replace",
+                "the built guard and undo within 3 cm (progress) against the reversal guard (simulator state)",
+            ),
+            against(
+                "ssr-ccd",
+                "seespot's extensions with undo within 3 cm, without simulator state, against the faithful method",
+            ),
+            against_here(
+                "ssr-ccd-loopbreak",
+                "seespot's extensions with undo within 3 cm, without simulator state, against loop breaking alone",
+            ),
+            against_here(
+                "transporter",
+                "seespot's extensions with undo within 3 cm, without simulator state, against the few-shot baseline trained on the test task's demonstrations",
+            ),
+        ],
+        set_against_spot_q: Some("with undo within 3 cm, without simulator state"),
+    },
 ];
 
 /// A preset: an index into [`PRESETS`] (ordered as the table is).

@@ -293,6 +293,13 @@ pub const REGISTRY: &[ExtensionDef] = &[
         phrase: "undo",
         make: || Box::<undo::Undo>::default(),
     },
+    ExtensionDef {
+        name: "undo-wide",
+        information: Information::Progress,
+        needs: &["built-guard"],
+        phrase: "undo (3 cm)",
+        make: || Box::new(undo::Undo::within(undo::UNDO_WIDE_RADIUS)),
+    },
 ];
 
 /// A set of extensions (an index set into [`REGISTRY`]), iterated in
