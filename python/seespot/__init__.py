@@ -24,6 +24,7 @@ from typing import Any
 
 from seespot._core import (
     DEFAULT_RESOLUTION,
+    EXTENSIONS,
     MAX_TRIAL_ACTIONS,
     METHODS,
     NUM_ROTATIONS,
@@ -55,6 +56,7 @@ from seespot.env import register_envs
 __all__ = [
     "DEFAULT_RESOLUTION",
     "MAX_TRIAL_ACTIONS",
+    "EXTENSIONS",
     "METHODS",
     "NUM_ROTATIONS",
     "TASKS",

@@ -9,6 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = [
+    "EXTENSIONS",
     "MAX_TRIAL_ACTIONS",
     "METHODS",
     "NUM_ROTATIONS",
@@ -42,6 +43,10 @@ __all__ = [
 __version__: str
 TASKS: list[str]
 METHODS: list[str]
+EXTENSIONS: list[tuple[str, str, list[str]]]
+"""seespot's extensions of See-SPOT-Run: (name, the information it reads:
+``heightmaps``, ``progress`` or ``simulator``, the extensions it needs), in
+the order they run (docs/extensions.md)."""
 NUM_ROTATIONS: int
 DEFAULT_RESOLUTION: int
 """Heightmap pixels per side of the shipped set (224, 2 mm/px): the default
@@ -118,7 +123,15 @@ class Ssr:
         method: str = "ssr-ccd",
         correspond: str | Mapping[str, Any] | None = None,
         embeddings: Any = None,
+        extensions: Sequence[str] | None = None,
     ) -> Ssr: ...
+    @property
+    def extensions(self) -> list[str]: ...
+    @property
+    def information(self) -> str: ...
+    @property
+    def title(self) -> str: ...
+    def act(self, trial: Trial) -> dict[str, Any]: ...
     @property
     def policy_names(self) -> list[str]: ...
     def decide(

@@ -30,7 +30,8 @@ def test_a_set_by_name_acts_as_its_preset() -> None:
         a = logged["action"]
         assert d["action"] == (a["rotation"], a["y"], a["x"])
         assert d["primitive"] == a["primitive"]
-        assert [x["why"] for x in d["departures"]] == [x["why"] for x in logged["departures"]]
+        said = [x["why"] for x in d["departures"]]
+        assert said == [x["why"] for x in logged.get("departures", [])]
         trial.step(*d["action"])
 
 
