@@ -262,6 +262,42 @@ pub const PRESETS: &[PresetDef] = &[
         ],
         set_against_spot_q: Some("with undo within 3 cm, without simulator state"),
     },
+    PresetDef {
+        name: "ssr-ccd-undo-wide-guard",
+        rule: Method::SsrCcd,
+        extensions: &[
+            "loop-break",
+            "regrasp",
+            "replace",
+            "built-guard-wide",
+            "undo-wide",
+        ],
+        title: "See-SPOT-Run CCD + loop breaking + regrasp + replacing + built guard within 3.75 cm + undo within 3 cm (seespot's extension, no simulator state)",
+        display: "Extension: SSR CCD + loop breaking + regrasp + replacing + built guard (3.75 cm) + undo (3 cm)",
+        compare: &[
+            against(
+                "ssr-ccd-undo-wide",
+                "what a built guard of three quarters of a block adds to one of half a block",
+            ),
+            against(
+                "ssr-ccd-replace",
+                "the wide built guard and undo (progress) against the reversal guard (simulator state)",
+            ),
+            against(
+                "ssr-ccd",
+                "seespot's extensions with the wide guard and undo, without simulator state, against the faithful method",
+            ),
+            against_here(
+                "ssr-ccd-loopbreak",
+                "seespot's extensions with the wide guard and undo, without simulator state, against loop breaking alone",
+            ),
+            against_here(
+                "transporter",
+                "seespot's extensions with the wide guard and undo, without simulator state, against the few-shot baseline trained on the test task's demonstrations",
+            ),
+        ],
+        set_against_spot_q: Some("with the wide guard and undo, without simulator state"),
+    },
 ];
 
 /// A preset: an index into [`PRESETS`] (ordered as the table is).

@@ -13,13 +13,40 @@ use super::{Extension, GUARD_RADIUS, Mask, Seen};
 pub const BUILT: &str =
     "a place there raised progress: its block is part of what is built while that progress stands";
 
+/// `built-guard-wide`'s half side: three quarters of a block (3.75 cm). A
+/// block settles up to a few millimetres from the place's pixel and its top
+/// reaches 3.5 cm from its centre along a diagonal, so half a block
+/// ([`GUARD_RADIUS`]) left grasps on a guarded block's edges allowed; on the
+/// validation seeds SSR then grasped the guarded tower's edge 2.8 to 3 cm
+/// from the place, over and over (vertical square, raw patches, seed 10009).
+pub const BUILT_WIDE_RADIUS: f32 = 0.75 * seespot_sim::blocks::BLOCK_SIZE;
+
 /// The spots of the places that raised progress.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct BuiltGuard {
     /// The last place and the progress before it.
     last_place: Option<(Action, u8)>,
     /// Each spot (as a grasp at rotation 0) and the progress its place reached.
     built: Vec<(Action, u8)>,
+    /// The half side of the square masked around each spot.
+    radius: f32,
+}
+
+impl Default for BuiltGuard {
+    fn default() -> Self {
+        Self::within(GUARD_RADIUS)
+    }
+}
+
+impl BuiltGuard {
+    /// A built guard that masks the grasps within `radius` metres of a spot.
+    pub fn within(radius: f32) -> Self {
+        Self {
+            last_place: None,
+            built: Vec::new(),
+            radius,
+        }
+    }
 }
 
 impl Extension for BuiltGuard {
@@ -37,7 +64,7 @@ impl Extension for BuiltGuard {
         self.built.retain(|(_, level)| *level <= p);
         masks.extend(self.built.iter().map(|(a, _)| Mask {
             yields: true,
-            ..Mask::every(*a, GUARD_RADIUS, BUILT)
+            ..Mask::every(*a, self.radius, BUILT)
         }));
     }
 
@@ -95,5 +122,14 @@ mod tests {
         masks.clear();
         g.before(&seen(Primitive::Grasp, 1), &mut masks);
         assert!(masks.is_empty());
+        // The wide guard masks three quarters of a block around the spot.
+        let mut wide = BuiltGuard::within(BUILT_WIDE_RADIUS);
+        wide.after(&seen(Primitive::Place, 1), place);
+        wide.before(&seen(Primitive::Grasp, 2), &mut masks);
+        assert!(
+            (masks[0].radius_m - 0.0375).abs() < 1e-6,
+            "{}",
+            masks[0].radius_m
+        );
     }
 }

@@ -233,7 +233,7 @@ pub struct ExtensionDef {
     /// The most privileged information it reads.
     pub information: Information,
     /// The extensions it needs in the same set (without them it would
-    /// silently do nothing).
+    /// silently do nothing); `a|b` needs one of them.
     pub needs: &'static [&'static str],
     /// What it does, in a phrase (a method's title joins them).
     pub phrase: &'static str,
@@ -287,16 +287,27 @@ pub const REGISTRY: &[ExtensionDef] = &[
         make: || Box::<built_guard::BuiltGuard>::default(),
     },
     ExtensionDef {
+        name: "built-guard-wide",
+        information: Information::Progress,
+        needs: &[],
+        phrase: "built guard (3.75 cm)",
+        make: || {
+            Box::new(built_guard::BuiltGuard::within(
+                built_guard::BUILT_WIDE_RADIUS,
+            ))
+        },
+    },
+    ExtensionDef {
         name: "undo",
         information: Information::Progress,
-        needs: &["built-guard"],
+        needs: &["built-guard|built-guard-wide"],
         phrase: "undo",
         make: || Box::<undo::Undo>::default(),
     },
     ExtensionDef {
         name: "undo-wide",
         information: Information::Progress,
-        needs: &["built-guard"],
+        needs: &["built-guard|built-guard-wide"],
         phrase: "undo (3 cm)",
         make: || Box::new(undo::Undo::within(undo::UNDO_WIDE_RADIUS)),
     },
@@ -333,7 +344,7 @@ impl Extensions {
         }
         for d in set.defs() {
             for need in d.needs {
-                if !set.defs().any(|e| e.name == *need) {
+                if !need.split('|').any(|n| set.defs().any(|e| e.name == n)) {
                     return Err(format!(
                         "extension `{}` needs `{need}`: without it, it would do nothing",
                         d.name
@@ -432,8 +443,8 @@ mod tests {
     fn every_registered_name_is_unique_and_its_needs_are_registered() {
         for (i, d) in REGISTRY.iter().enumerate() {
             assert!(REGISTRY[..i].iter().all(|e| e.name != d.name), "{}", d.name);
-            for need in d.needs {
-                assert!(REGISTRY.iter().any(|e| e.name == *need), "{need}");
+            for need in d.needs.iter().flat_map(|n| n.split('|')) {
+                assert!(REGISTRY.iter().any(|e| e.name == need), "{need}");
             }
         }
         assert!(REGISTRY.len() <= 64, "the set is a 64-bit mask");
