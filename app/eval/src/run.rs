@@ -639,10 +639,11 @@ mod tests {
     #[test]
     fn every_spec_round_trips_through_its_name() {
         let all = RunSpec::all();
-        // 7 SSR methods x 9 correspondences x 3 finetunings x 2 noises,
-        // SPOT-Q x 3 x 2, TransporterNet x 2 x 2, oracle and random x 2
-        // (noise only).
-        assert_eq!(all.len(), 7 * 9 * 6 + 6 + 4 + 2 * 2);
+        // Every preset (SSR's methods) x 9 correspondences x 3 finetunings x
+        // 2 noises, SPOT-Q x 3 x 2, TransporterNet x 2 x 2, oracle and
+        // random x 2 (noise only).
+        let ssr = seespot_ssr::preset::PRESETS.len();
+        assert_eq!(all.len(), ssr * 9 * 6 + 6 + 4 + 2 * 2);
         let mut names = std::collections::HashSet::new();
         for spec in &all {
             let name = spec.to_string();

@@ -236,10 +236,21 @@ pub fn report_comparisons(records: &[TrialRecord]) -> Vec<(RunSpec, RunSpec, Str
         for p in Preset::all() {
             let m = EvalMethod::Ssr(p);
             for a in p.def().compare.iter().filter(|a| a.on_sets) {
+                // The TransporterNet runs no embedding set: its own run.
+                let other = match preset_or_transporter(a.against) {
+                    EvalMethod::Transporter => RunSpec::new(EvalMethod::Transporter),
+                    other => on(other),
+                };
+                out.push((on(m), other, format!("{} on embedding set {set}", a.why)));
+            }
+            if !p.extensions().is_empty() {
                 out.push((
                     on(m),
-                    on(preset_or_transporter(a.against)),
-                    format!("{} on embedding set {set}", a.why),
+                    RunSpec::new(ssr_ccd),
+                    format!(
+                        "{} on embedding set {set} against the paper's method (SSR CCD on the SPOT-Q policies)",
+                        p.name()
+                    ),
                 ));
             }
             if let Some(with) = p.def().set_against_spot_q {
