@@ -120,3 +120,19 @@ def test_the_html_renders_offline_in_chromium(tmp_path):
     colours = img.getcolors(maxcolors=1 << 20) or []
     red = sum(n for n, (r, g, b) in colours if r > 180 and g < 120 and b < 120)
     assert red > 200, f"no red block in {out} ({red} red pixels)"
+
+
+def test_an_extension_decides_with_its_extensions_as_its_records_do():
+    # Every See-SPOT-Run method is decided here, its extensions acting (they
+    # were not, before Ssr.act): the actions are the committed record's.
+    import gzip
+    import json
+
+    assert "ssr-ccd-undo-wide-guard" in view.SSR_METHODS
+    frames = view.record_trial("row", 3, method="ssr-ccd-replace", max_actions=6)
+    path = ROOT / "results" / "trials" / "ssr-ccd-replace" / "row.jsonl.gz"
+    lines = gzip.decompress(path.read_bytes()).decode().splitlines()
+    record = next(json.loads(x) for x in lines if x.strip() and json.loads(x)["seed"] == 3)
+    want = [(a["action"]["rotation"], a["action"]["y"], a["action"]["x"]) for a in record["actions_log"][:6]]
+    assert [a.action for a in frames.actions] == want
+    assert all(a.pair is not None for a in frames.actions)

@@ -106,10 +106,10 @@ impl Ssr {
     }
 
     /// One decision in `trial`'s current state with the extensions on (a
-    /// trial with no action taken starts them afresh). Returns a dict:
-    /// `action` `(rotation, y, x)` for `trial.step`, `primitive`, and
-    /// `departures`, one dict per action an extension masked (`action`,
-    /// `radius_m`, `why`).
+    /// trial with no action taken starts them afresh). Returns the dict
+    /// `decide` returns (`action` `(rotation, y, x)` for `trial.step`, the
+    /// pairs, `chosen`, ...), whose `departures` hold one dict per action an
+    /// extension masked (`action`, `radius_m`, `why`, `outside`).
     fn act<'py>(
         &mut self,
         py: Python<'py>,
@@ -121,28 +121,20 @@ impl Ssr {
         }
         let ssr = &mut self.ssr;
         let t = &mut trial.trial;
-        let choice = py
-            .detach(|| {
-                if t.actions() == 0 {
-                    ssr.begin_trial(t);
-                }
-                let hm = t.world_mut().observe();
-                ssr.act(t, &hm)
-            })
-            .map_err(|e| bad("trial", e))?;
-        let out = PyDict::new(py);
-        out.set_item("primitive", choice.action.primitive.as_str())?;
-        out.set_item("action", action_tuple(&choice.action))?;
-        let departures = PyList::empty(py);
-        for dep in choice.pair.map(|p| p.departures).unwrap_or_default() {
-            let e = PyDict::new(py);
-            e.set_item("action", action_tuple(&dep.action))?;
-            e.set_item("radius_m", dep.radius_m)?;
-            e.set_item("why", dep.why)?;
-            departures.append(e)?;
-        }
-        out.set_item("departures", departures)?;
-        Ok(out)
+        py.detach(|| {
+            if t.actions() == 0 {
+                ssr.begin_trial(t);
+            }
+            let hm = t.world_mut().observe();
+            ssr.act(t, &hm)
+        })
+        .map_err(|e| bad("trial", e))?;
+        let d = self
+            .ssr
+            .last_decision()
+            .cloned()
+            .ok_or_else(|| bad("trial", "See-SPOT-Run made no decision"))?;
+        decision_dict(py, d)
     }
 
     /// The names of the M embedding models (a SPOT-Q policy's task), in
@@ -177,6 +169,14 @@ impl Ssr {
         let d = py
             .detach(|| ssr.decide(&hm, progress, primitive))
             .map_err(|e| bad("color", e))?;
+        decision_dict(py, d)
+    }
+}
+
+/// A decision as `Ssr.decide` and `Ssr.act` return it (the pairs with their
+/// maps, the chosen pair, the timings, the extensions' departures).
+fn decision_dict(py: Python<'_>, d: seespot_ssr::Decision) -> PyResult<Bound<'_, PyDict>> {
+    {
         let n = d.resolution;
         let pairs = PyList::empty(py);
         for p in d.pairs {
@@ -204,6 +204,16 @@ impl Ssr {
         out.set_item("pairs", pairs)?;
         out.set_item("embed_ms", d.embed_ms)?;
         out.set_item("correspond_ms", d.correspond_ms)?;
+        let departures = PyList::empty(py);
+        for dep in d.departures {
+            let e = PyDict::new(py);
+            e.set_item("action", action_tuple(&dep.action))?;
+            e.set_item("radius_m", dep.radius_m)?;
+            e.set_item("why", dep.why)?;
+            e.set_item("outside", dep.outside)?;
+            departures.append(e)?;
+        }
+        out.set_item("departures", departures)?;
         Ok(out)
     }
 }

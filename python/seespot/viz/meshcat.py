@@ -51,7 +51,7 @@ from typing import Any
 
 import numpy as np
 
-from seespot._core import DEFAULT_RESOLUTION
+from seespot._core import DEFAULT_RESOLUTION, METHODS
 from seespot.viz.viser import BLOCK_COLORS, BLOCK_SIZE, DEMO_OFFSET, WORKSPACE_SIZE, pixel_to_world
 
 #: Where the simulator parks a held block, out of the camera's view (metres;
@@ -82,9 +82,10 @@ ROD_HEIGHT = 0.02
 ROD_GAP = 0.02
 #: Camera position relative to the view's centre (metres, table frame).
 CAMERA_OFFSET = (0.0, -0.32, 0.52)
-#: Methods decided here with :class:`seespot.Ssr` (with the pair explanation);
-#: the others are run by :class:`seespot.Evaluator` and replayed.
-SSR_METHODS = ("ssr-ccd", "ssr-l2cd", "ssr-ccd-loopbreak")
+#: Methods decided here with :class:`seespot.Ssr` (with the pair explanation):
+#: every See-SPOT-Run method, its extensions acting through ``Ssr.act``; the
+#: others are run by :class:`seespot.Evaluator` and replayed.
+SSR_METHODS = tuple(m for m in METHODS if m.startswith("ssr-"))
 
 
 @dataclass
@@ -219,8 +220,7 @@ def record_trial(
     if method in SSR_METHODS:
         ssr = _core.Ssr(task, models_dir, demos_dir, method=method, correspond=correspond)
         while trial.end is None and len(frames.actions) < limit:
-            color, depth = trial.observe()
-            d = ssr.decide(color, depth, trial.progress, trial.next_primitive)
+            d = ssr.act(trial)
             p = d["pairs"][d["chosen"]]
             demo_blocks, demo_pose = _demo_step(demos_dir, task, int(p["demo"]), int(p["demo_step"]))
             pair = ChosenPair(
@@ -589,7 +589,11 @@ def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(prog="python -m seespot.viz.meshcat", description=(__doc__ or "").split("\n\n")[0])
     ap.add_argument("--task", default="stack", help="stack, row, unstack, vertical-square or custom:NAME")
     ap.add_argument("--seed", type=int, default=1, help="the trial's seed (odd: test seeds)")
-    ap.add_argument("--method", default="ssr-ccd", help="ssr-ccd, ssr-l2cd, ssr-ccd-loopbreak, oracle, spot-q, ...")
+    ap.add_argument(
+        "--method",
+        default="ssr-ccd",
+        help="a method of seespot.METHODS: ssr-ccd, ssr-l2cd, an extension (ssr-ccd-undo-wide-guard, ...), oracle, ...",
+    )
     ap.add_argument("--models", default="models", help="the policies' folder")
     ap.add_argument("--demos", default="demos", help="the demonstrations' folder")
     ap.add_argument("--resolution", type=int, default=DEFAULT_RESOLUTION)
