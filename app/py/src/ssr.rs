@@ -176,44 +176,42 @@ impl Ssr {
 /// A decision as `Ssr.decide` and `Ssr.act` return it (the pairs with their
 /// maps, the chosen pair, the timings, the extensions' departures).
 fn decision_dict(py: Python<'_>, d: seespot_ssr::Decision) -> PyResult<Bound<'_, PyDict>> {
-    {
-        let n = d.resolution;
-        let pairs = PyList::empty(py);
-        for p in d.pairs {
-            let e = PyDict::new(py);
-            e.set_item("policy", p.policy.as_str())?;
-            e.set_item("demo", p.demo)?;
-            e.set_item("demo_step", p.demo_step)?;
-            e.set_item("demo_action", action_tuple(&p.demo_action))?;
-            e.set_item("l", p.l)?;
-            e.set_item("matched", action_tuple(&p.matched))?;
-            e.set_item("rematch", action_tuple(&p.rematch))?;
-            e.set_item("rematch_l", p.rematch_l)?;
-            e.set_item("c", p.c)?;
-            for (key, map) in [("match_map", p.match_map), ("rematch_map", p.rematch_map)] {
-                let a = Array2::from_shape_vec((n, n), map).map_err(|e| bad(key, e))?;
-                e.set_item(key, a.into_pyarray(py))?;
-            }
-            pairs.append(e)?;
+    let n = d.resolution;
+    let pairs = PyList::empty(py);
+    for p in d.pairs {
+        let e = PyDict::new(py);
+        e.set_item("policy", p.policy.as_str())?;
+        e.set_item("demo", p.demo)?;
+        e.set_item("demo_step", p.demo_step)?;
+        e.set_item("demo_action", action_tuple(&p.demo_action))?;
+        e.set_item("l", p.l)?;
+        e.set_item("matched", action_tuple(&p.matched))?;
+        e.set_item("rematch", action_tuple(&p.rematch))?;
+        e.set_item("rematch_l", p.rematch_l)?;
+        e.set_item("c", p.c)?;
+        for (key, map) in [("match_map", p.match_map), ("rematch_map", p.rematch_map)] {
+            let a = Array2::from_shape_vec((n, n), map).map_err(|e| bad(key, e))?;
+            e.set_item(key, a.into_pyarray(py))?;
         }
-        let out = PyDict::new(py);
-        out.set_item("primitive", d.primitive.as_str())?;
-        out.set_item("progress", d.progress)?;
-        out.set_item("action", action_tuple(&d.action))?;
-        out.set_item("chosen", d.chosen)?;
-        out.set_item("pairs", pairs)?;
-        out.set_item("embed_ms", d.embed_ms)?;
-        out.set_item("correspond_ms", d.correspond_ms)?;
-        let departures = PyList::empty(py);
-        for dep in d.departures {
-            let e = PyDict::new(py);
-            e.set_item("action", action_tuple(&dep.action))?;
-            e.set_item("radius_m", dep.radius_m)?;
-            e.set_item("why", dep.why)?;
-            e.set_item("outside", dep.outside)?;
-            departures.append(e)?;
-        }
-        out.set_item("departures", departures)?;
-        Ok(out)
+        pairs.append(e)?;
     }
+    let out = PyDict::new(py);
+    out.set_item("primitive", d.primitive.as_str())?;
+    out.set_item("progress", d.progress)?;
+    out.set_item("action", action_tuple(&d.action))?;
+    out.set_item("chosen", d.chosen)?;
+    out.set_item("pairs", pairs)?;
+    out.set_item("embed_ms", d.embed_ms)?;
+    out.set_item("correspond_ms", d.correspond_ms)?;
+    let departures = PyList::empty(py);
+    for dep in d.departures {
+        let e = PyDict::new(py);
+        e.set_item("action", action_tuple(&dep.action))?;
+        e.set_item("radius_m", dep.radius_m)?;
+        e.set_item("why", dep.why)?;
+        e.set_item("outside", dep.outside)?;
+        departures.append(e)?;
+    }
+    out.set_item("departures", departures)?;
+    Ok(out)
 }

@@ -88,7 +88,7 @@ pub fn markdown_table(summaries: &[Summary], include_paper: bool) -> String {
         md.push_str(&format!(
             "| {} (seespot) | {} |",
             display_method(m),
-            reads(m)
+            crate::run::reads(m)
         ));
         for c in &columns {
             let cell =
@@ -179,12 +179,6 @@ pub(super) fn paper_row(name: &str, columns: &[Option<TaskId>]) -> String {
     }
     row.push('\n');
     row
-}
-
-/// The most privileged information run `method` reads (`heightmaps`,
-/// `progress`, `simulator`; `—` for a name that is no run's).
-pub fn reads(method: &str) -> &'static str {
-    crate::run::reads(method)
 }
 
 /// The report's "beyond the paper" headline: the seespot extension with the
@@ -293,7 +287,7 @@ pub fn csv(summaries: &[Summary]) -> String {
             s.annotated_actions.to_string(),
             f6(s.compute_efficiency),
             opt(s.sample_efficiency),
-            reads(&s.method).to_owned(),
+            crate::run::reads(&s.method).to_owned(),
         ]);
     }
     let bytes = w.into_inner().unwrap_or_default();

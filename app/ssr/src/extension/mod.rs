@@ -104,12 +104,8 @@ impl<'a> Seen<'a> {
         trial: &'a Trial,
     ) -> Self {
         Self {
-            hm,
-            primitive,
-            repeat,
-            task,
-            progress: Some(progress),
             trial: Some(trial),
+            ..Self::heightmaps(hm, primitive, repeat, task).with_progress(progress)
         }
     }
 
@@ -408,11 +404,16 @@ pub fn forbidden(masks: &[Mask], rotations: usize, n: usize, pixel: f32) -> Vec<
             a.x.saturating_sub(r)..=(a.x + r).min(n - 1),
         );
         for &k in on {
-            for y in 0..n {
-                for x in 0..n {
-                    if (ys.contains(&y) && xs.contains(&x)) != m.outside {
-                        forbid[(k * n + y) * n + x] = true;
-                    }
+            let plane = &mut forbid[k * n * n..(k + 1) * n * n];
+            if m.outside {
+                // Everything but the square: the whole plane is visited.
+                for (i, f) in plane.iter_mut().enumerate() {
+                    *f |= !(ys.contains(&(i / n)) && xs.contains(&(i % n)));
+                }
+            } else {
+                // The square alone, not the plane (every decision's masks).
+                for y in ys.clone() {
+                    plane[y * n + xs.start()..=y * n + xs.end()].fill(true);
                 }
             }
         }

@@ -329,17 +329,23 @@ impl SsrPolicy {
         progress: u8,
         primitive: Primitive,
     ) -> Result<Decision, SsrError> {
-        if let Some((last_hm, p, k, d)) = &self.last
-            && *p == progress
-            && *k == primitive
+        if let Some(d) = self.last_on(hm, progress, primitive)
             && d.method == self.config.rule
-            && last_hm == hm
         {
             return Ok(d.clone());
         }
         let decision = self.decide_fresh(hm, progress, primitive, false, Vec::new())?;
         self.last = Some((hm.clone(), progress, primitive, decision.clone()));
         Ok(decision)
+    }
+
+    /// The last decision, when it was made on exactly this input (a failed
+    /// grasp leaves the scene bit-identical).
+    fn last_on(&self, hm: &Heightmaps, progress: u8, primitive: Primitive) -> Option<&Decision> {
+        self.last
+            .as_ref()
+            .filter(|(h, p, k, _)| *p == progress && *k == primitive && h == hm)
+            .map(|(_, _, _, d)| d)
     }
 
     /// A decision from scratch under the extensions' `masks`; with
@@ -676,12 +682,7 @@ impl Actor for SsrPolicy {
         } else {
             // The scene the last action was chosen in, unchanged: that action
             // did nothing.
-            let repeat = match &self.last {
-                Some((h, p, k, last)) if *p == progress && *k == primitive && h == hm => {
-                    Some(last.action)
-                }
-                _ => None,
-            };
+            let repeat = self.last_on(hm, progress, primitive).map(|d| d.action);
             let seen = Seen::new(hm, primitive, repeat, self.task, progress, trial);
             let mut masks = Vec::new();
             for (level, e) in &mut self.extensions {
