@@ -1,6 +1,6 @@
 // The seespot page: a WebSocket client that steps the trial and draws each
 // (policy, demo) pair's match and rematch. No build step, no dependencies.
-import { b64bytes, b64f32, rgbCanvas, depthCanvas, heatCanvas, compose, pixelAt } from './render.js';
+import { b64bytes, b64f32, rgbCanvas, depthCanvas, heatCanvas, compose, pixelAt, truthCell, truthWords } from './render.js';
 
 const $ = (id) => document.getElementById(id);
 const PHASES = ['embed', 'match', 'verify', 'act'];
@@ -293,7 +293,7 @@ function renderPairs(s) {
     if (i === s.chosen) tr.classList.add('chosen');
     if (i === sel) tr.classList.add('selected');
     const picks = [s.ccd_choice === i ? 'CCD' : '', s.l2cd_choice === i ? 'L2CD' : ''].filter(Boolean).join(' ');
-    const cells = [i === s.chosen ? '★' : '', p.policy, `${p.demo}·${p.demo_step}`, fmt(p.l, 3), fmt(p.c, 1), where(p.matched), picks];
+    const cells = [i === s.chosen ? '★' : '', p.policy, `${p.demo}·${p.demo_step}`, fmt(p.l, 3), fmt(p.c, 1), where(p.matched), picks, truthCell(p)];
     cells.forEach((c, j) => {
       const td = document.createElement('td');
       td.textContent = c;
@@ -301,6 +301,10 @@ function renderPairs(s) {
       if (j === 3) td.dataset.testid = 'l'; if (j === 4) td.dataset.testid = 'c';
       if (j === 5 && p.matched) { td.dataset.testid = 'f'; td.title = `F: ${act(p.matched)} (rotation index, pixel y, x)`; }
       if (j === 6) { td.dataset.testid = 'picks'; td.className = 'picks'; }
+      if (j === 7) {
+        td.dataset.testid = 'truth';
+        if (p.truth) { td.className = p.truth.verdict === 'right' ? 'right' : 'wrong'; td.title = truthWords(p.truth); }
+      }
       tr.appendChild(td);
     });
     tr.onclick = () => { app.selectedPair = i; renderPairs(app.state); requestFrame(true); };
@@ -313,6 +317,10 @@ function renderPairs(s) {
       : s.method === 'spot-q'
         ? 'SPOT-Q: the match map is the policy\'s Q map for this primitive at the chosen rotation (best Q minus Q: 0 at the action, larger is worse); no demonstrations, no rematch.'
       : `On this state SSR CCD would take ${pick(s.ccd_choice)}; SSR L2CD would take ${pick(s.l2cd_choice)}.`;
+  // The shown pair's F, judged by the simulator.
+  const shown = s.pairs[sel];
+  $('truth-line').hidden = !(shown && shown.truth);
+  $('truth-line').textContent = shown && shown.truth ? `Truth: F of ${shown.policy} · demo ${shown.demo} is ${truthWords(shown.truth)}.` : '';
   // Where an extension of SSR departed from SSR CCD: the actions it masked, and why.
   const skipped = s.skipped || [];
   $('departures').hidden = !skipped.length;
@@ -324,7 +332,7 @@ function renderPairs(s) {
   }).join(' ');
   if (!s.pairs.length) {
     const tr = document.createElement('tr');
-    tr.innerHTML = `<td colspan="7" class="pending">${s.phase ? 'this decider gives no explanation' : 'step to the embed phase'}</td>`;
+    tr.innerHTML = `<td colspan="8" class="pending">${s.phase ? 'this decider gives no explanation' : 'step to the embed phase'}</td>`;
     body.appendChild(tr);
   }
 }
@@ -489,6 +497,19 @@ function draw() {
   if (images.query) { heat = images.query; label = `query: demo pixel (${app.query.y}, ${app.query.x}) · ${app.queryPolicy}`; }
   if (p && p.matched) lm.push({ kind: 'arrow', from: p.demo_action, to: p.matched, color: chosen ? '#00e676' : '#ffffff', label: `L = ${fmt(p.l, 3)}` });
   if (p && p.matched) lm.push({ kind: 'point', at: p.matched, color: chosen ? '#00e676' : '#ffffff', label: chosen ? 'F (executed)' : 'F', ring: chosen });
+  if ($('show-truth').checked && !s.demonstrate) {
+    // The right actions' places; filled where the shown F's rotation takes
+    // them as the oracle would (a cube repeats every quarter turn), outlined
+    // otherwise.
+    const info = app.info || {};
+    const size = (info.block_size || 0.05) / ((info.workspace_size || 0.448) / n);
+    const shownRotation = p && p.matched ? p.matched.rotation : null;
+    for (const t of s.right_targets || []) {
+      const d = shownRotation === null ? 0 : Math.abs(((shownRotation - t.rotation) % 4 + 4) % 4);
+      lm.push({ kind: 'target', at: { y: t.pixel[0], x: t.pixel[1] }, yaw: t.yaw, size, filled: Math.min(d, 4 - d) <= 1,
+        color: '#00e676', label: `right ${s.primitive} r${t.rotation}`, below: true });
+    }
+  }
   if (images.query && app.queryBest) lm.push({ kind: 'point', at: app.queryBest, color: '#ff4fd8', label: 'best', ring: true, below: true });
   const demo = s.demonstrate;
   if (demo) {
@@ -554,6 +575,7 @@ $('reset-form').onsubmit = (ev) => {
 $('timeline').oninput = () => send({ type: 'goto', index: Number($('timeline').value) });
 $('go-live').onclick = () => send({ type: 'live' });
 $('show-depth').onchange = draw;
+$('show-truth').onchange = draw;
 // Labels keep 12 CSS pixels: redraw when the heightmaps change size.
 let resizeTimer = null;
 window.addEventListener('resize', () => { clearTimeout(resizeTimer); resizeTimer = setTimeout(draw, 100); });

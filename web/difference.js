@@ -4,7 +4,7 @@
 // table with L and C, the match and rematch arrows), with each side's chosen
 // pair highlighted. One slider moves both sides through the actions they
 // shared, up to the one where they part.
-import { b64bytes, b64f32, rgbCanvas, heatCanvas, compose } from './render.js';
+import { b64bytes, b64f32, rgbCanvas, heatCanvas, compose, truthCell, truthWords } from './render.js';
 
 const $ = (id) => document.getElementById(id);
 const params = new URLSearchParams(location.search);
@@ -40,7 +40,7 @@ function buildSide(side, run) {
       <figure><canvas data-testid="live-canvas"></canvas><figcaption>live scene, the match map of the shown pair</figcaption></figure>
     </div>
     <table class="pairs"><thead><tr><th></th><th>policy</th><th>demo·step</th><th title="L: match distance (Eq. 4)">L</th>
-      <th data-testid="c-head">C</th><th>F</th></tr></thead><tbody data-testid="pairs"></tbody></table>
+      <th data-testid="c-head">C</th><th>F</th><th title="the simulator's truth about F, worked out on a copy of the world: ✓ right, ✗ wrong (the tooltip says why)">✓?</th></tr></thead><tbody data-testid="pairs"></tbody></table>
     <p class="hint" data-testid="decider"></p>`;
   el.querySelector('[data-testid=run]').textContent = run.run;
   const out = el.querySelector('[data-testid=outcome]');
@@ -68,7 +68,8 @@ function drawSide(side, v) {
   const choice = el.querySelector('[data-testid=choice]');
   choice.textContent = `action ${v.action + 1}: ${act(taken)}`
     + (v.action < diff.action ? ' (ended here)' : '')
-    + (p && s.chosen === f.pair ? ` · pair ${p.policy} ${p.demo}·${p.demo_step}, L ${fmt(p.l, 3)}, C ${fmt(p.c, 1)}` : '');
+    + (p && s.chosen === f.pair ? ` · pair ${p.policy} ${p.demo}·${p.demo_step}, L ${fmt(p.l, 3)}, C ${fmt(p.c, 1)}` : '')
+    + (p && s.chosen === f.pair && p.truth ? ` · ${truthWords(p.truth)}` : '');
   choice.classList.toggle('parts', !!otherTaken && !same(taken, otherTaken));
   // Demo side: the demonstrated action, and F -> rematch.
   const dm = [];
@@ -99,12 +100,17 @@ function drawSide(side, v) {
     for (const c of [i === s.chosen ? '★' : '', q.policy, `${q.demo}·${q.demo_step}`, fmt(q.l, 3), fmt(q.c, 1), q.matched ? `r${q.matched.rotation} (${q.matched.y}, ${q.matched.x})` : '…']) {
       const td = document.createElement('td'); td.textContent = c; tr.appendChild(td);
     }
+    const td = document.createElement('td');
+    td.textContent = truthCell(q);
+    td.dataset.testid = 'truth';
+    if (q.truth) { td.className = q.truth.verdict === 'right' ? 'right' : 'wrong'; td.title = truthWords(q.truth); }
+    tr.appendChild(td);
     tr.onclick = () => show(side, diff.action, i);
     return tr;
   });
   if (!rows.length) {
     const tr = document.createElement('tr');
-    tr.innerHTML = '<td colspan="6" class="pending">this run\'s decider gives no pairs</td>';
+    tr.innerHTML = '<td colspan="7" class="pending">this run\'s decider gives no pairs</td>';
     rows.push(tr);
   }
   body.replaceChildren(...rows);

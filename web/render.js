@@ -100,10 +100,28 @@ export function compose(canvas, n, base, heat, opacity, marks) {
     if (m.kind === 'arrow') arrow(ctx, s, m, wanted, keepClear);
     else if (m.kind === 'point') point(ctx, s, m, wanted, keepClear);
     else if (m.kind === 'gripper') gripper(ctx, s, m, wanted, keepClear);
+    else if (m.kind === 'target') target(ctx, s, m, wanted, keepClear);
   }
   const labels = drawLabels(ctx, wanted, keepClear, W, H);
   ctx.setTransform(1, 0, 0, 1, 0, 0);
   return { width: W, height: H, labels };
+}
+
+// A right action's place (the simulator's truth): a block's square of m.size
+// pixels at m.at, turned by m.yaw, shaded when m.filled, else outlined.
+function target(ctx, s, m, wanted, keepClear) {
+  const [x, y] = px(s, m.at);
+  const h = (m.size / 2) * s;
+  ctx.save();
+  ctx.translate(x, y);
+  ctx.rotate(m.yaw);
+  if (m.filled) { ctx.globalAlpha = 0.45; ctx.fillStyle = m.color; ctx.fillRect(-h, -h, 2 * h, 2 * h); ctx.globalAlpha = 1; }
+  ctx.lineWidth = 2; ctx.strokeStyle = m.color;
+  if (!m.filled) ctx.setLineDash([4, 3]);
+  ctx.strokeRect(-h, -h, 2 * h, 2 * h);
+  ctx.restore();
+  keepClear.push({ x: x - h, y: y - h, w: 2 * h, h: 2 * h });
+  if (m.label) wanted.push({ text: m.label, color: m.color, ax: x, ay: y, r: h * 1.42 + 2, below: m.below });
 }
 
 // The gripper's footprint at pixel m.at: two fingers m.jaw pixels apart along
@@ -238,4 +256,17 @@ export function pixelAt(canvas, n, ev) {
   const x = Math.floor(((ev.clientX - r.left) / r.width) * n);
   const y = Math.floor(((ev.clientY - r.top) / r.height) * n);
   return { y: Math.min(n - 1, Math.max(0, y)), x: Math.min(n - 1, Math.max(0, x)) };
+}
+
+// The simulator's verdict on a pair's F (documents.rs `PairDoc.truth`): ✓ or ✗
+// in a table's cell, in words in its tooltip and beside the chosen pair.
+const VERDICT_SHORT = { right: '✓', wrong_block: '✗', miss: '✗', no_progress: '✗', reversal: '✗', out: '✗' };
+const VERDICT_WORDS = { right: 'right', wrong_block: 'wrong (wrong block)', miss: 'wrong (a miss)', no_progress: 'wrong (no progress)', reversal: 'wrong (a reversal)', out: 'wrong (out of the workspace)' };
+export function truthCell(p) {
+  if (!p.truth) return p.matched ? '–' : '…';
+  return VERDICT_SHORT[p.truth.verdict] || p.truth.verdict;
+}
+export function truthWords(t) {
+  const far = t.verdict !== 'right' && t.distance_mm != null ? `; ${t.distance_mm.toFixed(0)} mm from a right action` : '';
+  return `${VERDICT_WORDS[t.verdict] || t.verdict}: ${t.why}${far}`;
 }

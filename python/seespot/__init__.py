@@ -98,6 +98,7 @@ def run_trial(
     resolution: int = DEFAULT_RESOLUTION,
     correspond: str | dict[str, Any] | None = None,
     embeddings: Any = None,
+    truth: bool = False,
 ) -> dict[str, Any]:
     """Runs one trial of ``method`` on ``task`` from ``seed`` and returns its
     record: the object ``seespot eval`` writes as one JSONL line (``index`` is
@@ -108,8 +109,12 @@ def run_trial(
     (SSR only): a folder of ``<task>.onnx`` files, a list of ONNX files, or
     functions (a ``torch.nn.Module``, a callable, a ``(grasp, place)`` pair;
     :mod:`seespot.embedding`) used in place of the SPOT-Q policies
-    (docs/embeddings.md)."""
-    ev = Evaluator(method, task, models_dir, demos_dir, resolution, correspond, embeddings)
+    (docs/embeddings.md). ``truth``: label every decision with the
+    simulator's truth (``seespot eval --truth``, docs/truth.md): each entry of
+    ``actions_log`` gains ``truth``, the executed action's and every pair's F
+    verdict (``right``, ``wrong_block``, ``miss``, ...), why, and distance to
+    a right action; the trial is the same as without it."""
+    ev = Evaluator(method, task, models_dir, demos_dir, resolution, correspond, embeddings, truth=truth)
     record: dict[str, Any] = json.loads(ev.run(seed, index))
     return record
 

@@ -8,7 +8,11 @@ Action: ``(rotation, y, x)`` in ``MultiDiscrete([16, H, W])``. Reward: the
 change in task progress (Sec. 3 of the paper; progress runs 1..=4).
 ``terminated`` on success or a block leaving the workspace, ``truncated`` at
 30 actions; ``info`` holds ``progress``, ``max_progress``, ``seed`` and the
-last step's outcome.
+last step's outcome. With ``truth=True`` (``gym.make("seespot/Stack-v0",
+truth=True)``), ``info["truth"]`` also holds the simulator's truth about the
+action just taken, worked out on a copy of the world before it ran
+(``verdict``, ``why``, ``distance_mm``; docs/truth.md): a measurement for the
+experimenter, not an observation for the agent.
 
 ``gym.make_vec("seespot/Stack-v0", num_envs=8)`` gives the native vector
 environment, :class:`SeespotVectorEnv` (the ``vector_entry_point``): the N
@@ -71,7 +75,13 @@ class SeespotEnv(gym.Env[Obs, np.ndarray]):
 
     metadata: dict[str, Any] = {"render_modes": ["rgb_array"]}
 
-    def __init__(self, task: str, resolution: int = DEFAULT_RESOLUTION, render_mode: str | None = None):
+    def __init__(
+        self,
+        task: str,
+        resolution: int = DEFAULT_RESOLUTION,
+        render_mode: str | None = None,
+        truth: bool = False,
+    ):
         if task not in ENV_IDS:
             raise ValueError(f"task: unknown task '{task}' (expected one of {sorted(ENV_IDS)})")
         if render_mode not in (None, "rgb_array"):
@@ -80,8 +90,10 @@ class SeespotEnv(gym.Env[Obs, np.ndarray]):
         self.resolution = check_resolution(resolution)
         self.render_mode = render_mode
         self.observation_space, self.action_space = _spaces(self.resolution)
+        self.truth = truth
         self._trial: Trial | None = None
         self._color: np.ndarray | None = None
+        self._before_grasp = 0
 
     def _obs(self) -> Obs:
         assert self._trial is not None
@@ -111,6 +123,7 @@ class SeespotEnv(gym.Env[Obs, np.ndarray]):
         super().reset(seed=seed)
         trial_seed = seed if seed is not None else int(self.np_random.integers(0, 2**31))
         self._trial = Trial(self.task, trial_seed, self.resolution)
+        self._before_grasp = self._trial.progress
         return self._obs(), self._info()
 
     def step(self, action: Any) -> tuple[Obs, SupportsFloat, bool, bool, dict[str, Any]]:
@@ -120,10 +133,17 @@ class SeespotEnv(gym.Env[Obs, np.ndarray]):
         if a.shape != (3,):
             raise ValueError(f"action: expected (rotation, y, x), got shape {a.shape}")
         before = self._trial.progress
+        truth = None
+        if self.truth:
+            if self._trial.next_primitive == "grasp":
+                self._before_grasp = before
+            truth = self._trial.truth(int(a[0]), int(a[1]), int(a[2]), self._before_grasp)
         outcome = self._trial.step(int(a[0]), int(a[1]), int(a[2]))
         obs = self._obs()
         info = self._info()
         info["primitive_success"] = outcome["primitive_success"]
+        if truth is not None:
+            info["truth"] = truth
         end = outcome["end"]
         terminated = end in ("success", "out-of-workspace")
         truncated = end == "action-limit" or (

@@ -27,3 +27,48 @@ def test_truth_takes_a_function() -> None:
     report = seespot.truth("stack", starts=1, embeddings=[strided])
     assert report["set"] == "strided"
     assert all(p["policy"] == "strided" for a in report["answers"] for p in a["pairs"])
+
+
+def test_run_trial_labels_every_decision() -> None:
+    plain = seespot.run_trial("ssr-ccd", "unstack", 1)
+    labelled = seespot.run_trial("ssr-ccd", "unstack", 1, truth=True)
+    assert len(plain["actions_log"]) == len(labelled["actions_log"]) > 0
+    for a, b in zip(plain["actions_log"], labelled["actions_log"]):
+        a, b = dict(a), dict(b)
+        assert "truth" not in a
+        truth = b.pop("truth")
+        a.pop("decide_ms")
+        b.pop("decide_ms")
+        # The trial is the same; the labels are added to it.
+        assert a == b
+        assert len(truth["pairs"]) == 6
+        assert truth["chosen"]["verdict"] in {"right", "wrong_block", "miss", "no_progress", "reversal", "out"}
+        assert truth["chosen"]["why"]
+    # unstack's first grasp, the tower's top, is right.
+    assert labelled["actions_log"][0]["truth"]["chosen"]["verdict"] == "right"
+
+
+def test_env_info_carries_the_truth_of_the_action_taken() -> None:
+    import gymnasium as gym
+
+    seespot.register_envs()
+    env = gym.make("seespot/Stack-v0", truth=True)
+    env.reset(seed=1)
+    trial = env.unwrapped._trial
+    # A grasp at a free block's centre: the oracle's first grasp.
+    oracle = seespot.run_trial("oracle", "stack", 1)
+    first = oracle["actions_log"][0]["action"]
+    before = trial.truth(first["rotation"], first["y"], first["x"])
+    assert before["verdict"] == "right", before
+    _, _, _, _, info = env.step(np.array([first["rotation"], first["y"], first["x"]]))
+    assert info["truth"] == before
+    assert info["primitive_success"]
+    # The block set down in a corner, far from the others: no progress,
+    # judged as the pair's second half, with its distance to a right place.
+    _, _, _, _, info = env.step(np.array([0, 5, 5]))
+    assert info["truth"]["verdict"] in {"no_progress", "out"}, info["truth"]
+    assert info["truth"]["distance_mm"] > 50
+    plain = gym.make("seespot/Stack-v0")
+    plain.reset(seed=1)
+    _, _, _, _, info = plain.step(np.array([first["rotation"], first["y"], first["x"]]))
+    assert "truth" not in info

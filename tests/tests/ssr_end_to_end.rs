@@ -393,6 +393,7 @@ fn name_of(
         correspond,
         finetune_steps,
         finetune_procedure: seespot_policy::finetune::FinetuneProcedure::Reference,
+        truth: false,
     };
     if noisy {
         config.world.noise = seespot_sim::noise::SensorNoise {
@@ -478,6 +479,7 @@ fn evaluation_writes_records_and_resumes_after_interruption() {
         correspond: CorrespondOptions::default(),
         finetune_steps: 0,
         finetune_procedure: seespot_policy::finetune::FinetuneProcedure::Reference,
+        truth: false,
     };
     let first = run_task(&config, TaskId::Row, &mut |_| {}).expect("eval");
     assert_eq!(first.len(), 3);
@@ -590,6 +592,7 @@ fn a_record_replays_exactly_and_is_refused_after_its_files_change() {
         correspond: CorrespondOptions::default(),
         finetune_steps: 0,
         finetune_procedure: seespot_policy::finetune::FinetuneProcedure::Reference,
+        truth: false,
     };
     let record = run_task(&config, TaskId::Unstack, &mut |_| {})
         .expect("eval")
@@ -747,6 +750,7 @@ fn a_custom_task_records_the_demonstrations_that_define_it() {
         correspond: CorrespondOptions::default(),
         finetune_steps: 0,
         finetune_procedure: seespot_policy::finetune::FinetuneProcedure::Reference,
+        truth: false,
     };
     let prov =
         seespot_eval::runner::provenance(&config(EvalMethod::Random), task).expect("provenance");

@@ -80,6 +80,13 @@ test('a discordant CCD / L2CD seed opens both trials at the action where they pa
     assert.equal(await el.locator('tbody tr.chosen').count(), 1);
     assert.match(await el.getByTestId('choice').textContent(), new RegExp(`^action ${d.action_index + 1}: grasp|^action ${d.action_index + 1}: place`));
     assert.ok(await el.getByTestId('choice').evaluate((e) => e.classList.contains('parts')));
+    // Whether that side's match was right, as the simulator judges it.
+    const st = x.views[side].state;
+    const chosen = st.pairs[st.chosen];
+    assert.ok(chosen.truth, `side ${side}: the chosen pair has no truth`);
+    const right = chosen.truth.verdict === 'right';
+    assert.ok((await el.getByTestId('choice').textContent()).includes(` · ${right ? 'right' : 'wrong'}`));
+    assert.equal(await el.locator('tbody tr.chosen [data-testid=truth]').textContent(), right ? '✓' : '✗');
   }
   if (process.env.SEESPOT_SCREENSHOTS) {
     await page.screenshot({ path: join(resolve(process.env.SEESPOT_SCREENSHOTS), 'difference.png'), fullPage: false });

@@ -97,6 +97,14 @@ pub struct EvalArgs {
     /// `decide_ms`.
     #[arg(long, value_parser = clap::value_parser!(u16).range(1..=256))]
     jobs: Option<u16>,
+    /// Label every decision with the simulator's truth (docs/truth.md): in
+    /// each action of the records, whether the executed action and each
+    /// pair's F is right, why, and its distance to the nearest right action.
+    /// Judged on copies of the world, so the trials are the same as without
+    /// it; each decision costs tens of milliseconds more. Built-in tasks
+    /// only (the oracle does not know a custom task).
+    #[arg(long)]
+    truth: bool,
 }
 
 fn parse_method(s: &str) -> Result<EvalMethod, String> {
@@ -125,6 +133,7 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         correspond: args.correspond.options()?,
         finetune_steps: args.finetune_steps,
         finetune_procedure: args.finetune_procedure,
+        truth: args.truth,
     };
     // A bad embedding model is refused before any trial.
     config.check_embeddings(&tasks)?;

@@ -93,6 +93,7 @@ pub fn run(args: ReviewArgs) -> anyhow::Result<()> {
             cells.join(" | ")
         )?;
     }
+    truth_table(&trials)?;
     let can =
         |t: &&seespot_eval::review::ReviewedTrial| matches!(replays.get(&t.file), Some(Ok(())));
     for &kind in FailureKind::ALL {
@@ -130,6 +131,73 @@ pub fn run(args: ReviewArgs) -> anyhow::Result<()> {
         if of_kind.len() > args.list {
             outln!("  … {} more (--list N)", of_kind.len() - args.list)?;
         }
+    }
+    Ok(())
+}
+
+/// For labelled runs (`seespot eval --truth`), per (method, fold): the share
+/// of decisions whose action was right, match accuracy over every pair's F,
+/// and where each failed trial's first wrong step came from, by primitive.
+fn truth_table(trials: &[seespot_eval::review::ReviewedTrial]) -> anyhow::Result<()> {
+    use seespot_eval::review::WrongKind;
+    let mut rows: Vec<(
+        &str,
+        seespot_sim::TaskId,
+        Vec<&seespot_eval::review::TrialTruth>,
+    )> = Vec::new();
+    for t in trials {
+        let Some(truth) = &t.truth else { continue };
+        match rows.iter_mut().find(|r| r.0 == t.method && r.1 == t.task) {
+            Some(r) => r.2.push(truth),
+            None => rows.push((&t.method, t.task, vec![truth])),
+        }
+    }
+    if rows.is_empty() {
+        return Ok(());
+    }
+    let pct = |k: usize, n: usize| {
+        if n == 0 {
+            "–".to_owned()
+        } else {
+            format!("{:.1}% ({k}/{n})", 100.0 * k as f64 / n as f64)
+        }
+    };
+    outln!(
+        "\nIs the match right? (labelled trials, `seespot eval --truth`; the simulator's truth, \
+         docs/truth.md). A failed trial's first wrong step, grasp / place:\n\n\
+         | method | fold | labelled trials | actions right | matches right | {} |\n|---|---|---|---|---|{}",
+        WrongKind::ALL
+            .iter()
+            .map(|k| k.as_str())
+            .collect::<Vec<_>>()
+            .join(" | "),
+        "---|".repeat(WrongKind::ALL.len())
+    )?;
+    for (m, task, ts) in &rows {
+        let sum = |f: fn(&seespot_eval::review::TrialTruth) -> usize| ts.iter().map(|t| f(t)).sum();
+        let kinds: Vec<String> = WrongKind::ALL
+            .iter()
+            .map(|k| {
+                let of = |p: seespot_sim::Primitive| {
+                    ts.iter()
+                        .filter_map(|t| t.first_wrong.as_ref())
+                        .filter(|w| w.kind == *k && w.primitive == p)
+                        .count()
+                };
+                format!(
+                    "{} / {}",
+                    of(seespot_sim::Primitive::Grasp),
+                    of(seespot_sim::Primitive::Place)
+                )
+            })
+            .collect();
+        outln!(
+            "| {m} | {task} | {} | {} | {} | {} |",
+            ts.len(),
+            pct(sum(|t| t.right), sum(|t| t.decisions)),
+            pct(sum(|t| t.matches_right), sum(|t| t.matches)),
+            kinds.join(" | ")
+        )?;
     }
     Ok(())
 }

@@ -51,6 +51,20 @@ pub struct TruthArgs {
     /// like on these states.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=100), conflicts_with_all = ["embeddings", "against"])]
     chance: Option<u64>,
+    /// Heightmap pixels per side of the probe states' world (the 112 px
+    /// set: `--resolution 112 --models models/oracle-guided --demos
+    /// demos/112px`).
+    #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = seespot_sim::DEFAULT_RESOLUTION)]
+    resolution: usize,
+    /// Draw the accuracy at a tolerance (SSR CCD's chosen actions within 0
+    /// to 50 mm of a right action, every task together) of the `--json`
+    /// reports given with `--from`, one curve each, into this PNG; asks
+    /// nothing.
+    #[arg(long, value_name = "PNG", requires = "from")]
+    figure: Option<PathBuf>,
+    /// The `seespot truth --json` reports `--figure` draws.
+    #[arg(long, num_args = 1.., value_name = "FILE", requires = "figure")]
+    from: Vec<PathBuf>,
 }
 
 #[derive(serde::Serialize)]
@@ -98,6 +112,9 @@ fn write_report(
 }
 
 pub fn run(args: TruthArgs) -> anyhow::Result<()> {
+    if let Some(png) = &args.figure {
+        return figure(png, &args.from);
+    }
     let tasks: Vec<TaskId> = if args.task == "all" {
         TaskId::ALL.to_vec()
     } else {
@@ -122,7 +139,7 @@ pub fn run(args: TruthArgs) -> anyhow::Result<()> {
     }
     let layout = Layout::new(&args.models, &args.demos).with_embeddings(embeddings);
     let config = EvalMethod::SsrCcd.ssr_config(args.correspond.options()?);
-    let world = seespot_eval::runner::world_config(seespot_sim::DEFAULT_RESOLUTION);
+    let world = seespot_eval::runner::world_config(args.resolution);
     let started = Instant::now();
     let mut answers: Vec<ProbeAnswer> = Vec::new();
     let mut err = std::io::stderr().lock();
@@ -340,7 +357,7 @@ fn run_chance(
     seeds: &[u64],
     draws: usize,
 ) -> anyhow::Result<()> {
-    let world = seespot_eval::runner::world_config(seespot_sim::DEFAULT_RESOLUTION);
+    let world = seespot_eval::runner::world_config(args.resolution);
     let started = Instant::now();
     let mut answers = Vec::new();
     for &task in tasks {
@@ -417,5 +434,62 @@ fn run_chance(
         };
         write_report(&mut out, path, &report)?;
     }
+    Ok(())
+}
+
+/// `seespot truth --figure PNG --from FILE...`: each report's accuracy at a
+/// tolerance (its `all` row), one curve per report.
+fn figure(png: &std::path::Path, from: &[PathBuf]) -> anyhow::Result<()> {
+    use seespot_eval::correspondence::Share;
+    let mut curves = Vec::new();
+    let mut splits = std::collections::BTreeSet::new();
+    for path in from {
+        let text =
+            read_json(path).map_err(|e| anyhow::anyhow!("{}: cannot read: {e}", path.display()))?;
+        let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
+            anyhow::anyhow!("{}: not a `seespot truth --json` file: {e}", path.display())
+        })?;
+        let all = v["rows"]
+            .as_array()
+            .and_then(|rows| rows.iter().find(|r| r[0] == "all"))
+            .ok_or_else(|| {
+                anyhow::anyhow!(
+                    "{}: no `all` row in field `rows` (a `seespot truth --chance` file has no chosen actions to draw)",
+                    path.display()
+                )
+            })?;
+        let shares: Vec<Share> = all[2]["ccd_within_mm"]
+            .as_array()
+            .map(|a| {
+                a.iter()
+                    .filter_map(|s| {
+                        Some(Share::new(
+                            usize::try_from(s["hits"].as_u64()?).ok()?,
+                            usize::try_from(s["of"].as_u64()?).ok()?,
+                        ))
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        if shares.len() != TOLERANCES_MM.len() {
+            anyhow::bail!(
+                "{}: field `ccd_within_mm` of its `all` row holds {} tolerances, not {}",
+                path.display(),
+                shares.len(),
+                TOLERANCES_MM.len()
+            );
+        }
+        splits.insert(v["split"].as_str().unwrap_or("?").to_owned());
+        curves.push(seespot_eval::report::ToleranceCurve {
+            label: v["set"].as_str().unwrap_or("?").to_owned(),
+            shares,
+        });
+    }
+    let title = format!(
+        "SSR CCD's actions within d of a right action ({} probe states)",
+        splits.into_iter().collect::<Vec<_>>().join(" + ")
+    );
+    let wrote = seespot_eval::report::plot_tolerance(&title, &curves, png)?;
+    println!("wrote {}", wrote.display());
     Ok(())
 }

@@ -32,6 +32,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         correspond: Default::default(),
         finetune_steps: 0,
         finetune_procedure: seespot_policy::finetune::FinetuneProcedure::Reference,
+        truth: false,
     };
     let mut ssr =
         SsrPolicy::load(task, &config.layout, config.ssr_config()).map_err(EvalError::from)?;

@@ -125,6 +125,7 @@ mod tests {
             decide_ms: 1.0,
             primitive_success: Some(true),
             departures: Vec::new(),
+            truth: None,
         }
     }
 

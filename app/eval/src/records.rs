@@ -352,6 +352,7 @@ pub(crate) mod tests {
             decide_ms: 12.5,
             primitive_success: Some(true),
             departures: Vec::new(),
+            truth: None,
         });
         for x in &r[..2] {
             append_record(&path, x).expect("append");

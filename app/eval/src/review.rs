@@ -114,6 +114,125 @@ pub struct ReviewedTrial {
     /// action ("action 7: grasp r5 (32, 122) and the 2 cm around it
     /// skipped: it left the scene unchanged"), from the record.
     pub departures: Vec<String>,
+    /// For a labelled run (`seespot eval --truth`): how many of its
+    /// decisions and matches were right, and, for a failed trial, its first
+    /// wrong step; `None` for unlabelled records.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub truth: Option<TrialTruth>,
+}
+
+/// What a labelled trial's records say of its correspondences.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct TrialTruth {
+    /// Labelled decisions, and those whose executed action was right.
+    pub decisions: usize,
+    pub right: usize,
+    /// Every pair's F over those decisions, and those right (match accuracy).
+    pub matches: usize,
+    pub matches_right: usize,
+    /// For a failed trial: its first action that was not right.
+    pub first_wrong: Option<FirstWrong>,
+}
+
+/// A failed trial's first action that was not right, and what went wrong.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FirstWrong {
+    /// Counted from 1.
+    pub action: usize,
+    pub primitive: Primitive,
+    pub verdict: seespot_sim::truth::Verdict,
+    pub why: String,
+    pub kind: WrongKind,
+}
+
+/// Where a failed trial's first wrong step came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
+#[serde(rename_all = "kebab-case")]
+#[derive(strum::IntoStaticStr, strum::VariantArray)]
+pub enum WrongKind {
+    /// No pair's F was right: the demonstration matched nothing right.
+    #[strum(serialize = "no right match")]
+    NoRightMatch,
+    /// Some pair's F was right, and the rule (C or L, with any extension's
+    /// masks) acted on a wrong one.
+    #[strum(serialize = "wrong pair chosen")]
+    WrongPair,
+    /// A method without pairs (SPOT-Q, TransporterNet, ...) took a wrong
+    /// action.
+    #[strum(serialize = "wrong action")]
+    WrongAction,
+    /// Every labelled action was right, and the trial failed all the same
+    /// (the world undid what the actions did, or the actions ran out).
+    #[strum(serialize = "every action right")]
+    EveryActionRight,
+}
+
+impl WrongKind {
+    pub const ALL: &[WrongKind] = <Self as strum::VariantArray>::VARIANTS;
+
+    pub fn as_str(self) -> &'static str {
+        self.into()
+    }
+}
+
+/// What `r`'s labels say (module docs of `seespot_sim::truth`); `None` when
+/// none of its actions is labelled.
+pub fn trial_truth(r: &TrialRecord) -> Option<TrialTruth> {
+    let labelled: Vec<(usize, &seespot_sim::truth::DecisionTruth)> = r
+        .actions_log
+        .iter()
+        .enumerate()
+        .filter_map(|(i, a)| a.truth.as_ref().map(|t| (i, t)))
+        .collect();
+    if labelled.is_empty() {
+        return None;
+    }
+    let mut out = TrialTruth {
+        decisions: labelled.len(),
+        ..TrialTruth::default()
+    };
+    for (_, t) in &labelled {
+        out.right += usize::from(t.chosen.verdict.is_right());
+        out.matches += t.pairs.len();
+        out.matches_right += t
+            .pairs
+            .iter()
+            .filter(|p| p.truth.verdict.is_right())
+            .count();
+    }
+    if !r.success && r.end.is_some() {
+        out.first_wrong = Some(
+            labelled
+                .iter()
+                .find(|(_, t)| !t.chosen.verdict.is_right())
+                .map_or(
+                    FirstWrong {
+                        action: r.actions_log.len(),
+                        primitive: r
+                            .actions_log
+                            .last()
+                            .map_or(Primitive::Grasp, |a| a.action.primitive),
+                        verdict: seespot_sim::truth::Verdict::Right,
+                        why: "every labelled action was right".into(),
+                        kind: WrongKind::EveryActionRight,
+                    },
+                    |(i, t)| FirstWrong {
+                        action: i + 1,
+                        primitive: r.actions_log[*i].action.primitive,
+                        verdict: t.chosen.verdict,
+                        why: t.chosen.why.clone(),
+                        kind: if t.pairs.is_empty() {
+                            WrongKind::WrongAction
+                        } else if t.pairs.iter().any(|p| p.truth.verdict.is_right()) {
+                            WrongKind::WrongPair
+                        } else {
+                            WrongKind::NoRightMatch
+                        },
+                    },
+                ),
+        );
+    }
+    Some(out)
 }
 
 /// The departures of `r`'s actions, one line each, actions counted from 1.
@@ -139,6 +258,7 @@ pub fn review_dir(out: &Path) -> Result<Vec<ReviewedTrial>, RecordError> {
         for r in read_records(&f)? {
             let departures = departure_lines(&r);
             out.push(ReviewedTrial {
+                truth: trial_truth(&r),
                 departures,
                 failure: classify(&r),
                 method: r.method,

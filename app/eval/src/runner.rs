@@ -235,6 +235,7 @@ pub fn replay_config(
         finetune_procedure: spec
             .finetune_procedure()
             .unwrap_or(FinetuneProcedure::Reference),
+        truth: false,
     };
     finetuned::existing_model_paths(&config, record.task)?;
     let mut now = provenance(&config, record.task)?;
@@ -304,12 +305,17 @@ pub fn make_actor(
     task: TaskId,
 ) -> Result<Box<dyn Actor + Send + Sync>, EvalError> {
     config.check_embeddings(&[])?;
-    Ok(match config.method {
+    let actor: Box<dyn Actor + Send + Sync> = match config.method {
         EvalMethod::Ssr(_) => Box::new(ssr_policy(config, task)?),
         EvalMethod::SpotQ => Box::new(spot_q_actor(config, task)?),
         EvalMethod::Transporter => Box::new(TransporterActor::new(transporter_net(config, task)?)),
         EvalMethod::Oracle => Box::new(Oracle::new(task)),
         EvalMethod::Random => Box::new(RandomActor::default()),
+    };
+    Ok(if config.truth {
+        Box::new(seespot_sim::truth::Labelled::new(actor))
+    } else {
+        actor
     })
 }
 

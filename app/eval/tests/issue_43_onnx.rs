@@ -108,6 +108,7 @@ fn config(out: &Path, embeddings: Option<Embeddings>) -> EvalConfig {
         correspond: CorrespondOptions::default(),
         finetune_steps: 0,
         finetune_procedure: FinetuneProcedure::Reference,
+        truth: false,
     }
 }
 

@@ -27,6 +27,7 @@ fn config(method: EvalMethod, out: &Path, steps: usize) -> EvalConfig {
         correspond: CorrespondOptions::default(),
         finetune_steps: steps,
         finetune_procedure: FinetuneProcedure::Reference,
+        truth: false,
     }
 }
 

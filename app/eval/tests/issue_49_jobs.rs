@@ -26,6 +26,7 @@ fn config(method: EvalMethod, out: &Path, resolution: usize, trials: u64) -> Eva
         correspond: CorrespondOptions::default(),
         finetune_steps: 0,
         finetune_procedure: FinetuneProcedure::Reference,
+        truth: false,
     }
 }
 

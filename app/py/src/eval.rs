@@ -37,9 +37,12 @@ impl Evaluator {
     /// `finetune_procedure` (`reference` or `adam`): the finetuned rows, their
     /// models read from (or made once in) `out_dir/finetuned/`, as
     /// `seespot eval` does; `noise`: a scene file whose `[noise]` table the
-    /// world observes through (`seespot eval --noise`).
+    /// world observes through (`seespot eval --noise`); `truth`: label every
+    /// decision with the simulator's truth (`seespot eval --truth`): each
+    /// action's `truth` holds the executed action's and every pair's F
+    /// verdict, why and distance to a right action.
     #[new]
-    #[pyo3(signature = (method, task, models_dir = "models".into(), demos_dir = "demos".into(), resolution = seespot_sim::DEFAULT_RESOLUTION as i64, correspond = None, embeddings = None, finetune_steps = 0, finetune_procedure = "reference", noise = None, out_dir = "results".into()))]
+    #[pyo3(signature = (method, task, models_dir = "models".into(), demos_dir = "demos".into(), resolution = seespot_sim::DEFAULT_RESOLUTION as i64, correspond = None, embeddings = None, finetune_steps = 0, finetune_procedure = "reference", noise = None, out_dir = "results".into(), truth = false))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -54,6 +57,7 @@ impl Evaluator {
         finetune_procedure: &str,
         noise: Option<PathBuf>,
         out_dir: PathBuf,
+        truth: bool,
     ) -> PyResult<Self> {
         let eval_method: EvalMethod = method.parse().map_err(|e| bad("method", e))?;
         let task = arrays::task(task, &demos_dir)?;
@@ -79,6 +83,7 @@ impl Evaluator {
             correspond,
             finetune_steps,
             finetune_procedure,
+            truth,
         };
         config
             .check_embeddings(&[task])

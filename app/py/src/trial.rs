@@ -174,6 +174,40 @@ impl Trial {
         Ok(d)
     }
 
+    /// The simulator's truth about `(rotation, y, x)` with the next
+    /// primitive, worked out on an exact copy of the world (the trial is
+    /// not touched; docs/truth.md): `verdict` (`right`, `wrong_block`,
+    /// `miss`, `no_progress`, `reversal`, `out`), `why` in words, `block`,
+    /// progress before and after, and the distance to the nearest right
+    /// action (`distance_mm`, `rotation_steps`). A place is judged as the
+    /// second half of its grasp-place pair when `before_grasp` (progress
+    /// before the grasp that lifted the block in hand) is given. Built-in
+    /// tasks only.
+    #[pyo3(signature = (rotation, y, x, before_grasp = None))]
+    fn truth<'py>(
+        &self,
+        py: Python<'py>,
+        rotation: i64,
+        y: i64,
+        x: i64,
+        before_grasp: Option<u8>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let task = self.trial.task();
+        if !seespot_sim::Oracle::knows(task) {
+            return Err(bad(
+                "truth",
+                format!("the truth is worked out for the four built-in tasks, not {task}"),
+            ));
+        }
+        let [r, y, x] = arrays::action_indices([rotation, y, x], self.resolution())
+            .map_err(|(arg, v, max)| bad(arg, format!("{v} is outside 0..{max}")))?;
+        let world = self.trial.world();
+        let action = Action::new(world.next_primitive(), r, y, x);
+        let t = py.detach(|| seespot_sim::truth::truth_of_pair(world, task, action, before_grasp));
+        let text = serde_json::to_string(&t).map_err(|e| bad("truth", e))?;
+        py.import("json")?.call_method1("loads", (text,))
+    }
+
     fn __repr__(&self) -> String {
         format!(
             "Trial(task='{}', seed={}, resolution={}, progress={}, actions={})",

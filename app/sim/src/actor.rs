@@ -20,6 +20,7 @@ use crate::record::{ActionLog, TrialRecord};
 use crate::seeds::Seeds;
 use crate::task::TaskId;
 use crate::trial::Trial;
+use crate::truth::DecisionTruth;
 use crate::world::WorldConfig;
 
 /// Why an actor could not choose (a network failed, a demonstration does not
@@ -45,6 +46,17 @@ pub struct ChosenPair {
     pub other_method_action: Option<Action>,
     /// What an SSR extension masked out of this decision, and why.
     pub departures: Vec<crate::record::Departure>,
+    /// Every pair's match F, in the decision's order (what a labelled run
+    /// judges, [`crate::truth::Labelled`]).
+    pub matches: Vec<PairMatch>,
+}
+
+/// One (policy, demo) pair's match F in a decision.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PairMatch {
+    pub policy: String,
+    pub demo: usize,
+    pub matched: Action,
 }
 
 /// An actor's choice of the next action.
@@ -76,6 +88,13 @@ pub trait Actor {
     /// heightmaps the world observes now; with sensor noise if the world has
     /// any). The primitive to choose is `trial.world().next_primitive()`.
     fn act(&mut self, trial: &Trial, hm: &Heightmaps) -> Result<Choice, ActorError>;
+
+    /// The truth of `choice`, just chosen in `trial` and not yet executed,
+    /// for actors that label their decisions ([`crate::truth::Labelled`]);
+    /// `None` for the rest. Not counted in the decision's time.
+    fn truth(&mut self, _trial: &Trial, _choice: &Choice) -> Option<DecisionTruth> {
+        None
+    }
 }
 
 impl<A: Actor + ?Sized> Actor for Box<A> {
@@ -90,6 +109,10 @@ impl<A: Actor + ?Sized> Actor for Box<A> {
     fn act(&mut self, trial: &Trial, hm: &Heightmaps) -> Result<Choice, ActorError> {
         (**self).act(trial, hm)
     }
+
+    fn truth(&mut self, trial: &Trial, choice: &Choice) -> Option<DecisionTruth> {
+        (**self).truth(trial, choice)
+    }
 }
 
 /// Observes the live scene, lets `actor` choose, executes the choice and logs it
@@ -102,6 +125,7 @@ pub fn act_once(trial: &mut Trial, actor: &mut dyn Actor) -> Result<ActionLog, A
     let t0 = Instant::now();
     let choice = actor.act(trial, &hm)?;
     let decide_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let truth = actor.truth(trial, &choice);
     let step = trial.step(choice.action);
     Ok(ActionLog {
         action: choice.action,
@@ -119,6 +143,7 @@ pub fn act_once(trial: &mut Trial, actor: &mut dyn Actor) -> Result<ActionLog, A
         chosen_policy: choice.pair.map(|p| p.policy),
         decide_ms,
         primitive_success: Some(step.outcome.success),
+        truth,
     })
 }
 

@@ -48,7 +48,9 @@ pub mod workspace;
 pub mod world;
 
 pub use action::{Action, NUM_ROTATIONS, Primitive};
-pub use actor::{Actor, ActorError, Choice, ChosenPair, run_trial, run_trials, run_trials_from};
+pub use actor::{
+    Actor, ActorError, Choice, ChosenPair, PairMatch, run_trial, run_trials, run_trials_from,
+};
 pub use blocks::{BLOCK_COLORS, BLOCK_SIZE, NUM_BLOCKS};
 pub use demo::{Demo, DemoError, DemoMeta, DemoStep, PlaceMask};
 pub use goal::Goal;

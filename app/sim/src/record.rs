@@ -40,6 +40,11 @@ pub struct ActionLog {
     /// SSR CCD itself and other methods, and in older records).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub departures: Vec<Departure>,
+    /// The simulator's truth about the executed action and every pair's F
+    /// (`seespot eval --truth`, [`crate::truth::Labelled`]): a measurement
+    /// of the method, never one of its inputs; absent from unlabelled runs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub truth: Option<crate::truth::DecisionTruth>,
 }
 
 impl ActionLog {
@@ -59,6 +64,7 @@ impl ActionLog {
             decide_ms: 0.0,
             primitive_success: Some(success),
             departures: Vec::new(),
+            truth: None,
         }
     }
 }

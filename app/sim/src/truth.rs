@@ -148,29 +148,97 @@ fn nearest(
         .unzip()
 }
 
+/// The centres (`(x, y, yaw)`, metres and radians) of the blocks whose grasp
+/// at their centre is right in `world`.
+fn right_grasps(world: &World, task: TaskId) -> Vec<(f32, f32, f32)> {
+    let before = progress(world, task);
+    let poses = world.block_poses();
+    (0..NUM_BLOCKS)
+        .filter(|&i| {
+            crate::oracle::grasp_action(world, i).is_some_and(|g| {
+                let mut c = world.fork();
+                c.execute(g).block == Some(i) && raising_place(world, &c, task, i, before).is_some()
+            })
+        })
+        .map(|i| {
+            let [x, y, _] = poses[i].position;
+            (x, y, poses[i].yaw())
+        })
+        .collect()
+}
+
+/// The oracle's targets for block `block` in hand whose place raises
+/// progress above `floor` (and not below the world's now), out of the first
+/// [`PLACES_TRIED`].
+fn right_places(world: &World, task: TaskId, block: usize, floor: u8) -> Vec<(f32, f32, f32)> {
+    let before = progress(world, task);
+    crate::oracle::place_targets(world, task, block)
+        .into_iter()
+        .take(PLACES_TRIED)
+        .filter(|&t| {
+            let mut c = world.fork();
+            c.execute(crate::oracle::place_for(&c, t));
+            let after = progress(&c, task);
+            after > floor && after >= before && !c.block_out_of_workspace()
+        })
+        .collect()
+}
+
+/// Where the right actions of `world`'s next primitive are, as the page
+/// shades them: the centres of the blocks a right grasp may take, or the
+/// oracle's targets for the block in hand whose place raises progress
+/// (above `before_grasp`, as [`truth_of_pair`] judges a place). Each is
+/// `(x, y, yaw)` in metres and radians, with its pixel and the rotation
+/// index nearest to its yaw (targets off the heightmap are left out).
+/// Empty for a task the oracle does not know.
+pub fn right_targets(world: &World, task: TaskId, before_grasp: Option<u8>) -> Vec<RightTarget> {
+    if !crate::Oracle::knows(task) {
+        return Vec::new();
+    }
+    let targets = match (world.next_primitive(), world.held_block()) {
+        (Primitive::Grasp, _) => right_grasps(world, task),
+        (Primitive::Place, Some(b)) => right_places(
+            world,
+            task,
+            b,
+            before_grasp.unwrap_or(progress(world, task)),
+        ),
+        (Primitive::Place, None) => Vec::new(),
+    };
+    targets
+        .into_iter()
+        .filter_map(|(x, y, yaw)| {
+            Some(RightTarget {
+                x,
+                y,
+                yaw,
+                pixel: world.grid().world_to_pixel(x, y)?,
+                rotation: nearest_rotation(yaw),
+            })
+        })
+        .collect()
+}
+
+/// A right action's place on the table ([`right_targets`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RightTarget {
+    pub x: f32,
+    pub y: f32,
+    pub yaw: f32,
+    /// The heightmap pixel `(y, x)` of `(x, y)`.
+    pub pixel: (usize, usize),
+    /// The rotation index nearest to `yaw` (a cube's grasp or place repeats
+    /// every quarter turn, 4 steps).
+    pub rotation: usize,
+}
+
 fn grasp_truth(world: &World, task: TaskId, action: Action) -> Truth {
     let before = progress(world, task);
     let mut copy = world.fork();
     let outcome = copy.execute(action);
     // The distance to a right grasp, for a grasp that is not one: to the
     // centre of every block whose grasp at its centre is right.
-    let to_right = || {
-        let poses = world.block_poses();
-        let right = (0..NUM_BLOCKS).filter(|&i| {
-            crate::oracle::grasp_action(world, i).is_some_and(|g| {
-                let mut c = world.fork();
-                c.execute(g).block == Some(i) && raising_place(world, &c, task, i, before).is_some()
-            })
-        });
-        nearest(
-            world,
-            action,
-            right.map(|i| {
-                let [x, y, _] = poses[i].position;
-                (x, y, poses[i].yaw())
-            }),
-        )
-    };
+    let to_right = || nearest(world, action, right_grasps(world, task).into_iter());
     let Some(block) = outcome.block.filter(|_| outcome.success) else {
         let how = match outcome.failure {
             Some(ActionFailure::EmptyPixel) => "no block between the jaws",
@@ -256,14 +324,7 @@ fn place_truth(world: &World, task: TaskId, action: Action, before_grasp: Option
         (_, Some(b)) => nearest(
             world,
             action,
-            crate::oracle::place_targets(world, task, b)
-                .into_iter()
-                .take(PLACES_TRIED)
-                .filter(|&t| {
-                    let mut c = world.fork();
-                    c.execute(crate::oracle::place_for(&c, t));
-                    raises(progress(&c, task)) && !c.block_out_of_workspace()
-                }),
+            right_places(world, task, b, floor).into_iter(),
         ),
     };
     Truth {
@@ -282,4 +343,148 @@ fn place_truth(world: &World, task: TaskId, action: Action, before_grasp: Option
 fn quarter_steps(a: usize, b: usize) -> u8 {
     let d = (a as i64 - b as i64).rem_euclid(4) as u8;
     d.min(4 - d)
+}
+
+/// One pair's F and its truth, as a labelled decision records it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PairTruth {
+    pub policy: String,
+    pub demo: usize,
+    pub matched: Action,
+    pub truth: Truth,
+}
+
+/// The truth of one decision: the executed action's and each pair's F
+/// (empty for methods without pairs), judged on copies of the world before
+/// the action.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DecisionTruth {
+    pub chosen: Truth,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub pairs: Vec<PairTruth>,
+}
+
+/// The truth of a decision in `world` that executes `chosen` and whose pairs
+/// matched `matches` (`(policy, demo, F)`); each distinct action is judged
+/// once. A place is judged as the second half of its pair when
+/// `before_grasp` is known ([`truth_of_pair`]).
+pub fn label(
+    world: &World,
+    task: TaskId,
+    chosen: Action,
+    matches: &[crate::actor::PairMatch],
+    before_grasp: Option<u8>,
+) -> DecisionTruth {
+    let mut seen: Vec<(Action, Truth)> = Vec::new();
+    let mut judge = |a: Action| match seen.iter().find(|(b, _)| *b == a) {
+        Some((_, t)) => t.clone(),
+        None => {
+            let t = truth_of_pair(world, task, a, before_grasp);
+            seen.push((a, t.clone()));
+            t
+        }
+    };
+    let chosen = judge(chosen);
+    let pairs = matches
+        .iter()
+        .map(|m| PairTruth {
+            policy: m.policy.clone(),
+            demo: m.demo,
+            matched: m.matched,
+            truth: judge(m.matched),
+        })
+        .collect();
+    DecisionTruth { chosen, pairs }
+}
+
+/// Any actor, with the truth of each of its decisions in the trial's record
+/// ([`crate::ActionLog::truth`]): the executed action and every pair's F,
+/// each judged on a copy of the world before the action, after the decision
+/// is timed. The trial is never touched, so its record is the same as the
+/// unlabelled actor's, labels aside. Tasks the oracle does not know get no
+/// labels.
+///
+/// A decision whose world has its blocks where they lay at the last labelled
+/// decision, bit for bit, with the same block in hand and the same actions
+/// to judge (an action that changed nothing, repeated: See-SPOT-Run's most
+/// common failure) reuses that decision's labels instead of judging them
+/// again.
+pub struct Labelled<A> {
+    pub inner: A,
+    /// Progress before the last grasp (a place is judged as its pair's
+    /// second half).
+    before_grasp: u8,
+    last: Option<(LabelKey, DecisionTruth)>,
+}
+
+/// What a decision's labels depend on, compared bit for bit.
+#[derive(PartialEq)]
+struct LabelKey {
+    poses: Vec<u32>,
+    held: Option<usize>,
+    before_grasp: u8,
+    chosen: Action,
+    matches: Vec<Action>,
+}
+
+impl<A> Labelled<A> {
+    pub fn new(inner: A) -> Self {
+        Self {
+            inner,
+            before_grasp: 0,
+            last: None,
+        }
+    }
+}
+
+impl<A: crate::Actor> crate::Actor for Labelled<A> {
+    fn name(&self) -> String {
+        self.inner.name()
+    }
+
+    fn begin_trial(&mut self, trial: &crate::Trial) {
+        self.before_grasp = trial.progress();
+        self.last = None;
+        self.inner.begin_trial(trial);
+    }
+
+    fn act(
+        &mut self,
+        trial: &crate::Trial,
+        hm: &crate::Heightmaps,
+    ) -> Result<crate::Choice, crate::ActorError> {
+        if trial.world().next_primitive() == Primitive::Grasp {
+            self.before_grasp = trial.progress();
+        }
+        self.inner.act(trial, hm)
+    }
+
+    fn truth(&mut self, trial: &crate::Trial, choice: &crate::Choice) -> Option<DecisionTruth> {
+        let task = trial.task();
+        if !crate::Oracle::knows(task) {
+            return None;
+        }
+        let world = trial.world();
+        let matches = choice.pair.as_ref().map_or(&[][..], |p| &p.matches);
+        let key = LabelKey {
+            poses: world
+                .block_poses()
+                .iter()
+                .flat_map(|p| p.position.iter().chain(&p.rotation))
+                .map(|v| v.to_bits())
+                .collect(),
+            held: world.held_block(),
+            before_grasp: self.before_grasp,
+            chosen: choice.action,
+            matches: matches.iter().map(|m| m.matched).collect(),
+        };
+        if let Some((k, t)) = &self.last
+            && *k == key
+        {
+            return Some(t.clone());
+        }
+        let t = label(world, task, choice.action, matches, Some(self.before_grasp));
+        self.last = Some((key, t.clone()));
+        Some(t)
+    }
 }

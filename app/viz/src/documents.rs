@@ -80,6 +80,12 @@ pub struct StateDoc {
     /// actions whose neighbourhood it masked, and why (empty for the
     /// paper's methods).
     pub skipped: Vec<seespot_sim::record::Departure>,
+    /// The simulator's truth about this decision's state: where the right
+    /// actions of its primitive are (the blocks a right grasp takes, the
+    /// places that raise progress), for the live view to shade. Empty
+    /// before a decision and for a task the oracle does not know. An
+    /// instrument: no method reads it.
+    pub right_targets: Vec<seespot_sim::truth::RightTarget>,
     pub timing_ms: Option<TimingDoc>,
     /// Every executed action of the trial.
     pub steps: Vec<StepDoc>,
@@ -165,6 +171,9 @@ pub struct PairDoc {
     /// and the feature baseline).
     pub c_unit: CUnit,
     pub rematch: Option<Action>,
+    /// The simulator's truth about `matched` (shown with it): right or
+    /// wrong, and why.
+    pub truth: Option<seespot_sim::truth::Truth>,
 }
 
 /// Milliseconds a decision spent embedding and on correspondence.

@@ -161,3 +161,111 @@ pub fn plot_figure4(summaries: &[Summary], path: &Path) -> Result<PathBuf, Repor
     })?;
     Ok(out)
 }
+
+/// One embedding set's curve of the correspondence benchmark: the share of
+/// SSR CCD's chosen actions within each tolerance of a right action
+/// ([`crate::correspondence::TOLERANCES_MM`]), with Wilson intervals.
+pub struct ToleranceCurve {
+    pub label: String,
+    pub shares: Vec<crate::correspondence::Share>,
+}
+
+fn draw_tolerance<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    title: &str,
+    curves: &[ToleranceCurve],
+) -> Result<(), String> {
+    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    root.fill(&WHITE).map_err(err)?;
+    let top = crate::correspondence::TOLERANCES_MM
+        .last()
+        .copied()
+        .unwrap_or(50.0) as f64;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 18))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(55)
+        .build_cartesian_2d(0.0..top, 0.0..100.0)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("tolerance d (mm on the table, rotation aside)")
+        .y_desc("SSR CCD's actions within d of a right action (%)")
+        .x_label_formatter(&|x| format!("{x:.0}"))
+        .y_label_formatter(&|y| format!("{y:.0}"))
+        .light_line_style(WHITE)
+        .label_style(("sans-serif", 13))
+        .draw()
+        .map_err(err)?;
+    for (i, c) in curves.iter().enumerate() {
+        let colour = PALETTE[i % PALETTE.len()];
+        let at = |k: usize| crate::correspondence::TOLERANCES_MM[k] as f64;
+        // The Wilson band, then the curve.
+        let band: Vec<(f64, f64)> = (0..c.shares.len())
+            .map(|k| (at(k), 100.0 * c.shares[k].high))
+            .chain(
+                (0..c.shares.len())
+                    .rev()
+                    .map(|k| (at(k), 100.0 * c.shares[k].low)),
+            )
+            .collect();
+        chart
+            .draw_series([Polygon::new(band, colour.mix(0.15).filled())])
+            .map_err(err)?;
+        let n = c.shares.first().map_or(0, |s| s.of);
+        chart
+            .draw_series(LineSeries::new(
+                (0..c.shares.len()).map(|k| (at(k), 100.0 * c.shares[k].value)),
+                colour.stroke_width(2),
+            ))
+            .map_err(err)?
+            .label(format!("{} ({n} probe states)", c.label))
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2))
+            });
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK.mix(0.3))
+        .label_font(("sans-serif", 13))
+        .draw()
+        .map_err(err)?;
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+/// Draws the correspondence benchmark's accuracy at a tolerance: one curve
+/// per set, with its Wilson 95% band. A PNG with the embedded font, or an
+/// SVG beside `path` should the font fail to load; returns the path written.
+pub fn plot_tolerance(
+    title: &str,
+    curves: &[ToleranceCurve],
+    path: &Path,
+) -> Result<PathBuf, ReportError> {
+    let size = (900, 560);
+    let (out, result) = if seespot_policy::font::register().is_ok() {
+        let out = path.to_path_buf();
+        let r = draw_tolerance(
+            BitMapBackend::new(&out, size).into_drawing_area(),
+            title,
+            curves,
+        );
+        (out, r)
+    } else {
+        let out = path.with_extension("svg");
+        let r = draw_tolerance(
+            SVGBackend::new(&out, size).into_drawing_area(),
+            title,
+            curves,
+        );
+        (out, r)
+    };
+    result.map_err(|message| ReportError::Plot {
+        path: out.display().to_string(),
+        message,
+    })?;
+    Ok(out)
+}

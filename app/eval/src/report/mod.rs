@@ -252,6 +252,7 @@ mod tests {
             decide_ms: 1.0,
             primitive_success: Some(true),
             departures: Vec::new(),
+            truth: None,
         };
         rs[0].actions_log = vec![
             log(Some(Action::new(Primitive::Grasp, 0, 1, 1))),

@@ -109,6 +109,12 @@ pub struct Session {
     trial_index: u64,
     phase: Option<Phase>,
     decision: Option<Decision>,
+    /// The simulator's truth about the current decision: each pair's F (in
+    /// the decision's order) and where the right actions are.
+    truth: Option<(
+        Vec<seespot_sim::truth::Truth>,
+        Vec<seespot_sim::truth::RightTarget>,
+    )>,
     /// The scene the current decision was made on.
     decided_on: Option<Heightmaps>,
     action: Option<Action>,
@@ -165,6 +171,7 @@ impl Session {
             trial_index: 0,
             phase: None,
             decision: None,
+            truth: None,
             decided_on: None,
             action: None,
             recorder,
@@ -183,6 +190,41 @@ impl Session {
         };
         s.begin();
         Ok(s)
+    }
+
+    /// The simulator's truth about `d`, made in the live trial's state: each
+    /// pair's F judged on a copy of the world (a place as the second half of
+    /// its grasp-place pair), and the right actions' places. `None` for a
+    /// task the oracle does not know.
+    fn label(
+        &self,
+        d: &Decision,
+    ) -> Option<(
+        Vec<seespot_sim::truth::Truth>,
+        Vec<seespot_sim::truth::RightTarget>,
+    )> {
+        let (t, task) = (&self.trial, self.trial.task());
+        if !seespot_sim::Oracle::knows(task) {
+            return None;
+        }
+        let before_grasp = match t.world().next_primitive() {
+            seespot_sim::Primitive::Place => t.steps().last().map(|s| s.progress_before),
+            seespot_sim::Primitive::Grasp => None,
+        };
+        let matches: Vec<seespot_sim::PairMatch> = d
+            .pairs
+            .iter()
+            .map(|p| seespot_sim::PairMatch {
+                policy: p.policy.clone(),
+                demo: p.demo,
+                matched: p.matched,
+            })
+            .collect();
+        let labels = seespot_sim::truth::label(t.world(), task, d.action, &matches, before_grasp);
+        Some((
+            labels.pairs.into_iter().map(|p| p.truth).collect(),
+            seespot_sim::truth::right_targets(t.world(), task, before_grasp),
+        ))
     }
 
     fn begin(&mut self) {
@@ -372,6 +414,7 @@ impl Session {
         self.trial_index += 1;
         self.phase = None;
         self.decision = None;
+        self.truth = None;
         self.decided_on = None;
         self.action = None;
         self.failure = None;
@@ -585,6 +628,7 @@ impl Session {
                 };
                 self.action = Some(choice.action);
                 self.decision = self.decider.decision().cloned();
+                self.truth = self.decision.as_ref().and_then(|d| self.label(d));
                 self.decided_on = Some(hm);
             }
             Phase::Act => {

@@ -159,7 +159,8 @@ impl Session {
             .decision
             .iter()
             .flat_map(|d| d.pairs.iter())
-            .map(|p| PairDoc {
+            .enumerate()
+            .map(|(i, p)| PairDoc {
                 policy: p.policy.clone(),
                 demo: p.demo,
                 demo_step: p.demo_step,
@@ -169,6 +170,11 @@ impl Session {
                 c: shown(Phase::Verify).then_some(p.c),
                 c_unit: p.c_unit,
                 rematch: shown(Phase::Verify).then_some(p.rematch),
+                truth: self
+                    .truth
+                    .as_ref()
+                    .filter(|_| shown(Phase::Match))
+                    .and_then(|(t, _)| t.get(i).cloned()),
             })
             .collect();
         let t = &self.trial;
@@ -220,6 +226,11 @@ impl Session {
                 .map(|d| d.ccd_choice),
             action: if phase.is_some() { self.action } else { None },
             skipped: decision.map(|d| d.departures.clone()).unwrap_or_default(),
+            right_targets: self
+                .truth
+                .as_ref()
+                .map(|(_, r)| r.clone())
+                .unwrap_or_default(),
             timing_ms: decision.map(|d| TimingDoc {
                 embed: d.embed_ms,
                 correspond: d.correspond_ms,
@@ -272,6 +283,7 @@ impl Session {
             doc.l2cd_choice = None;
             doc.ccd_choice = None;
             doc.skipped.clear();
+            doc.right_targets.clear();
             doc.timing_ms = None;
             doc.pairs.clear();
             doc.chosen = None;
