@@ -25,8 +25,10 @@ function pct(k, n) { return n ? `${Math.round((100 * k) / n)}%` : '–'; }
 
 function drawCounts(d) {
   const head = document.createElement('tr');
-  for (const h of ['method', 'reads', 'fold', 'trials', 'success', ...d.kinds.map((k) => k.label), 'replay']) {
+  const labelled = d.counts.some((c) => c.truth);
+  for (const h of ['method', 'reads', 'fold', 'trials', 'success', ...d.kinds.map((k) => k.label), ...(labelled ? ['matches right'] : []), 'replay']) {
     const th = document.createElement('th'); th.textContent = h; head.appendChild(th);
+    if (h === 'matches right') th.title = 'labelled records (seespot eval --truth): the share of every pair\'s F that the simulator judges right; the tooltip gives the actions right and where failed trials first went wrong';
   }
   $('counts-head').replaceChildren(head);
   const rows = d.counts.map((c) => {
@@ -43,6 +45,16 @@ function drawCounts(d) {
       const td = cell(tr, String(n), n ? 'count' : 'zero');
       td.dataset.kind = k.key;
       if (n) td.onclick = () => setFilter({ method: c.method, task: c.task, kind: k.key, label: k.label });
+    }
+    if (labelled) {
+      const t = c.truth;
+      const td = cell(tr, t ? pct(t.matches_right, t.matches) : '–');
+      td.dataset.testid = 'matches-right';
+      if (t) {
+        const first = Object.entries(t.first_wrong).map(([k, [g, p]]) => `${k}: ${g} at a grasp, ${p} at a place`);
+        td.title = [`${t.matches_right} of ${t.matches} matches right over ${t.trials} labelled trials`,
+          `${t.right} of ${t.decisions} actions right`, ...(first.length ? ['failed trials, first wrong step:', ...first] : [])].join('\n');
+      }
     }
     // A short word; the reason on hover.
     cell(tr, c.replay.ok ? 'yes' : 'no', c.replay.ok ? 'ok' : 'refused').title = c.replay.ok
@@ -85,6 +97,10 @@ function drawTrials() {
     const dep = cell(tr, t.departures.length ? String(t.departures.length) : '');
     dep.dataset.testid = 'departures';
     if (t.departures.length) dep.title = t.departures.join('\n');
+    const w = t.truth && t.truth.first_wrong;
+    const first = cell(tr, w ? `${w.action}: ${w.label}` : (t.truth ? '' : '–'));
+    first.dataset.testid = 'first-wrong';
+    if (w) first.title = `action ${w.action} (${w.primitive}): ${w.why}`;
     const td = cell(tr, '');
     const r = replayable(t);
     const b = document.createElement('button');

@@ -127,6 +127,9 @@ def truth(
     embeddings: Any = None,
     models_dir: str = "models",
     demos_dir: str = "demos",
+    resolution: int = DEFAULT_RESOLUTION,
+    finetune_steps: int = 0,
+    finetuned_dir: str = "results",
 ) -> dict[str, Any]:
     """Is the match right? The correspondence benchmark (``seespot truth``,
     docs/truth.md) in this process: See-SPOT-Run asked at the states the
@@ -136,7 +139,11 @@ def truth(
     probes: match and selection accuracy, the McNemar test of CCD against
     L2CD, the AUC of -C and -L, precision at C = 0, CCD's picks within 0 to
     50 mm), ``answers`` (every probe's pairs with their truth), ``commit``.
-    ``embeddings`` as :class:`Ssr` takes them, functions included."""
+    ``embeddings`` as :class:`Ssr` takes them, functions included;
+    ``resolution`` the probe states' grid (112 with the 112 px set's models
+    and demos); ``finetune_steps`` (333: the paper's finetuned row) asks the
+    SPOT-Q policies finetuned as the reference finetunes, read from
+    ``finetuned_dir/finetuned/`` as ``seespot eval`` writes them."""
     import tempfile
     from pathlib import Path
 
@@ -144,6 +151,9 @@ def truth(
         out = Path(tmp) / "truth.json"
         argv = ["seespot", "truth", "--task", task, "--split", split, "--starts", str(starts)]
         argv += ["--models", str(models_dir), "--demos", str(demos_dir), "--json", str(out)]
+        argv += ["--resolution", str(resolution)]
+        if finetune_steps:
+            argv += ["--finetune-steps", str(finetune_steps), "--finetuned", str(finetuned_dir)]
         if embeddings is not None:
             argv += ["--embeddings", *_core.register_embeddings(embeddings)]
         code = _core.cli(argv)

@@ -20,6 +20,12 @@ def test_truth_returns_its_tables_and_answers() -> None:
     assert report["split"] == "validation"
 
 
+def test_truth_asks_the_finetuned_policies() -> None:
+    report = seespot.truth("unstack", starts=1, finetune_steps=333)
+    assert report["set"] == "spot-q-finetuned-333"
+    assert report["rows"][-1][2]["probes"] == len(report["answers"]) > 0
+
+
 def test_truth_takes_a_function() -> None:
     def strided(scene: np.ndarray) -> np.ndarray:
         return np.ascontiguousarray(scene[:, :, ::4, ::4])

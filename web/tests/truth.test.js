@@ -72,3 +72,31 @@ test('each pair\'s F says whether it is right, and why; the right actions can be
   assert.ok(place.pairs.every((p) => p.truth && p.truth.why));
   assert.deepEqual(view.errors, []);
 });
+
+test('the review gives each labelled run\'s match accuracy and each failed trial\'s first wrong step', async () => {
+  const review = await openView(['view', '--port', '0', '--no-viewer', '--review', join('results', 'labelled')]);
+  try {
+    const p = review.page;
+    await p.goto(new URL('/review', review.pageUrl).href);
+    await p.waitForFunction(() => window.seespotReview.data, null, { timeout: 120_000 });
+    const d = await p.evaluate(() => window.seespotReview.data);
+    const row = d.counts.find((c) => c.method === 'ssr-ccd' && c.task === 'stack');
+    assert.ok(row && row.truth, 'ssr-ccd on stack is labelled');
+    const cell = p.locator('tr[data-method="ssr-ccd"][data-task="stack"] [data-testid=matches-right]');
+    assert.equal(await cell.textContent(), `${Math.round((100 * row.truth.matches_right) / row.truth.matches)}%`);
+    assert.match(await cell.getAttribute('title'), /matches right over 50 labelled trials/);
+    // Every failed trial of a labelled run names its first wrong step.
+    await p.getByTestId('method-filter').selectOption('ssr-ccd');
+    const failed = d.trials.filter((t) => t.method === 'ssr-ccd' && !t.success);
+    assert.ok(failed.length > 0 && failed.every((t) => t.truth && t.truth.first_wrong));
+    const first = p.getByTestId('trial').first().getByTestId('first-wrong');
+    assert.match(await first.textContent(), /^\d+: (no right match|wrong pair chosen|wrong action|every action right)$/);
+    assert.match(await first.getAttribute('title'), /^action \d+ \((grasp|place)\): /);
+    if (process.env.SEESPOT_SCREENSHOTS) {
+      await p.screenshot({ path: join(process.env.SEESPOT_SCREENSHOTS, 'review-truth.png') });
+    }
+    assert.deepEqual(review.errors, []);
+  } finally {
+    await review.close();
+  }
+});

@@ -93,7 +93,7 @@ pub fn run(args: ReviewArgs) -> anyhow::Result<()> {
             cells.join(" | ")
         )?;
     }
-    truth_table(&trials)?;
+    truth_table(&trials, &table)?;
     let can =
         |t: &&seespot_eval::review::ReviewedTrial| matches!(replays.get(&t.file), Some(Ok(())));
     for &kind in FailureKind::ALL {
@@ -138,20 +138,21 @@ pub fn run(args: ReviewArgs) -> anyhow::Result<()> {
 /// For labelled runs (`seespot eval --truth`), per (method, fold): the share
 /// of decisions whose action was right, match accuracy over every pair's F,
 /// and where each failed trial's first wrong step came from, by primitive.
-fn truth_table(trials: &[seespot_eval::review::ReviewedTrial]) -> anyhow::Result<()> {
-    use seespot_eval::review::WrongKind;
-    let mut rows: Vec<(
-        &str,
+fn truth_table(
+    trials: &[seespot_eval::review::ReviewedTrial],
+    table: &[(
+        String,
         seespot_sim::TaskId,
-        Vec<&seespot_eval::review::TrialTruth>,
-    )> = Vec::new();
-    for t in trials {
-        let Some(truth) = &t.truth else { continue };
-        match rows.iter_mut().find(|r| r.0 == t.method && r.1 == t.task) {
-            Some(r) => r.2.push(truth),
-            None => rows.push((&t.method, t.task, vec![truth])),
-        }
-    }
+        usize,
+        usize,
+        [usize; FailureKind::N],
+    )],
+) -> anyhow::Result<()> {
+    use seespot_eval::review::{RowTruth, WrongKind};
+    let rows: Vec<(&str, seespot_sim::TaskId, RowTruth)> = table
+        .iter()
+        .filter_map(|(m, task, ..)| Some((m.as_str(), *task, RowTruth::of(trials, m, *task)?)))
+        .collect();
     if rows.is_empty() {
         return Ok(());
     }
@@ -173,29 +174,19 @@ fn truth_table(trials: &[seespot_eval::review::ReviewedTrial]) -> anyhow::Result
             .join(" | "),
         "---|".repeat(WrongKind::ALL.len())
     )?;
-    for (m, task, ts) in &rows {
-        let sum = |f: fn(&seespot_eval::review::TrialTruth) -> usize| ts.iter().map(|t| f(t)).sum();
+    for (m, task, t) in &rows {
         let kinds: Vec<String> = WrongKind::ALL
             .iter()
             .map(|k| {
-                let of = |p: seespot_sim::Primitive| {
-                    ts.iter()
-                        .filter_map(|t| t.first_wrong.as_ref())
-                        .filter(|w| w.kind == *k && w.primitive == p)
-                        .count()
-                };
-                format!(
-                    "{} / {}",
-                    of(seespot_sim::Primitive::Grasp),
-                    of(seespot_sim::Primitive::Place)
-                )
+                let [g, p] = t.first_wrong.get(k).copied().unwrap_or_default();
+                format!("{g} / {p}")
             })
             .collect();
         outln!(
             "| {m} | {task} | {} | {} | {} | {} |",
-            ts.len(),
-            pct(sum(|t| t.right), sum(|t| t.decisions)),
-            pct(sum(|t| t.matches_right), sum(|t| t.matches)),
+            t.trials,
+            pct(t.right, t.decisions),
+            pct(t.matches_right, t.matches),
             kinds.join(" | ")
         )?;
     }

@@ -62,6 +62,16 @@ pub struct TruthArgs {
     /// nothing.
     #[arg(long, value_name = "PNG", requires = "from")]
     figure: Option<PathBuf>,
+    /// Ask the SPOT-Q policies finetuned on each task's demonstrations by
+    /// the reference procedure, this many steps per policy (333: the
+    /// paper's finetuned row), read from `<finetuned>/finetuned/<task>/`
+    /// as `seespot eval --finetune-steps` writes them (made there by one
+    /// such evaluation first).
+    #[arg(long, default_value_t = 0, value_parser = clap::builder::RangedU64ValueParser::<usize>::from(seespot_sim::bounds::FINETUNE_STEPS), conflicts_with = "embeddings")]
+    finetune_steps: usize,
+    /// The evaluation folder whose `finetuned/` holds the finetuned models.
+    #[arg(long, default_value = "results")]
+    finetuned: PathBuf,
     /// The `seespot truth --json` reports `--figure` draws.
     #[arg(long, num_args = 1.., value_name = "FILE", requires = "figure")]
     from: Vec<PathBuf>,
@@ -130,10 +140,25 @@ pub fn run(args: TruthArgs) -> anyhow::Result<()> {
     }
     let seeds: Vec<u64> = Seeds::of(args.split, args.starts).iter().collect();
     let embeddings = crate::io::embeddings(&args.embeddings)?;
-    let set = embeddings
-        .as_ref()
-        .map(|e| e.label())
-        .unwrap_or_else(|| "spot-q".into());
+    // The SPOT-Q policies are named by their folder when it is not the
+    // shipped one (`oracle-guided`), and by their resolution when it is not
+    // the default.
+    let policies = match args.models.file_name() {
+        Some(name) if args.models != std::path::Path::new("models") => {
+            name.to_string_lossy().into_owned()
+        }
+        _ => "spot-q".into(),
+    };
+    let at = if args.resolution == seespot_sim::DEFAULT_RESOLUTION {
+        String::new()
+    } else {
+        format!("@{}px", args.resolution)
+    };
+    let set = match (&embeddings, args.finetune_steps) {
+        (Some(e), _) => e.label(),
+        (None, 0) => format!("{policies}{at}"),
+        (None, n) => format!("{policies}-finetuned-{n}{at}"),
+    };
     if let Some(draws) = args.chance {
         return run_chance(&args, &tasks, &seeds, draws as usize);
     }
@@ -146,7 +171,27 @@ pub fn run(args: TruthArgs) -> anyhow::Result<()> {
     for &task in &tasks {
         let t = Instant::now();
         let probes = correspondence::probes(task, &seeds, world);
-        let got = correspondence::ask(&layout, config, task, &probes)?;
+        let got = if args.finetune_steps > 0 {
+            // The finetuned models of this fold, as `seespot eval` reads them.
+            let eval = seespot_eval::EvalConfig {
+                method: EvalMethod::SsrCcd,
+                seeds: Seeds::new(seeds[0], 1)?,
+                out_dir: args.finetuned.clone(),
+                layout: layout.clone(),
+                world,
+                correspond: args.correspond.options()?,
+                finetune_steps: args.finetune_steps,
+                finetune_procedure: seespot_policy::finetune::FinetuneProcedure::Reference,
+                truth: false,
+            };
+            correspondence::ask_with(
+                &|| seespot_eval::runner::ssr_policy(&eval, task),
+                task,
+                &probes,
+            )?
+        } else {
+            correspondence::ask(&layout, config, task, &probes)?
+        };
         writeln!(
             err,
             "{task}: {} probe states from {} {} starts, {:.1} s",

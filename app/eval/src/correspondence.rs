@@ -111,58 +111,65 @@ pub fn ask(
     task: TaskId,
     probes: &[Probe],
 ) -> Result<Vec<ProbeAnswer>, EvalError> {
-    // Loaded once here, so a bad set fails before any work.
-    SsrPolicy::load(task, layout, config)?;
+    ask_with(
+        &|| SsrPolicy::load(task, layout, config).map_err(EvalError::from),
+        task,
+        probes,
+    )
+}
+
+/// [`ask`] with See-SPOT-Run made by `load` (once here, so a bad set fails
+/// before any work, then once per worker thread): the finetuned rows load
+/// their models this way ([`crate::runner::ssr_policy`]).
+pub fn ask_with(
+    load: &(dyn Fn() -> Result<SsrPolicy, EvalError> + Sync),
+    task: TaskId,
+    probes: &[Probe],
+) -> Result<Vec<ProbeAnswer>, EvalError> {
+    load()?;
     probes
         .par_iter()
-        .map_init(
-            || SsrPolicy::load(task, layout, config),
-            |ssr, p| -> Result<ProbeAnswer, EvalError> {
-                let ssr = ssr
-                    .as_mut()
-                    .map_err(|e| EvalError::Invalid(e.to_string()))?;
-                let hm = p.world.render();
-                let d = ssr.decide(&hm, p.progress, p.primitive)?;
-                let mut seen: Vec<(Action, Truth)> = Vec::new();
-                let pairs = d
-                    .pairs
-                    .iter()
-                    .map(|pair| {
-                        let t = match seen.iter().find(|(a, _)| *a == pair.matched) {
-                            Some((_, t)) => t.clone(),
-                            None => {
-                                let t = truth_of_pair(
-                                    &p.world,
-                                    task,
-                                    pair.matched,
-                                    Some(p.before_grasp),
-                                );
-                                seen.push((pair.matched, t.clone()));
-                                t
-                            }
-                        };
-                        PairAnswer {
-                            policy: pair.policy.clone(),
-                            demo: pair.demo,
-                            l: pair.l,
-                            c: pair.c,
-                            matched: pair.matched,
-                            truth: t,
+        .map_init(load, |ssr, p| -> Result<ProbeAnswer, EvalError> {
+            let ssr = ssr
+                .as_mut()
+                .map_err(|e| EvalError::Invalid(e.to_string()))?;
+            let hm = p.world.render();
+            let d = ssr.decide(&hm, p.progress, p.primitive)?;
+            let mut seen: Vec<(Action, Truth)> = Vec::new();
+            let pairs = d
+                .pairs
+                .iter()
+                .map(|pair| {
+                    let t = match seen.iter().find(|(a, _)| *a == pair.matched) {
+                        Some((_, t)) => t.clone(),
+                        None => {
+                            let t =
+                                truth_of_pair(&p.world, task, pair.matched, Some(p.before_grasp));
+                            seen.push((pair.matched, t.clone()));
+                            t
                         }
-                    })
-                    .collect();
-                Ok(ProbeAnswer {
-                    task,
-                    seed: p.seed,
-                    step: p.step,
-                    progress: p.progress,
-                    primitive: p.primitive,
-                    pairs,
-                    ccd: d.ccd_choice,
-                    l2cd: d.l2cd_choice,
+                    };
+                    PairAnswer {
+                        policy: pair.policy.clone(),
+                        demo: pair.demo,
+                        l: pair.l,
+                        c: pair.c,
+                        matched: pair.matched,
+                        truth: t,
+                    }
                 })
-            },
-        )
+                .collect();
+            Ok(ProbeAnswer {
+                task,
+                seed: p.seed,
+                step: p.step,
+                progress: p.progress,
+                primitive: p.primitive,
+                pairs,
+                ccd: d.ccd_choice,
+                l2cd: d.l2cd_choice,
+            })
+        })
         .collect()
 }
 

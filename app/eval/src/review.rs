@@ -143,6 +143,8 @@ pub struct FirstWrong {
     pub verdict: seespot_sim::truth::Verdict,
     pub why: String,
     pub kind: WrongKind,
+    /// The kind in words, as the review lists it.
+    pub label: &'static str,
 }
 
 /// Where a failed trial's first wrong step came from.
@@ -172,6 +174,43 @@ impl WrongKind {
 
     pub fn as_str(self) -> &'static str {
         self.into()
+    }
+}
+
+/// A (method, fold) row's labelled trials together: match accuracy, the
+/// share of actions right, and where its failed trials first went wrong,
+/// by kind and primitive (`[grasp, place]`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct RowTruth {
+    pub trials: usize,
+    pub decisions: usize,
+    pub right: usize,
+    pub matches: usize,
+    pub matches_right: usize,
+    pub first_wrong: std::collections::BTreeMap<WrongKind, [usize; 2]>,
+}
+
+impl RowTruth {
+    /// The labelled trials of `trials` that are `method`'s on `task`;
+    /// `None` when none is labelled.
+    pub fn of(trials: &[ReviewedTrial], method: &str, task: TaskId) -> Option<Self> {
+        let mut out = Self::default();
+        for t in trials
+            .iter()
+            .filter(|t| t.method == method && t.task == task)
+        {
+            let Some(truth) = &t.truth else { continue };
+            out.trials += 1;
+            out.decisions += truth.decisions;
+            out.right += truth.right;
+            out.matches += truth.matches;
+            out.matches_right += truth.matches_right;
+            if let Some(w) = &truth.first_wrong {
+                let i = usize::from(w.primitive == Primitive::Place);
+                out.first_wrong.entry(w.kind).or_default()[i] += 1;
+            }
+        }
+        (out.trials > 0).then_some(out)
     }
 }
 
@@ -215,19 +254,24 @@ pub fn trial_truth(r: &TrialRecord) -> Option<TrialTruth> {
                         verdict: seespot_sim::truth::Verdict::Right,
                         why: "every labelled action was right".into(),
                         kind: WrongKind::EveryActionRight,
+                        label: WrongKind::EveryActionRight.as_str(),
                     },
-                    |(i, t)| FirstWrong {
-                        action: i + 1,
-                        primitive: r.actions_log[*i].action.primitive,
-                        verdict: t.chosen.verdict,
-                        why: t.chosen.why.clone(),
-                        kind: if t.pairs.is_empty() {
+                    |(i, t)| {
+                        let kind = if t.pairs.is_empty() {
                             WrongKind::WrongAction
                         } else if t.pairs.iter().any(|p| p.truth.verdict.is_right()) {
                             WrongKind::WrongPair
                         } else {
                             WrongKind::NoRightMatch
-                        },
+                        };
+                        FirstWrong {
+                            action: i + 1,
+                            primitive: r.actions_log[*i].action.primitive,
+                            verdict: t.chosen.verdict,
+                            why: t.chosen.why.clone(),
+                            kind,
+                            label: kind.as_str(),
+                        }
                     },
                 ),
         );
@@ -322,6 +366,10 @@ pub struct CountRow {
     /// Failed trials per kind.
     pub failures: std::collections::BTreeMap<FailureKind, usize>,
     pub replay: Replayable,
+    /// For labelled records (`seespot eval --truth`): what the simulator's
+    /// truth says of the row's correspondences.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub truth: Option<RowTruth>,
 }
 
 /// The rows of [`counts`], each with whether its records file replays
@@ -352,6 +400,7 @@ pub fn count_rows(
                 },
             };
             CountRow {
+                truth: RowTruth::of(trials, &method, task),
                 reads: crate::run::reads(&method),
                 method,
                 task,

@@ -68,6 +68,7 @@ fn state_and_frame_documents_keep_their_schema() {
             "recording",
             "replay",
             "resolution",
+            "right_targets",
             "seed",
             "skipped",
             "steps",

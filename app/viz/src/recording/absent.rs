@@ -60,6 +60,7 @@ impl Recorder {
         _: Phase,
         _: &Heightmaps,
         _: Option<&Decision>,
+        _: Option<&[seespot_sim::truth::Truth]>,
         _: &[Demo],
     ) {
     }

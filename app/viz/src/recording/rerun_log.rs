@@ -15,6 +15,7 @@ use rerun::blueprint::{
     TimePanel, TimeSeriesView, Vertical,
 };
 use rerun::{RecordingStream, RecordingStreamBuilder};
+use seespot_sim::truth::Truth;
 use seespot_sim::{BLOCK_COLORS, BLOCK_SIZE, Demo, Heightmaps, TaskId, Trial};
 use seespot_ssr::Decision;
 
@@ -378,7 +379,9 @@ impl Recorder {
     /// Logs one phase of the decision for action `action` (0-based) of `trial`
     /// (the trial of the last [`Recorder::begin_trial`]). `hm` is the scene the
     /// decision was made on. The `action` timeline counts from 1 as the page
-    /// and the viser view do (0 is the trial's start).
+    /// and the viser view do (0 is the trial's start). `truth`: the
+    /// simulator's verdict on each pair's F, when the session worked it out.
+    #[allow(clippy::too_many_arguments)]
     pub fn log_phase(
         &mut self,
         trial: &Trial,
@@ -386,6 +389,7 @@ impl Recorder {
         phase: Phase,
         hm: &Heightmaps,
         decision: Option<&Decision>,
+        truth: Option<&[Truth]>,
         demos: &[Demo],
     ) {
         self.tick(action + 1);
@@ -414,7 +418,7 @@ impl Recorder {
                 self.log_progress(trial);
             }
         }
-        self.log_status(trial, action, phase, decision);
+        self.log_status(trial, action, phase, decision, truth);
     }
 
     /// Logs what `policy` sees in the chosen pair (with demo `demo`): its live
@@ -615,58 +619,16 @@ impl Recorder {
         }
     }
 
-    fn log_status(&self, trial: &Trial, action: usize, phase: Phase, d: Option<&Decision>) {
-        let trial_index = self.trial_index;
-        let mut s = format!(
-            "## Trial {trial_index} · {} · seed {}\n\nAction **{}** · phase **{}** · progress **{} / 4**\n\n",
-            trial.task().as_str(),
-            trial.seed(),
-            action + 1,
-            phase.as_str(),
-            trial.progress()
-        );
-        if let Some(d) = d {
-            s.push_str("| policy | demo | L | C | F | |\n|---|---|---|---|---|---|\n");
-            for (i, p) in d.pairs.iter().enumerate() {
-                let show_l = phase >= Phase::Match;
-                let show_c = phase >= Phase::Verify;
-                let mark = if phase >= Phase::Act && i == d.chosen {
-                    "**chosen**"
-                } else {
-                    ""
-                };
-                s.push_str(&format!(
-                    "| {} | {} | {} | {} | {} | {mark} |\n",
-                    p.policy.as_str(),
-                    p.demo,
-                    if show_l {
-                        format!("{:.3}", p.l)
-                    } else {
-                        "…".into()
-                    },
-                    if show_c {
-                        format!("{:.1}", p.c)
-                    } else {
-                        "…".into()
-                    },
-                    if show_l {
-                        p.matched.to_string()
-                    } else {
-                        "…".into()
-                    },
-                ));
-            }
-            // Where an extension departed from SSR CCD, as the page says it.
-            for departure in &d.departures {
-                s.push_str(&format!("\nExtension: {departure}.\n"));
-            }
-        }
-        if let Some(end) = trial.end() {
-            s.push_str(&format!(
-                "\nTrial ended: **{end:?}** after {} actions.\n",
-                trial.actions()
-            ));
-        }
+    /// The status panel ([`super::status_markdown`]).
+    fn log_status(
+        &self,
+        trial: &Trial,
+        action: usize,
+        phase: Phase,
+        d: Option<&Decision>,
+        truth: Option<&[Truth]>,
+    ) {
+        let s = super::status_markdown(self.trial_index, trial, action, phase, d, truth);
         self.warn(self.rec.log(
             self.at(paths::STATUS),
             &rerun::TextDocument::from_markdown(s),

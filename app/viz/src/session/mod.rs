@@ -192,13 +192,15 @@ impl Session {
         Ok(s)
     }
 
-    /// The simulator's truth about `d`, made in the live trial's state: each
+    /// The simulator's truth about the decision `d` (none for deciders
+    /// without pairs) that chose `action` in the live trial's state: each
     /// pair's F judged on a copy of the world (a place as the second half of
     /// its grasp-place pair), and the right actions' places. `None` for a
     /// task the oracle does not know.
     fn label(
         &self,
-        d: &Decision,
+        d: Option<&Decision>,
+        action: Action,
     ) -> Option<(
         Vec<seespot_sim::truth::Truth>,
         Vec<seespot_sim::truth::RightTarget>,
@@ -212,15 +214,15 @@ impl Session {
             seespot_sim::Primitive::Grasp => None,
         };
         let matches: Vec<seespot_sim::PairMatch> = d
-            .pairs
             .iter()
+            .flat_map(|d| &d.pairs)
             .map(|p| seespot_sim::PairMatch {
                 policy: p.policy.clone(),
                 demo: p.demo,
                 matched: p.matched,
             })
             .collect();
-        let labels = seespot_sim::truth::label(t.world(), task, d.action, &matches, before_grasp);
+        let labels = seespot_sim::truth::label(t.world(), task, action, &matches, before_grasp);
         Some((
             labels.pairs.into_iter().map(|p| p.truth).collect(),
             seespot_sim::truth::right_targets(t.world(), task, before_grasp),
@@ -628,7 +630,7 @@ impl Session {
                 };
                 self.action = Some(choice.action);
                 self.decision = self.decider.decision().cloned();
-                self.truth = self.decision.as_ref().and_then(|d| self.label(d));
+                self.truth = self.label(self.decision.as_ref(), choice.action);
                 self.decided_on = Some(hm);
             }
             Phase::Act => {
@@ -677,6 +679,7 @@ impl Session {
                 next,
                 hm,
                 self.decision.as_ref(),
+                self.truth.as_ref().map(|(t, _)| t.as_slice()),
                 self.decider.demos(),
             );
             if next == Phase::Act && self.trial.end().is_some() {
