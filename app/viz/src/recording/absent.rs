@@ -53,6 +53,7 @@ impl Recorder {
 
     pub fn begin_trial(&mut self, _: u64, _: &Trial, _: &str) {}
 
+    #[allow(clippy::too_many_arguments)]
     pub fn log_phase(
         &mut self,
         _: &Trial,
