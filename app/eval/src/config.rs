@@ -36,7 +36,7 @@ pub struct EvalConfig {
     /// How the SPOT-Q policies are finetuned ([`crate::finetuned`]).
     pub finetune_procedure: FinetuneProcedure,
     /// Label every decision with the simulator's truth
-    /// ([`seespot_sim::truth::Labelled`]): the executed action's and each
+    /// ([`seespot_sim::actor::Labelled`]): the executed action's and each
     /// pair's F, in the records. A measurement, never an input: the trials
     /// are the same with and without it.
     pub truth: bool,

@@ -6,7 +6,9 @@
 //! - **Probe states**: the states the scripted oracle passes through on a
 //!   seed range (every state before one of its actions until its trial ends:
 //!   success, 30 actions, or a block out of the workspace), each with the demonstrations' step at its
-//!   progress. The same seeds give the same states, bit for bit.
+//!   progress. A task defined by demonstrations, which the oracle does not
+//!   play, is played by its first right action
+//!   ([`seespot_sim::truth::right_action`]) until none is left. The same seeds give the same states, bit for bit.
 //! - **Match accuracy**: the share of (policy, demonstration) pairs whose F
 //!   (Eq. 5) is right.
 //! - **Selection accuracy**: whether the pair SSR CCD acts on (Eq. 8) is
@@ -70,7 +72,16 @@ pub fn probes(task: TaskId, seeds: &[u64], world: WorldConfig) -> Vec<Probe> {
                 primitive: trial.world().next_primitive(),
                 world: trial.world().fork(),
             });
-            let a = oracle.act(trial.world());
+            // The scripted oracle plays the built-in tasks; a task defined
+            // by demonstrations is played by its first right action.
+            let a = if Oracle::knows(task) {
+                oracle.act(trial.world())
+            } else {
+                match seespot_sim::truth::right_action(trial.world(), task, Some(before_grasp)) {
+                    Some(a) => a,
+                    None => break,
+                }
+            };
             trial.step(a);
         }
     }

@@ -313,7 +313,7 @@ pub fn make_actor(
         EvalMethod::Random => Box::new(RandomActor::default()),
     };
     Ok(if config.truth {
-        Box::new(seespot_sim::truth::Labelled::new(actor))
+        Box::new(seespot_sim::actor::Labelled::new(actor))
     } else {
         actor
     })

@@ -114,3 +114,41 @@ fn labelled_records_are_the_unlabelled_records_with_labels() {
         }
     }
 }
+
+/// A task defined by demonstrations is judged against its goal: playing
+/// its first right action from each state (what the benchmark probes)
+/// builds it, every action right, and a labelled run labels its decisions.
+#[test]
+fn a_custom_task_is_judged_against_its_goal() {
+    let layout = Layout::new(root().join("models"), root().join("demos"));
+    for name in ["l-shape", "pyramid"] {
+        let task: TaskId = format!("custom:{name}").parse().expect("custom task");
+        layout.load_task(task).expect("its demonstrations");
+        for seed in [10001, 10003] {
+            let mut trial =
+                seespot_sim::Trial::new(world_config(seespot_sim::DEFAULT_RESOLUTION), task, seed);
+            let mut before_grasp = trial.progress();
+            while trial.end().is_none() {
+                if trial.world().next_primitive() == Primitive::Grasp {
+                    before_grasp = trial.progress();
+                }
+                let a = seespot_sim::truth::right_action(trial.world(), task, Some(before_grasp))
+                    .unwrap_or_else(|| {
+                        panic!("{task} seed {seed}: no right action at {}", trial.actions())
+                    });
+                let t =
+                    seespot_sim::truth::truth_of_pair(trial.world(), task, a, Some(before_grasp));
+                assert_eq!(t.verdict, Verdict::Right, "{task} seed {seed}: {t:?}");
+                trial.step(a);
+            }
+            assert!(trial.succeeded(), "{task} seed {seed}: {:?}", trial.end());
+        }
+    }
+    let task: TaskId = "custom:l-shape".parse().expect("custom task");
+    let out = tempfile::tempdir().expect("tempdir");
+    let mut c = config(EvalMethod::SsrCcd, out.path(), 1, true);
+    c.seeds = Seeds::new(10001, 1).expect("seeds");
+    let records = run_task_jobs(&c, task, 1, &mut |_| {}).expect("labelled");
+    let log = &records[0].actions_log;
+    assert!(!log.is_empty() && log.iter().all(|a| a.truth.is_some()));
+}

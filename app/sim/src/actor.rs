@@ -20,7 +20,8 @@ use crate::record::{ActionLog, TrialRecord};
 use crate::seeds::Seeds;
 use crate::task::TaskId;
 use crate::trial::Trial;
-use crate::truth::DecisionTruth;
+pub use crate::truth::PairMatch;
+use crate::truth::{DecisionTruth, label};
 use crate::world::WorldConfig;
 
 /// Why an actor could not choose (a network failed, a demonstration does not
@@ -47,16 +48,8 @@ pub struct ChosenPair {
     /// What an SSR extension masked out of this decision, and why.
     pub departures: Vec<crate::record::Departure>,
     /// Every pair's match F, in the decision's order (what a labelled run
-    /// judges, [`crate::truth::Labelled`]).
+    /// judges, [`Labelled`]).
     pub matches: Vec<PairMatch>,
-}
-
-/// One (policy, demo) pair's match F in a decision.
-#[derive(Clone, Debug, PartialEq)]
-pub struct PairMatch {
-    pub policy: String,
-    pub demo: usize,
-    pub matched: Action,
 }
 
 /// An actor's choice of the next action.
@@ -90,7 +83,7 @@ pub trait Actor {
     fn act(&mut self, trial: &Trial, hm: &Heightmaps) -> Result<Choice, ActorError>;
 
     /// The truth of `choice`, just chosen in `trial` and not yet executed,
-    /// for actors that label their decisions ([`crate::truth::Labelled`]);
+    /// for actors that label their decisions ([`Labelled`]);
     /// `None` for the rest. Not counted in the decision's time.
     fn truth(&mut self, _trial: &Trial, _choice: &Choice) -> Option<DecisionTruth> {
         None
@@ -203,4 +196,102 @@ pub fn run_trials_from(
         out.push(record);
     }
     Ok(out)
+}
+
+impl Actor for crate::Oracle {
+    fn name(&self) -> String {
+        "oracle".to_owned()
+    }
+
+    fn begin_trial(&mut self, trial: &Trial) {
+        *self = crate::Oracle::new(trial.task());
+    }
+
+    fn act(&mut self, trial: &Trial, _hm: &Heightmaps) -> Result<Choice, ActorError> {
+        Ok(crate::Oracle::act(self, trial.world()).into())
+    }
+}
+
+/// Any actor, with the truth of each of its decisions in the trial's record
+/// ([`crate::ActionLog::truth`]): the executed action and every pair's F,
+/// each judged on a copy of the world before the action, after the decision
+/// is timed. The trial is never touched, so its record is the same as the
+/// unlabelled actor's, labels aside.
+///
+/// A decision whose world has its blocks where they lay at the last labelled
+/// decision, bit for bit, with the same block in hand and the same actions
+/// to judge (an action that changed nothing, repeated: See-SPOT-Run's most
+/// common failure) reuses that decision's labels instead of judging them
+/// again.
+pub struct Labelled<A> {
+    pub inner: A,
+    /// Progress before the last grasp (a place is judged as its pair's
+    /// second half).
+    before_grasp: u8,
+    last: Option<(LabelKey, DecisionTruth)>,
+}
+
+/// What a decision's labels depend on, compared bit for bit.
+#[derive(PartialEq)]
+struct LabelKey {
+    poses: Vec<u32>,
+    held: Option<usize>,
+    before_grasp: u8,
+    chosen: Action,
+    matches: Vec<Action>,
+}
+
+impl<A> Labelled<A> {
+    pub fn new(inner: A) -> Self {
+        Self {
+            inner,
+            before_grasp: 0,
+            last: None,
+        }
+    }
+}
+
+impl<A: Actor> Actor for Labelled<A> {
+    fn name(&self) -> String {
+        self.inner.name()
+    }
+
+    fn begin_trial(&mut self, trial: &Trial) {
+        self.before_grasp = trial.progress();
+        self.last = None;
+        self.inner.begin_trial(trial);
+    }
+
+    fn act(&mut self, trial: &Trial, hm: &Heightmaps) -> Result<Choice, ActorError> {
+        if trial.world().next_primitive() == crate::Primitive::Grasp {
+            self.before_grasp = trial.progress();
+        }
+        self.inner.act(trial, hm)
+    }
+
+    fn truth(&mut self, trial: &Trial, choice: &Choice) -> Option<DecisionTruth> {
+        let task = trial.task();
+        let world = trial.world();
+        let matches = choice.pair.as_ref().map_or(&[][..], |p| &p.matches);
+        let key = LabelKey {
+            poses: world
+                .block_poses()
+                .iter()
+                .flat_map(|p| p.position.iter().chain(&p.rotation))
+                .map(|v| v.to_bits())
+                .collect(),
+            held: world.held_block(),
+            before_grasp: self.before_grasp,
+            chosen: choice.action,
+            matches: matches.iter().map(|m| m.matched).collect(),
+        };
+        if let Some((k, t)) = &self.last
+            && *k == key
+        {
+            return Some(t.clone());
+        }
+        let t = label(world, task, choice.action, matches, Some(self.before_grasp));
+        self.last = Some((key, t.clone()));
+        Some(t)
+    }
 }

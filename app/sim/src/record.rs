@@ -41,7 +41,7 @@ pub struct ActionLog {
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub departures: Vec<Departure>,
     /// The simulator's truth about the executed action and every pair's F
-    /// (`seespot eval --truth`, [`crate::truth::Labelled`]): a measurement
+    /// (`seespot eval --truth`, [`crate::actor::Labelled`]): a measurement
     /// of the method, never one of its inputs; absent from unlabelled runs.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub truth: Option<crate::truth::DecisionTruth>,

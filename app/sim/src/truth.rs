@@ -33,6 +33,19 @@ use crate::world::{ActionFailure, World};
 /// first).
 pub const PLACES_TRIED: usize = 6;
 
+/// How many places are tried for one block in a task defined by
+/// demonstrations: the spots its goal allows ([`crate::oracle::goal_targets`])
+/// are not ranked.
+pub const GOAL_PLACES_TRIED: usize = 48;
+
+fn places_tried(task: TaskId) -> usize {
+    if task.is_builtin() {
+        PLACES_TRIED
+    } else {
+        GOAL_PLACES_TRIED
+    }
+}
+
 /// The colours' names, by block id.
 const COLOURS: [&str; NUM_BLOCKS] = ["red", "blue", "green", "yellow"];
 
@@ -122,7 +135,7 @@ fn raising_place(
 ) -> Option<u8> {
     crate::oracle::place_targets(before, task, block)
         .into_iter()
-        .take(PLACES_TRIED)
+        .take(places_tried(task))
         .find_map(|target| {
             let mut copy = holding.fork();
             copy.execute(crate::oracle::place_for(&copy, target));
@@ -148,11 +161,9 @@ fn nearest(
         .unzip()
 }
 
-/// The centres (`(x, y, yaw)`, metres and radians) of the blocks whose grasp
-/// at their centre is right in `world`.
-fn right_grasps(world: &World, task: TaskId) -> Vec<(f32, f32, f32)> {
+/// The blocks whose grasp at their centre is right in `world`.
+fn right_grasp_blocks(world: &World, task: TaskId) -> Vec<usize> {
     let before = progress(world, task);
-    let poses = world.block_poses();
     (0..NUM_BLOCKS)
         .filter(|&i| {
             crate::oracle::grasp_action(world, i).is_some_and(|g| {
@@ -160,6 +171,15 @@ fn right_grasps(world: &World, task: TaskId) -> Vec<(f32, f32, f32)> {
                 c.execute(g).block == Some(i) && raising_place(world, &c, task, i, before).is_some()
             })
         })
+        .collect()
+}
+
+/// The centres (`(x, y, yaw)`, metres and radians) of the blocks whose grasp
+/// at their centre is right in `world`.
+fn right_grasps(world: &World, task: TaskId) -> Vec<(f32, f32, f32)> {
+    let poses = world.block_poses();
+    right_grasp_blocks(world, task)
+        .into_iter()
         .map(|i| {
             let [x, y, _] = poses[i].position;
             (x, y, poses[i].yaw())
@@ -167,14 +187,37 @@ fn right_grasps(world: &World, task: TaskId) -> Vec<(f32, f32, f32)> {
         .collect()
 }
 
+/// A right action in `world`, the first found: a grasp at the centre of a
+/// block whose grasp is right, or a place at a target that raises progress
+/// (above `before_grasp`). `None` when there is none. For a task defined by
+/// demonstrations, which the scripted oracle does not play, this is the
+/// player whose states the correspondence benchmark probes.
+pub fn right_action(world: &World, task: TaskId, before_grasp: Option<u8>) -> Option<Action> {
+    match (world.next_primitive(), world.held_block()) {
+        (Primitive::Grasp, _) => right_grasp_blocks(world, task)
+            .first()
+            .and_then(|&i| crate::oracle::grasp_action(world, i)),
+        (Primitive::Place, Some(b)) => right_places(
+            world,
+            task,
+            b,
+            before_grasp.unwrap_or(progress(world, task)),
+        )
+        .first()
+        .map(|&t| crate::oracle::place_for(world, t)),
+        (Primitive::Place, None) => None,
+    }
+}
+
 /// The oracle's targets for block `block` in hand whose place raises
 /// progress above `floor` (and not below the world's now), out of the first
-/// [`PLACES_TRIED`].
+/// [`PLACES_TRIED`] ([`GOAL_PLACES_TRIED`] for a task defined by
+/// demonstrations).
 fn right_places(world: &World, task: TaskId, block: usize, floor: u8) -> Vec<(f32, f32, f32)> {
     let before = progress(world, task);
     crate::oracle::place_targets(world, task, block)
         .into_iter()
-        .take(PLACES_TRIED)
+        .take(places_tried(task))
         .filter(|&t| {
             let mut c = world.fork();
             c.execute(crate::oracle::place_for(&c, t));
@@ -190,11 +233,9 @@ fn right_places(world: &World, task: TaskId, block: usize, floor: u8) -> Vec<(f3
 /// (above `before_grasp`, as [`truth_of_pair`] judges a place). Each is
 /// `(x, y, yaw)` in metres and radians, with its pixel and the rotation
 /// index nearest to its yaw (targets off the heightmap are left out).
-/// Empty for a task the oracle does not know.
+/// For a task defined by demonstrations the places come from its goal
+/// ([`crate::oracle::goal_targets`]).
 pub fn right_targets(world: &World, task: TaskId, before_grasp: Option<u8>) -> Vec<RightTarget> {
-    if !crate::Oracle::knows(task) {
-        return Vec::new();
-    }
     let targets = match (world.next_primitive(), world.held_block()) {
         (Primitive::Grasp, _) => right_grasps(world, task),
         (Primitive::Place, Some(b)) => right_places(
@@ -345,6 +386,14 @@ fn quarter_steps(a: usize, b: usize) -> u8 {
     d.min(4 - d)
 }
 
+/// One (policy, demo) pair's match F in a decision.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PairMatch {
+    pub policy: String,
+    pub demo: usize,
+    pub matched: Action,
+}
+
 /// One pair's F and its truth, as a labelled decision records it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PairTruth {
@@ -372,7 +421,7 @@ pub fn label(
     world: &World,
     task: TaskId,
     chosen: Action,
-    matches: &[crate::actor::PairMatch],
+    matches: &[PairMatch],
     before_grasp: Option<u8>,
 ) -> DecisionTruth {
     let mut seen: Vec<(Action, Truth)> = Vec::new();
@@ -395,96 +444,4 @@ pub fn label(
         })
         .collect();
     DecisionTruth { chosen, pairs }
-}
-
-/// Any actor, with the truth of each of its decisions in the trial's record
-/// ([`crate::ActionLog::truth`]): the executed action and every pair's F,
-/// each judged on a copy of the world before the action, after the decision
-/// is timed. The trial is never touched, so its record is the same as the
-/// unlabelled actor's, labels aside. Tasks the oracle does not know get no
-/// labels.
-///
-/// A decision whose world has its blocks where they lay at the last labelled
-/// decision, bit for bit, with the same block in hand and the same actions
-/// to judge (an action that changed nothing, repeated: See-SPOT-Run's most
-/// common failure) reuses that decision's labels instead of judging them
-/// again.
-pub struct Labelled<A> {
-    pub inner: A,
-    /// Progress before the last grasp (a place is judged as its pair's
-    /// second half).
-    before_grasp: u8,
-    last: Option<(LabelKey, DecisionTruth)>,
-}
-
-/// What a decision's labels depend on, compared bit for bit.
-#[derive(PartialEq)]
-struct LabelKey {
-    poses: Vec<u32>,
-    held: Option<usize>,
-    before_grasp: u8,
-    chosen: Action,
-    matches: Vec<Action>,
-}
-
-impl<A> Labelled<A> {
-    pub fn new(inner: A) -> Self {
-        Self {
-            inner,
-            before_grasp: 0,
-            last: None,
-        }
-    }
-}
-
-impl<A: crate::Actor> crate::Actor for Labelled<A> {
-    fn name(&self) -> String {
-        self.inner.name()
-    }
-
-    fn begin_trial(&mut self, trial: &crate::Trial) {
-        self.before_grasp = trial.progress();
-        self.last = None;
-        self.inner.begin_trial(trial);
-    }
-
-    fn act(
-        &mut self,
-        trial: &crate::Trial,
-        hm: &crate::Heightmaps,
-    ) -> Result<crate::Choice, crate::ActorError> {
-        if trial.world().next_primitive() == Primitive::Grasp {
-            self.before_grasp = trial.progress();
-        }
-        self.inner.act(trial, hm)
-    }
-
-    fn truth(&mut self, trial: &crate::Trial, choice: &crate::Choice) -> Option<DecisionTruth> {
-        let task = trial.task();
-        if !crate::Oracle::knows(task) {
-            return None;
-        }
-        let world = trial.world();
-        let matches = choice.pair.as_ref().map_or(&[][..], |p| &p.matches);
-        let key = LabelKey {
-            poses: world
-                .block_poses()
-                .iter()
-                .flat_map(|p| p.position.iter().chain(&p.rotation))
-                .map(|v| v.to_bits())
-                .collect(),
-            held: world.held_block(),
-            before_grasp: self.before_grasp,
-            chosen: choice.action,
-            matches: matches.iter().map(|m| m.matched).collect(),
-        };
-        if let Some((k, t)) = &self.last
-            && *k == key
-        {
-            return Some(t.clone());
-        }
-        let t = label(world, task, choice.action, matches, Some(self.before_grasp));
-        self.last = Some((key, t.clone()));
-        Some(t)
-    }
 }

@@ -83,7 +83,7 @@ pub struct StateDoc {
     /// The simulator's truth about this decision's state: where the right
     /// actions of its primitive are (the blocks a right grasp takes, the
     /// places that raise progress), for the live view to shade. Empty
-    /// before a decision and for a task the oracle does not know. An
+    /// before a decision. An
     /// instrument: no method reads it.
     pub right_targets: Vec<seespot_sim::truth::RightTarget>,
     pub timing_ms: Option<TimingDoc>,

@@ -53,29 +53,93 @@ pub struct Oracle {
     chosen: Vec<([BlockPose; NUM_BLOCKS], Pair)>,
 }
 
-impl crate::actor::Actor for Oracle {
-    fn name(&self) -> String {
-        "oracle".to_owned()
-    }
-
-    fn begin_trial(&mut self, trial: &crate::trial::Trial) {
-        *self = Self::new(trial.task());
-    }
-
-    fn act(
-        &mut self,
-        trial: &crate::trial::Trial,
-        _hm: &crate::heightmap::Heightmaps,
-    ) -> Result<crate::actor::Choice, crate::actor::ActorError> {
-        Ok(Oracle::act(self, trial.world()).into())
-    }
-}
-
 /// The places the oracle considers for block `block` of `world` (where it
 /// would set the block down to build `task`), as `(x, y, yaw)` in metres and
 /// radians; [`crate::truth`] tries them on copies of the world.
+///
+/// For a task defined by demonstrations the places come from its goal
+/// ([`goal_targets`]); the oracle itself does not play such a task.
 pub fn place_targets(world: &World, task: TaskId, block: usize) -> Vec<(f32, f32, f32)> {
-    targets(task, &world.block_poses(), block)
+    match task.custom().and_then(|c| c.definition()) {
+        Some(d) => goal_targets(&d.goal, &world.block_poses(), block),
+        None => targets(task, &world.block_poses(), block),
+    }
+}
+
+/// Where block `i` could be set down to fill a place of `goal` (a task
+/// defined by demonstrations), as `(x, y, yaw)`: with two or more of the
+/// other blocks in place the motion onto the goal is fixed, and the places
+/// still empty (of `i`'s colour where colours matter) are carried back into
+/// the table's frame; otherwise any one block may anchor the layout, turned
+/// any way, and the spots at the distance of each other place from that
+/// block's place are tried in eight directions around it (on it, where the
+/// other place is above). Spots off the workspace or onto another block's
+/// footprint are left out.
+pub fn goal_targets(
+    goal: &crate::goal::Goal,
+    poses: &[BlockPose; NUM_BLOCKS],
+    i: usize,
+) -> Vec<(f32, f32, f32)> {
+    let others: Vec<(usize, BlockPose)> = (0..NUM_BLOCKS)
+        .filter(|&j| j != i)
+        .map(|j| (j, poses[j]))
+        .collect();
+    let fits = |place: usize| !goal.colours_matter || goal.places[place].0 == i;
+    let fit = goal.fit(&others);
+    let lim = WORKSPACE_SIZE / 2.0 - EDGE_MARGIN;
+    let inside = |&(x, y, _): &(f32, f32, f32)| x.abs() <= lim && y.abs() <= lim;
+    let mut out: Vec<(f32, f32, f32)> = Vec::new();
+    if fit.in_place >= 2 {
+        // live = R(-yaw) (goal - shift).
+        let (s, c) = (-fit.yaw).sin_cos();
+        for (p, (_, pose)) in goal.places.iter().enumerate() {
+            if fit.places.contains(&Some(p)) || !fits(p) {
+                continue;
+            }
+            let (gx, gy) = (
+                pose.position[0] - fit.shift[0],
+                pose.position[1] - fit.shift[1],
+            );
+            out.push((c * gx - s * gy, s * gx + c * gy, pose.yaw() - fit.yaw));
+        }
+    } else {
+        let mut seen: Vec<(usize, i32)> = Vec::new();
+        for &(j, pj) in &others {
+            for (q, (bq, place_q)) in goal.places.iter().enumerate() {
+                if goal.colours_matter && *bq != j {
+                    continue;
+                }
+                for (p, (_, place_p)) in goal.places.iter().enumerate() {
+                    if p == q || !fits(p) {
+                        continue;
+                    }
+                    let d = ((place_p.position[0] - place_q.position[0]).powi(2)
+                        + (place_p.position[1] - place_q.position[1]).powi(2))
+                    .sqrt();
+                    // One set of spots per anchor and distance (millimetres).
+                    let key = (j, (d * 1000.0).round() as i32);
+                    if seen.contains(&key) {
+                        continue;
+                    }
+                    seen.push(key);
+                    let [x, y, _] = pj.position;
+                    if d < BLOCK_SIZE / 2.0 {
+                        out.push((x, y, pj.yaw()));
+                        continue;
+                    }
+                    for k in 0..8 {
+                        let a = pj.yaw() + k as f32 * std::f32::consts::FRAC_PI_4;
+                        let spot = (x + d * a.cos(), y + d * a.sin(), pj.yaw());
+                        if search::set_down_ok(poses, i, (spot.0, spot.1), spot.2) {
+                            out.push(spot);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    out.retain(inside);
+    out
 }
 
 /// The place that sets the block in hand of `world` down at `target`.

@@ -195,8 +195,7 @@ impl Session {
     /// The simulator's truth about the decision `d` (none for deciders
     /// without pairs) that chose `action` in the live trial's state: each
     /// pair's F judged on a copy of the world (a place as the second half of
-    /// its grasp-place pair), and the right actions' places. `None` for a
-    /// task the oracle does not know.
+    /// its grasp-place pair), and the right actions' places.
     fn label(
         &self,
         d: Option<&Decision>,
@@ -206,9 +205,6 @@ impl Session {
         Vec<seespot_sim::truth::RightTarget>,
     )> {
         let (t, task) = (&self.trial, self.trial.task());
-        if !seespot_sim::Oracle::knows(task) {
-            return None;
-        }
         let before_grasp = match t.world().next_primitive() {
             seespot_sim::Primitive::Place => t.steps().last().map(|s| s.progress_before),
             seespot_sim::Primitive::Grasp => None,
