@@ -156,7 +156,7 @@ def truth(
             argv += ["--finetune-steps", str(finetune_steps), "--finetuned", str(finetuned_dir)]
         if embeddings is not None:
             argv += ["--embeddings", *_core.register_embeddings(embeddings)]
-        code = _core.cli(argv)
+        code = _core.cli_in_process(argv)
         if code != 0:
             raise ValueError(f"seespot truth failed (exit {code}); its message is above")
         report: dict[str, Any] = json.loads(out.read_text())
@@ -185,7 +185,7 @@ def view(*args: str, embeddings: Any = None) -> int:
         return cli.main(argv)
     # Signal handlers belong to the main thread: a page served from another
     # thread stops with the process.
-    return _core.cli(["seespot", *argv])
+    return _core.cli_in_process(["seespot", *argv])
 
 
 def replay(

@@ -78,3 +78,22 @@ def test_env_info_carries_the_truth_of_the_action_taken() -> None:
     plain.reset(seed=1)
     _, _, _, _, info = plain.step(np.array([first["rotation"], first["y"], first["x"]]))
     assert "truth" not in info
+
+
+def test_a_library_call_leaves_the_process_signals_alone() -> None:
+    """seespot.truth (and seespot.view from a thread) run the command line in
+    this process: SIGPIPE stays as Python set it (ignored), so a closed pipe
+    in a notebook is an error, not the end of the kernel."""
+    import ctypes
+    import signal
+
+    libc = ctypes.CDLL(None)
+    libc.signal.restype = ctypes.c_void_p
+    libc.signal.argtypes = [ctypes.c_int, ctypes.c_void_p]
+    sig_ign = ctypes.c_void_p(1)
+    # Python ignores SIGPIPE at start-up (set again here: an earlier test may
+    # have run the console script's entry in this process).
+    libc.signal(signal.SIGPIPE, sig_ign)
+    seespot.truth("unstack", starts=1)
+    # Still ignored: the previous disposition reads SIG_IGN (1), not SIG_DFL.
+    assert libc.signal(signal.SIGPIPE, sig_ign) == 1

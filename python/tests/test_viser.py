@@ -125,3 +125,12 @@ def test_viser_demonstrates_by_clicks_on_the_table(page_url):
         assert view.step("demo_stop")["demonstrate"] is None
     finally:
         view.close()
+
+
+def test_the_end_reads_as_the_page_says_it() -> None:
+    from seespot.viz.viser import end_words
+
+    failed = {"end": "action_limit", "end_words": "failed: action limit reached",
+              "failure": {"kind": "repeated-action", "label": "repeated identical action"}}
+    assert end_words(failed) == "failed: repeated identical action"
+    assert end_words({"end": "success", "end_words": "success", "failure": None}) == "success"

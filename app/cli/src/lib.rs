@@ -96,7 +96,8 @@ enum Command {
 /// a usage error (clap's message; `--help` and `--version` print and return 0).
 ///
 /// It resets SIGPIPE to its default action, as a command-line tool's process
-/// does; call it only as a process's main command.
+/// does; call it only as a process's main command ([`run_in_process`] from
+/// a library).
 pub fn run_command_line<I, T>(args: I) -> u8
 where
     I: IntoIterator<Item = T>,
@@ -111,6 +112,18 @@ where
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
+    run_in_process(args)
+}
+
+/// [`run_command_line`] for a process that is not the command's own (a
+/// notebook's `seespot.view` or `seespot.truth`): it leaves the process's
+/// signal dispositions as they are, so a closed pipe is an error the command
+/// ends on quietly, not a signal that ends the process.
+pub fn run_in_process<I, T>(args: I) -> u8
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
     let cli = match Cli::try_parse_from(args) {
         Ok(cli) => cli,
         Err(e) => {

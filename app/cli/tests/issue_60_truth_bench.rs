@@ -85,10 +85,12 @@ fn chance_judges_drawn_allowed_actions_the_same_on_every_run() {
 }
 
 #[test]
-fn the_probe_states_are_the_oracles_and_test_seeds_are_asked_only_by_name() {
-    let (code, err) = common::run(&["truth", "--task", "custom:l-shape", "--starts", "1"]);
-    assert_ne!(code, 0);
-    assert!(err.contains("four built-in tasks"), "{err}");
+fn a_custom_task_is_probed_and_test_seeds_are_asked_only_by_name() {
+    // A task defined by demonstrations: judged against its goal, its probe
+    // states those of its first right actions.
+    let (code, err) = common::run(&["truth", "--task", "custom:l-shape", "--starts", "2"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("custom:l-shape: "), "{err}");
     let (code, err) = common::run(&["truth", "--split", "train", "--starts", "1"]);
     assert_ne!(code, 0);
     assert!(err.contains("validation or test"), "{err}");

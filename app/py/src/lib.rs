@@ -38,6 +38,14 @@ fn cli(py: Python<'_>, argv: Vec<String>) -> u8 {
     py.detach(move || seespot_cli::run_command_line(argv))
 }
 
+/// Runs the `seespot` command line with `argv` in this process without
+/// touching its signal dispositions, with the GIL released: what
+/// `seespot.view`, `seespot.truth` and the other library calls use.
+#[pyfunction]
+fn cli_in_process(py: Python<'_>, argv: Vec<String>) -> u8 {
+    py.detach(move || seespot_cli::run_in_process(argv))
+}
+
 /// Checks and registers `embeddings` (a list of paths and functions, as
 /// `Ssr` takes) and returns them as the paths `seespot view --embeddings`
 /// takes: a function as `callable:<name>`, which the command line run in
@@ -83,6 +91,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<eval::Evaluator>()?;
     m.add_class::<eval::OutputLock>()?;
     m.add_function(wrap_pyfunction!(cli, m)?)?;
+    m.add_function(wrap_pyfunction!(cli_in_process, m)?)?;
     m.add_function(wrap_pyfunction!(register_embeddings, m)?)?;
     m.add_function(wrap_pyfunction!(arrays::check_resolution, m)?)?;
     m.add_function(wrap_pyfunction!(eval::test_seeds, m)?)?;

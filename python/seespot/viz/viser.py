@@ -69,6 +69,16 @@ def heightmap_points(
     return pts, color.copy()
 
 
+
+def end_words(state: dict[str, Any]) -> str:
+    """How a finished trial ended, in the words the page's trial box uses: a
+    failure as ``seespot review`` files it ("failed: repeated identical
+    action"), else the trial's own end ("success")."""
+    failure = state.get("failure")
+    if failure:
+        return f"failed: {failure['label']}"
+    return str(state["end_words"])
+
 class DebuggerClient:
     """HTTP and WebSocket client of a ``seespot view`` page server."""
 
@@ -324,7 +334,7 @@ class ViserView:
             self.gui_status.content = (
                 f"**{state['task']}** seed {state['seed']} · action {state['action_number']} · "
                 f"phase {state['phase'] or '–'} · progress {state['progress']}/4 · {where}"
-                + (f" · **{state['end_words']}**" if state["end"] else "")
+                + (f" · **{end_words(state)}**" if state["end"] else "")
             )
 
     def _draw_blocks(self, state: dict[str, Any]) -> None:

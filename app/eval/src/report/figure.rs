@@ -145,14 +145,31 @@ fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, points: &[Point]) -> R
 /// an SVG beside it (`path` with extension `svg`). Returns the path written.
 pub fn plot_figure4(summaries: &[Summary], path: &Path) -> Result<PathBuf, ReportError> {
     let points = plot_points(summaries);
-    let size = (1400, 560);
+    write_plot(
+        path,
+        (1400, 560),
+        |root| draw(root, &points),
+        |root| draw(root, &points),
+    )
+}
+
+/// Draws a figure into a PNG at `path` with the embedded font
+/// ([`seespot_policy::font`]), or, should the font fail to load, into an SVG
+/// beside it (`path` with extension `svg`): `png` and `svg` draw the same
+/// figure on either backend. Returns the path written.
+fn write_plot(
+    path: &Path,
+    size: (u32, u32),
+    png: impl FnOnce(DrawingArea<BitMapBackend<'_>, Shift>) -> Result<(), String>,
+    svg: impl FnOnce(DrawingArea<SVGBackend<'_>, Shift>) -> Result<(), String>,
+) -> Result<PathBuf, ReportError> {
     let (out, result) = if seespot_policy::font::register().is_ok() {
         let out = path.to_path_buf();
-        let r = draw(BitMapBackend::new(&out, size).into_drawing_area(), &points);
+        let r = png(BitMapBackend::new(&out, size).into_drawing_area());
         (out, r)
     } else {
         let out = path.with_extension("svg");
-        let r = draw(SVGBackend::new(&out, size).into_drawing_area(), &points);
+        let r = svg(SVGBackend::new(&out, size).into_drawing_area());
         (out, r)
     };
     result.map_err(|message| ReportError::Plot {
@@ -245,27 +262,10 @@ pub fn plot_tolerance(
     curves: &[ToleranceCurve],
     path: &Path,
 ) -> Result<PathBuf, ReportError> {
-    let size = (900, 560);
-    let (out, result) = if seespot_policy::font::register().is_ok() {
-        let out = path.to_path_buf();
-        let r = draw_tolerance(
-            BitMapBackend::new(&out, size).into_drawing_area(),
-            title,
-            curves,
-        );
-        (out, r)
-    } else {
-        let out = path.with_extension("svg");
-        let r = draw_tolerance(
-            SVGBackend::new(&out, size).into_drawing_area(),
-            title,
-            curves,
-        );
-        (out, r)
-    };
-    result.map_err(|message| ReportError::Plot {
-        path: out.display().to_string(),
-        message,
-    })?;
-    Ok(out)
+    write_plot(
+        path,
+        (900, 560),
+        |root| draw_tolerance(root, title, curves),
+        |root| draw_tolerance(root, title, curves),
+    )
 }
