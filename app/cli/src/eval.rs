@@ -44,18 +44,8 @@ pub struct EvalArgs {
     /// again.
     #[arg(long, default_value = "runs/eval")]
     out: PathBuf,
-    #[arg(long, default_value = "models")]
-    models: PathBuf,
-    #[arg(long, default_value = "demos")]
-    demos: PathBuf,
-    /// SSR's embedding models in place of the SPOT-Q policies: a folder of
-    /// `<task>.onnx` files (each fold leaves its own task's out), ONNX
-    /// files used for every fold, or such a folder first and files after it
-    /// (both: the files join every fold; docs/embeddings.md). The run is named
-    /// after the set (`ssr-ccd@NAME`) and its records carry each file's
-    /// sha256.
-    #[arg(long, num_args = 1.., value_name = "PATH")]
-    embeddings: Vec<PathBuf>,
+    #[command(flatten)]
+    set: SetArgs,
     /// Heightmap pixels per side (must match the demonstrations).
     #[arg(long, value_parser = seespot_sim::scene::parse_resolution, default_value_t = seespot_sim::DEFAULT_RESOLUTION)]
     resolution: usize,
@@ -127,8 +117,7 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         method: args.method,
         seeds,
         out_dir: args.out.clone(),
-        layout: Layout::new(&args.models, &args.demos)
-            .with_embeddings(crate::io::embeddings(&args.embeddings)?),
+        layout: args.set.layout()?,
         world,
         correspond: args.correspond.options()?,
         finetune_steps: args.finetune_steps,
@@ -416,6 +405,34 @@ fn record_failed(
     _: &indicatif::ProgressBar,
 ) -> anyhow::Result<()> {
     match kind {}
+}
+
+/// What SSR reads: the SPOT-Q policies' and demonstrations' folders, and an
+/// embedding set in place of the policies (`seespot eval`, `seespot truth`).
+#[derive(clap::Args, Debug, Clone)]
+pub struct SetArgs {
+    /// The SPOT-Q policies' folder (`<task>.safetensors`).
+    #[arg(long, default_value = "models")]
+    pub models: PathBuf,
+    /// The demonstrations' folder.
+    #[arg(long, default_value = "demos")]
+    pub demos: PathBuf,
+    /// SSR's embedding models in place of the SPOT-Q policies: a folder of
+    /// `<task>.onnx` files (each fold leaves its own task's out), ONNX
+    /// files used for every fold, or such a folder first and files after it
+    /// (both: the files join every fold; docs/embeddings.md). The run is named
+    /// after the set (`ssr-ccd@NAME`) and its records carry each file's
+    /// sha256.
+    #[arg(long, num_args = 1.., value_name = "PATH")]
+    pub embeddings: Vec<PathBuf>,
+}
+
+impl SetArgs {
+    /// The layout these folders and files make, the embedding set checked.
+    pub fn layout(&self) -> anyhow::Result<Layout> {
+        Ok(Layout::new(&self.models, &self.demos)
+            .with_embeddings(crate::io::embeddings(&self.embeddings)?))
+    }
 }
 
 /// SSR's Correspond options on the command line: the flags of

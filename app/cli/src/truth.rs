@@ -13,7 +13,7 @@ use seespot_sim::TaskId;
 use seespot_sim::seeds::{Seeds, Split};
 use seespot_ssr::Layout;
 
-use crate::eval::CorrespondArgs;
+use crate::eval::{CorrespondArgs, SetArgs};
 
 #[derive(clap::Args, Debug)]
 pub struct TruthArgs {
@@ -27,16 +27,8 @@ pub struct TruthArgs {
     /// Starts per task (the oracle's trial from each gives its probe states).
     #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u64).range(1..=1000))]
     starts: u64,
-    /// Models (SPOT-Q policies) folder.
-    #[arg(long, default_value = "models")]
-    models: PathBuf,
-    /// Demonstrations folder.
-    #[arg(long, default_value = "demos")]
-    demos: PathBuf,
-    /// An embedding set in place of the SPOT-Q policies, as `eval --embeddings`
-    /// takes it.
-    #[arg(long, num_args = 1.., value_name = "PATH")]
-    embeddings: Vec<PathBuf>,
+    #[command(flatten)]
+    set: SetArgs,
     #[command(flatten)]
     correspond: CorrespondArgs,
     /// Also write every probe's answers and the summaries as JSON here.
@@ -134,12 +126,12 @@ pub fn run(args: TruthArgs) -> anyhow::Result<()> {
         anyhow::bail!("--split train: the probe states come from validation or test starts");
     }
     let seeds: Vec<u64> = Seeds::of(args.split, args.starts).iter().collect();
-    let embeddings = crate::io::embeddings(&args.embeddings)?;
+    let embeddings = crate::io::embeddings(&args.set.embeddings)?;
     // The SPOT-Q policies are named by their folder when it is not the
     // shipped one (`oracle-guided`), and by their resolution when it is not
     // the default.
-    let policies = match args.models.file_name() {
-        Some(name) if args.models != std::path::Path::new("models") => {
+    let policies = match args.set.models.file_name() {
+        Some(name) if args.set.models != std::path::Path::new("models") => {
             name.to_string_lossy().into_owned()
         }
         _ => "spot-q".into(),
@@ -154,13 +146,13 @@ pub fn run(args: TruthArgs) -> anyhow::Result<()> {
         (None, 0) => format!("{policies}{at}"),
         (None, n) => format!("{policies}-finetuned-{n}{at}"),
     };
-    if let Some(draws) = args.chance {
-        return run_chance(&args, &tasks, &seeds, draws as usize);
-    }
-    let layout = Layout::new(&args.models, &args.demos).with_embeddings(embeddings);
+    let layout = Layout::new(&args.set.models, &args.set.demos).with_embeddings(embeddings);
     // A task defined by demonstrations reads its goal from them first.
     for &task in &tasks {
         layout.load_task(task)?;
+    }
+    if let Some(draws) = args.chance {
+        return run_chance(&args, &tasks, &seeds, draws as usize);
     }
     let config = EvalMethod::SsrCcd.ssr_config(args.correspond.options()?);
     let world = seespot_eval::runner::world_config(args.resolution);
