@@ -163,6 +163,7 @@ def evaluate(
     finetune_steps: int = 0,
     finetune_procedure: str = "reference",
     noise: str | None = None,
+    truth: bool = False,
 ) -> dict[tuple[str, str], list[dict[str, Any]]]:
     """Runs (or resumes) the evaluation of ``methods`` on ``tasks`` over the
     seeds ``seed, seed + 2, ...`` (``trials`` of them) with ``num_workers`` Ray
@@ -176,7 +177,8 @@ def evaluate(
     ``finetune_steps`` and ``finetune_procedure``: the finetuned rows, their
     models made once here (in ``out_dir/finetuned/``) before any trial;
     ``noise``: a scene file with a ``[noise]`` table (``seespot eval
-    --noise``). Custom tasks (``custom:NAME``) and the TransporterNet run as
+    --noise``); ``truth``: label every decision with the simulator's truth
+    (``seespot eval --truth``). Custom tasks (``custom:NAME``) and the TransporterNet run as
     the other rows do: every row of the table, into the folders ``seespot
     eval`` writes."""
     ray = _import_ray()
@@ -195,6 +197,7 @@ def evaluate(
         "finetune_procedure": finetune_procedure,
         "noise": noise,
         "out_dir": str(out_dir),
+        "truth": truth,
     }
     with OutputLock(out_dir):
         # Each run's records name is the Evaluator's: made here, it also
@@ -311,6 +314,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     p.add_argument("--finetune-steps", type=int, default=0)
     p.add_argument("--finetune-procedure", default="reference")
     p.add_argument("--noise", default=None, help="a scene file with a [noise] table")
+    p.add_argument("--truth", action="store_true", help="label every decision with the simulator's truth (seespot eval --truth)")
     a = p.parse_args(argv)
     try:
         _import_ray()
@@ -336,6 +340,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         finetune_steps=a.finetune_steps,
         finetune_procedure=a.finetune_procedure,
         noise=a.noise,
+        truth=a.truth,
     )
     for (m, t), recs in result.items():
         ok = sum(r["success"] for r in recs)

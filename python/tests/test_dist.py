@@ -158,3 +158,15 @@ def test_the_command_line_runs_the_global_rematch_row(tmp_path: Path) -> None:
     path = Path(seespot.records_path(tmp_path, serial.record_name, "stack"))
     on_disk = [json.loads(x) for x in gzip.decompress(path.read_bytes()).decode().splitlines()]
     assert [without_timing(r) for r in on_disk] == [without_timing(json.loads(serial.run(1, 0)))]
+
+
+def test_the_command_line_labels_every_decision(tmp_path: Path) -> None:
+    """``--truth`` labels the records with the simulator's truth, as
+    ``seespot eval --truth`` does: the same trial, each decision labelled."""
+    dist.main(["--method", "ssr-ccd", "--task", "unstack", "--trials", "1", "--workers", "1",
+               "--truth", "--out", str(tmp_path)])
+    path = Path(seespot.records_path(tmp_path, "ssr-ccd", "unstack"))
+    [record] = [json.loads(x) for x in gzip.decompress(path.read_bytes()).decode().splitlines()]
+    assert all(len(a["truth"]["pairs"]) == 6 for a in record["actions_log"])
+    serial = json.loads(seespot.Evaluator("ssr-ccd", "unstack", truth=True).run(1, 0))
+    assert without_timing(record) == without_timing(serial)
