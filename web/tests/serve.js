@@ -37,12 +37,13 @@ export async function openReplay(path, seed) {
 /**
  * Starts `$SEESPOT_BIN ARGS` (a `view`) from the repository root and resolves
  * once it has printed the page's URL (and the rerun web viewer's, with
- * `viewer`): `{ server, page, viewer, stderr() }`. Rejects, with what it
- * printed, when it exits first or prints nothing in 120 s.
+ * `viewer`): `{ server, page, viewer, stderr() }`; `env` adds to its
+ * environment. Rejects, with what it printed, when it exits first or prints
+ * nothing in 120 s.
  */
-export function startView(args, { viewer = false } = {}) {
+export function startView(args, { viewer = false, env = {} } = {}) {
   return new Promise((ok, fail) => {
-    const server = spawn(BIN, args, { cwd: root, stdio: ['ignore', 'pipe', 'pipe'] });
+    const server = spawn(BIN, args, { cwd: root, stdio: ['ignore', 'pipe', 'pipe'], env: { ...process.env, ...env } });
     let out = '', err = '';
     const timer = setTimeout(() => fail(new Error(`seespot view printed no URL in 120 s:\n${out}\n${err}`)), 120_000);
     const check = () => {
@@ -174,14 +175,14 @@ export async function pageFilesDiffering(pageUrl) {
  * first state. Resolves to `{ server, pageUrl, page, errors, stepAndWait,
  * close() }`: `errors` collects the page's script errors; `stepAndWait(id)`
  * clicks the control with that test id and waits until the page has drawn
- * the state it leads to.
+ * the state it leads to. `env` adds to the server's environment.
  */
-export async function openView(args) {
+export async function openView(args, { env = {} } = {}) {
   const { chromium } = await import('playwright-core');
   const { mkdtempSync, rmSync } = await import('node:fs');
   const { tmpdir } = await import('node:os');
   const tmp = mkdtempSync(join(tmpdir(), 'seespot-view-'));
-  const { server, page: served } = await startView(args);
+  const { server, page: served } = await startView(args, { env });
   const proxy = await pageFromDisk(served);
   const context = await chromium.launchPersistentContext(join(tmp, 'profile'), {
     executablePath: CHROMIUM, headless: true, args: FLAGS, viewport: { width: 1500, height: 1150 },
