@@ -408,7 +408,8 @@ fn record_failed(
 }
 
 /// What SSR reads: the SPOT-Q policies' and demonstrations' folders, and an
-/// embedding set in place of the policies (`seespot eval`, `seespot truth`).
+/// embedding set in place of the policies (`seespot eval`, `seespot truth`,
+/// and the deciders of `seespot view`, `record` and `bench view`).
 #[derive(clap::Args, Debug, Clone)]
 pub struct SetArgs {
     /// The SPOT-Q policies' folder (`<task>.safetensors`).
@@ -420,9 +421,9 @@ pub struct SetArgs {
     /// SSR's embedding models in place of the SPOT-Q policies: a folder of
     /// `<task>.onnx` files (each fold leaves its own task's out), ONNX
     /// files used for every fold, or such a folder first and files after it
-    /// (both: the files join every fold; docs/embeddings.md). The run is named
-    /// after the set (`ssr-ccd@NAME`) and its records carry each file's
-    /// sha256.
+    /// (both: the files join every fold; docs/embeddings.md). An evaluation
+    /// is named after the set (`ssr-ccd@NAME`) and its records carry each
+    /// file's sha256.
     #[arg(long, num_args = 1.., value_name = "PATH")]
     pub embeddings: Vec<PathBuf>,
 }

@@ -20,28 +20,17 @@ pub struct DeciderArgs {
     /// baseline of `<models>/transporter/`, its scores shown as match maps).
     #[arg(long, default_value = "ssr")]
     pub decider: DeciderKind,
-    /// Folder of the shipped policies (`<task>.safetensors`).
-    #[arg(long, default_value = "models")]
-    pub models: PathBuf,
-    /// Folder of the demonstrations (`<task>/{0,2}`).
-    #[arg(long, default_value = "demos")]
-    pub demos: PathBuf,
-    /// SSR's embedding models in place of the SPOT-Q policies: a folder of
-    /// `<task>.onnx` files (each fold leaves its own task's out), ONNX
-    /// files used for every fold, or such a folder first and files after it
-    /// (both: the files join every fold; docs/embeddings.md).
-    #[arg(long, num_args = 1.., value_name = "PATH")]
-    pub embeddings: Vec<PathBuf>,
+    #[command(flatten)]
+    pub set: crate::eval::SetArgs,
 }
 
 impl DeciderArgs {
     fn layout(&self) -> anyhow::Result<Layout> {
-        Ok(Layout::new(&self.models, &self.demos)
-            .with_embeddings(crate::io::embeddings(&self.embeddings)?))
+        self.set.layout()
     }
 
     fn factory(&self) -> anyhow::Result<DeciderFactory> {
-        if !self.embeddings.is_empty() && self.decider != DeciderKind::Ssr {
+        if !self.set.embeddings.is_empty() && self.decider != DeciderKind::Ssr {
             anyhow::bail!(
                 "--embeddings: the {:?} decider runs no embedding set; --decider ssr does",
                 self.decider

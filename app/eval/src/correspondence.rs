@@ -26,9 +26,9 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
-use seespot_sim::truth::{Truth, truth_of_pair};
+use seespot_sim::truth::{Truth, label, truth_of_pair};
 use seespot_sim::{Action, Oracle, Primitive, TaskId, Trial, World, WorldConfig};
-use seespot_ssr::{Layout, SsrConfig, SsrPolicy};
+use seespot_ssr::{Layout, PairExplanation, SsrConfig, SsrPolicy};
 
 use crate::config::EvalError;
 use crate::stats::mcnemar_exact;
@@ -146,28 +146,20 @@ pub fn ask_with(
                 .map_err(|e| EvalError::Invalid(e.to_string()))?;
             let hm = p.world.render();
             let d = ssr.decide(&hm, p.progress, p.primitive)?;
-            let mut seen: Vec<(Action, Truth)> = Vec::new();
+            // Each distinct F judged once, on copies of the probe's world.
+            let matches: Vec<_> = d.pairs.iter().map(PairExplanation::pair_match).collect();
+            let truth = label(&p.world, task, d.action, &matches, Some(p.before_grasp));
             let pairs = d
                 .pairs
                 .iter()
-                .map(|pair| {
-                    let t = match seen.iter().find(|(a, _)| *a == pair.matched) {
-                        Some((_, t)) => t.clone(),
-                        None => {
-                            let t =
-                                truth_of_pair(&p.world, task, pair.matched, Some(p.before_grasp));
-                            seen.push((pair.matched, t.clone()));
-                            t
-                        }
-                    };
-                    PairAnswer {
-                        policy: pair.policy.clone(),
-                        demo: pair.demo,
-                        l: pair.l,
-                        c: pair.c,
-                        matched: pair.matched,
-                        truth: t,
-                    }
+                .zip(truth.pairs)
+                .map(|(pair, t)| PairAnswer {
+                    policy: pair.policy.clone(),
+                    demo: pair.demo,
+                    l: pair.l,
+                    c: pair.c,
+                    matched: pair.matched,
+                    truth: t.truth,
                 })
                 .collect();
             Ok(ProbeAnswer {

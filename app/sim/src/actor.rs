@@ -21,7 +21,7 @@ use crate::seeds::Seeds;
 use crate::task::TaskId;
 use crate::trial::Trial;
 pub use crate::truth::PairMatch;
-use crate::truth::{DecisionTruth, label};
+use crate::truth::{DecisionTruth, LabelKey, label};
 use crate::world::WorldConfig;
 
 /// Why an actor could not choose (a network failed, a demonstration does not
@@ -231,16 +231,6 @@ pub struct Labelled<A> {
     last: Option<(LabelKey, DecisionTruth)>,
 }
 
-/// What a decision's labels depend on, compared bit for bit.
-#[derive(PartialEq)]
-struct LabelKey {
-    poses: Vec<u32>,
-    held: Option<usize>,
-    before_grasp: u8,
-    chosen: Action,
-    matches: Vec<Action>,
-}
-
 impl<A> Labelled<A> {
     pub fn new(inner: A) -> Self {
         Self {
@@ -273,18 +263,7 @@ impl<A: Actor> Actor for Labelled<A> {
         let task = trial.task();
         let world = trial.world();
         let matches = choice.pair.as_ref().map_or(&[][..], |p| &p.matches);
-        let key = LabelKey {
-            poses: world
-                .block_poses()
-                .iter()
-                .flat_map(|p| p.position.iter().chain(&p.rotation))
-                .map(|v| v.to_bits())
-                .collect(),
-            held: world.held_block(),
-            before_grasp: self.before_grasp,
-            chosen: choice.action,
-            matches: matches.iter().map(|m| m.matched).collect(),
-        };
+        let key = LabelKey::of(world, Some(self.before_grasp), choice.action, matches);
         if let Some((k, t)) = &self.last
             && *k == key
         {

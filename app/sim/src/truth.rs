@@ -22,6 +22,8 @@
 //!   on the table and in rotation steps (22.5 degrees; a cube's grasp and
 //!   place repeat every quarter turn, so 0 to 2).
 
+use std::cell::OnceCell;
+
 use serde::{Deserialize, Serialize};
 
 use crate::action::{Action, Primitive, nearest_rotation};
@@ -113,9 +115,31 @@ pub fn truth_of_pair(
     action: Action,
     before_grasp: Option<u8>,
 ) -> Truth {
+    judge(world, task, action, before_grasp, &OnceCell::new())
+}
+
+/// The places of the right actions of `world`'s next primitive, worked out
+/// once per state however many actions are judged there ([`right_now`]).
+type Right = OnceCell<Vec<(f32, f32, f32)>>;
+
+/// [`truth_of_pair`], the right actions' places taken from (or put in)
+/// `right`.
+fn judge(
+    world: &World,
+    task: TaskId,
+    action: Action,
+    before_grasp: Option<u8>,
+    right: &Right,
+) -> Truth {
+    let right = || {
+        right
+            .get_or_init(|| right_now(world, task, before_grasp))
+            .iter()
+            .copied()
+    };
     match action.primitive {
-        Primitive::Grasp => grasp_truth(world, task, action),
-        Primitive::Place => place_truth(world, task, action, before_grasp),
+        Primitive::Grasp => grasp_truth(world, task, action, right),
+        Primitive::Place => place_truth(world, task, action, before_grasp, right),
     }
 }
 
@@ -236,7 +260,13 @@ fn right_places(world: &World, task: TaskId, block: usize, floor: u8) -> Vec<(f3
 /// For a task defined by demonstrations the places come from its goal
 /// ([`crate::oracle::goal_targets`]).
 pub fn right_targets(world: &World, task: TaskId, before_grasp: Option<u8>) -> Vec<RightTarget> {
-    let targets = match (world.next_primitive(), world.held_block()) {
+    targets_of(world, &right_now(world, task, before_grasp))
+}
+
+/// The places of the right actions of `world`'s next primitive (as
+/// [`right_targets`] gives them, without their pixels).
+fn right_now(world: &World, task: TaskId, before_grasp: Option<u8>) -> Vec<(f32, f32, f32)> {
+    match (world.next_primitive(), world.held_block()) {
         (Primitive::Grasp, _) => right_grasps(world, task),
         (Primitive::Place, Some(b)) => right_places(
             world,
@@ -245,10 +275,14 @@ pub fn right_targets(world: &World, task: TaskId, before_grasp: Option<u8>) -> V
             before_grasp.unwrap_or(progress(world, task)),
         ),
         (Primitive::Place, None) => Vec::new(),
-    };
-    targets
-        .into_iter()
-        .filter_map(|(x, y, yaw)| {
+    }
+}
+
+/// `places` with their pixels and nearest rotations, those on the heightmap.
+fn targets_of(world: &World, places: &[(f32, f32, f32)]) -> Vec<RightTarget> {
+    places
+        .iter()
+        .filter_map(|&(x, y, yaw)| {
             Some(RightTarget {
                 x,
                 y,
@@ -273,13 +307,18 @@ pub struct RightTarget {
     pub rotation: usize,
 }
 
-fn grasp_truth(world: &World, task: TaskId, action: Action) -> Truth {
+fn grasp_truth<I: Iterator<Item = (f32, f32, f32)>>(
+    world: &World,
+    task: TaskId,
+    action: Action,
+    right: impl Fn() -> I,
+) -> Truth {
     let before = progress(world, task);
     let mut copy = world.fork();
     let outcome = copy.execute(action);
     // The distance to a right grasp, for a grasp that is not one: to the
     // centre of every block whose grasp at its centre is right.
-    let to_right = || nearest(world, action, right_grasps(world, task).into_iter());
+    let to_right = || nearest(world, action, right());
     let Some(block) = outcome.block.filter(|_| outcome.success) else {
         let how = match outcome.failure {
             Some(ActionFailure::EmptyPixel) => "no block between the jaws",
@@ -326,7 +365,13 @@ fn grasp_truth(world: &World, task: TaskId, action: Action) -> Truth {
     }
 }
 
-fn place_truth(world: &World, task: TaskId, action: Action, before_grasp: Option<u8>) -> Truth {
+fn place_truth<I: Iterator<Item = (f32, f32, f32)>>(
+    world: &World,
+    task: TaskId,
+    action: Action,
+    before_grasp: Option<u8>,
+    right: impl Fn() -> I,
+) -> Truth {
     let before = progress(world, task);
     // What a place must get above, and what it must not fall below.
     let floor = before_grasp.unwrap_or(before);
@@ -362,11 +407,7 @@ fn place_truth(world: &World, task: TaskId, action: Action, before_grasp: Option
     let (distance_mm, rotation_steps) = match (verdict, block) {
         (Verdict::Right, _) => (Some(0.0), Some(0)),
         (_, None) => (None, None),
-        (_, Some(b)) => nearest(
-            world,
-            action,
-            right_places(world, task, b, floor).into_iter(),
-        ),
+        (_, Some(_)) => nearest(world, action, right()),
     };
     Truth {
         verdict,
@@ -392,6 +433,42 @@ pub struct PairMatch {
     pub policy: String,
     pub demo: usize,
     pub matched: Action,
+}
+
+/// What a decision's labels depend on, compared bit for bit: the blocks'
+/// poses, the block in hand, the progress before the grasp and the actions
+/// judged. Two decisions with the same key have the same labels (an action
+/// that changed nothing, repeated: See-SPOT-Run's most common failure), so
+/// [`crate::actor::Labelled`] and the debugger reuse them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LabelKey {
+    poses: Vec<u32>,
+    held: Option<usize>,
+    before_grasp: Option<u8>,
+    chosen: Action,
+    matches: Vec<Action>,
+}
+
+impl LabelKey {
+    pub fn of(
+        world: &World,
+        before_grasp: Option<u8>,
+        chosen: Action,
+        matches: &[PairMatch],
+    ) -> Self {
+        Self {
+            poses: world
+                .block_poses()
+                .iter()
+                .flat_map(|p| p.position.iter().chain(&p.rotation))
+                .map(|v| v.to_bits())
+                .collect(),
+            held: world.held_block(),
+            before_grasp,
+            chosen,
+            matches: matches.iter().map(|m| m.matched).collect(),
+        }
+    }
 }
 
 /// One pair's F and its truth, as a labelled decision records it.
@@ -424,23 +501,49 @@ pub fn label(
     matches: &[PairMatch],
     before_grasp: Option<u8>,
 ) -> DecisionTruth {
+    label_in(world, task, chosen, matches, before_grasp, &OnceCell::new())
+}
+
+/// [`label`] and [`right_targets`] of one state, the right actions' places
+/// worked out once for both (the debugger shows both).
+pub fn label_with_targets(
+    world: &World,
+    task: TaskId,
+    chosen: Action,
+    matches: &[PairMatch],
+    before_grasp: Option<u8>,
+) -> (DecisionTruth, Vec<RightTarget>) {
+    let right = OnceCell::new();
+    let truth = label_in(world, task, chosen, matches, before_grasp, &right);
+    let places = right.get_or_init(|| right_now(world, task, before_grasp));
+    (truth, targets_of(world, places))
+}
+
+fn label_in(
+    world: &World,
+    task: TaskId,
+    chosen: Action,
+    matches: &[PairMatch],
+    before_grasp: Option<u8>,
+    right: &Right,
+) -> DecisionTruth {
     let mut seen: Vec<(Action, Truth)> = Vec::new();
-    let mut judge = |a: Action| match seen.iter().find(|(b, _)| *b == a) {
+    let mut once = |a: Action| match seen.iter().find(|(b, _)| *b == a) {
         Some((_, t)) => t.clone(),
         None => {
-            let t = truth_of_pair(world, task, a, before_grasp);
+            let t = judge(world, task, a, before_grasp, right);
             seen.push((a, t.clone()));
             t
         }
     };
-    let chosen = judge(chosen);
+    let chosen = once(chosen);
     let pairs = matches
         .iter()
         .map(|m| PairTruth {
             policy: m.policy.clone(),
             demo: m.demo,
             matched: m.matched,
-            truth: judge(m.matched),
+            truth: once(m.matched),
         })
         .collect();
     DecisionTruth { chosen, pairs }

@@ -135,6 +135,18 @@ pub const REPLACED: &str =
     "it left progress where it was: until progress changes, the block goes elsewhere";
 pub const REGRASP: &str = "it left the scene unchanged, on its grasp axis only (this rotation, one step either way and the half turn): another angle there may catch the block";
 
+impl PairExplanation {
+    /// The pair's match F, as a labelled decision judges it
+    /// ([`seespot_sim::truth::label`]).
+    pub fn pair_match(&self) -> seespot_sim::PairMatch {
+        seespot_sim::PairMatch {
+            policy: self.policy.clone(),
+            demo: self.demo,
+            matched: self.matched,
+        }
+    }
+}
+
 impl Decision {
     /// The decision of a method that is not See-SPOT-Run, shown in SSR's
     /// views (the debugger's TransporterNet and SPOT-Q deciders): one pair,

@@ -1,7 +1,7 @@
 //! Which pair SSR acts on (Eq. 8 for CCD, Eq. 9 for L2CD), and what a
 //! record keeps of it.
 
-use seespot_sim::actor::{ChosenPair, PairMatch};
+use seespot_sim::actor::ChosenPair;
 
 use crate::correspond::Correspondence;
 use crate::explain::{Method, PairExplanation};
@@ -29,14 +29,7 @@ pub fn chosen_pair(
         c: p.c,
         other_method_action: pairs.get(choose(pairs, other, mode)).map(|o| o.matched),
         departures: Vec::new(),
-        matches: pairs
-            .iter()
-            .map(|p| PairMatch {
-                policy: p.policy.clone(),
-                demo: p.demo,
-                matched: p.matched,
-            })
-            .collect(),
+        matches: pairs.iter().map(PairExplanation::pair_match).collect(),
     }
 }
 

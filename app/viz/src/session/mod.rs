@@ -70,6 +70,15 @@ struct Snapshot {
     decided_on: Option<Arc<Heightmaps>>,
 }
 
+/// The simulator's truth about a decision: each pair's F (in the decision's
+/// order) and where the right actions are, with what they depend on.
+#[derive(Clone, Debug)]
+struct Labels {
+    key: seespot_sim::truth::LabelKey,
+    pairs: Vec<seespot_sim::truth::Truth>,
+    targets: Vec<seespot_sim::truth::RightTarget>,
+}
+
 /// A replay with its decider made ([`Session::install_replay`]).
 pub struct PreparedReplay {
     replay: Replay,
@@ -109,12 +118,8 @@ pub struct Session {
     trial_index: u64,
     phase: Option<Phase>,
     decision: Option<Decision>,
-    /// The simulator's truth about the current decision: each pair's F (in
-    /// the decision's order) and where the right actions are.
-    truth: Option<(
-        Vec<seespot_sim::truth::Truth>,
-        Vec<seespot_sim::truth::RightTarget>,
-    )>,
+    /// The simulator's truth about the current decision.
+    truth: Option<Labels>,
     /// The scene the current decision was made on.
     decided_on: Option<Heightmaps>,
     action: Option<Action>,
@@ -195,15 +200,9 @@ impl Session {
     /// The simulator's truth about the decision `d` (none for deciders
     /// without pairs) that chose `action` in the live trial's state: each
     /// pair's F judged on a copy of the world (a place as the second half of
-    /// its grasp-place pair), and the right actions' places.
-    fn label(
-        &self,
-        d: Option<&Decision>,
-        action: Action,
-    ) -> Option<(
-        Vec<seespot_sim::truth::Truth>,
-        Vec<seespot_sim::truth::RightTarget>,
-    )> {
+    /// its grasp-place pair), and the right actions' places; the last
+    /// decision's when nothing they depend on changed.
+    fn label(&self, d: Option<&Decision>, action: Action) -> Labels {
         let (t, task) = (&self.trial, self.trial.task());
         let before_grasp = match t.world().next_primitive() {
             seespot_sim::Primitive::Place => t.steps().last().map(|s| s.progress_before),
@@ -212,17 +211,20 @@ impl Session {
         let matches: Vec<seespot_sim::PairMatch> = d
             .iter()
             .flat_map(|d| &d.pairs)
-            .map(|p| seespot_sim::PairMatch {
-                policy: p.policy.clone(),
-                demo: p.demo,
-                matched: p.matched,
-            })
+            .map(seespot_ssr::PairExplanation::pair_match)
             .collect();
-        let labels = seespot_sim::truth::label(t.world(), task, action, &matches, before_grasp);
-        Some((
-            labels.pairs.into_iter().map(|p| p.truth).collect(),
-            seespot_sim::truth::right_targets(t.world(), task, before_grasp),
-        ))
+        let key = seespot_sim::truth::LabelKey::of(t.world(), before_grasp, action, &matches);
+        // The last decision's, when nothing it depends on changed.
+        if let Some(last) = self.truth.as_ref().filter(|l| l.key == key) {
+            return last.clone();
+        }
+        let (labels, targets) =
+            seespot_sim::truth::label_with_targets(t.world(), task, action, &matches, before_grasp);
+        Labels {
+            key,
+            pairs: labels.pairs.into_iter().map(|p| p.truth).collect(),
+            targets,
+        }
     }
 
     fn begin(&mut self) {
@@ -626,7 +628,7 @@ impl Session {
                 };
                 self.action = Some(choice.action);
                 self.decision = self.decider.decision().cloned();
-                self.truth = self.label(self.decision.as_ref(), choice.action);
+                self.truth = Some(self.label(self.decision.as_ref(), choice.action));
                 self.decided_on = Some(hm);
             }
             Phase::Act => {
@@ -675,7 +677,7 @@ impl Session {
                 next,
                 hm,
                 self.decision.as_ref(),
-                self.truth.as_ref().map(|(t, _)| t.as_slice()),
+                self.truth.as_ref().map(|l| l.pairs.as_slice()),
                 self.decider.demos(),
             );
             if next == Phase::Act && self.trial.end().is_some() {

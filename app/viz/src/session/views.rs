@@ -174,7 +174,7 @@ impl Session {
                     .truth
                     .as_ref()
                     .filter(|_| shown(Phase::Match))
-                    .and_then(|(t, _)| t.get(i).cloned()),
+                    .and_then(|l| l.pairs.get(i).cloned()),
             })
             .collect();
         let t = &self.trial;
@@ -229,7 +229,7 @@ impl Session {
             right_targets: self
                 .truth
                 .as_ref()
-                .map(|(_, r)| r.clone())
+                .map(|l| l.targets.clone())
                 .unwrap_or_default(),
             timing_ms: decision.map(|d| TimingDoc {
                 embed: d.embed_ms,
