@@ -57,6 +57,9 @@ pub(crate) struct Winograd {
     /// `G g Gᵀ` of every filter, `[ξ][in][out]`.
     u: Vec<f32>,
     bias: Vec<f32>,
+    /// Whether the output goes through the ReLU (the trunk's layers do; an
+    /// ONNX file's convolution alone does not: `crate::onnx`).
+    relu: bool,
 }
 
 impl Winograd {
@@ -91,7 +94,26 @@ impl Winograd {
             dilation: spec.dilation,
             u,
             bias: bias.to_vec(),
+            relu: true,
         })
+    }
+
+    /// This layer without the ReLU: the convolution and its bias alone.
+    pub(crate) fn without_relu(self) -> Self {
+        Self {
+            relu: false,
+            ..self
+        }
+    }
+
+    /// This layer with the ReLU.
+    pub(crate) fn with_relu(self) -> Self {
+        Self { relu: true, ..self }
+    }
+
+    /// Output channels.
+    pub(crate) fn out_channels(&self) -> usize {
+        self.out_channels
     }
 
     /// The layer on `batch` maps of `n x n x 32` (channels last) into `out`,
@@ -154,6 +176,7 @@ impl Winograd {
             d,
             y0,
             origins: &origins,
+            relu: self.relu,
         };
         let count = origins.len();
         SCRATCH.with_borrow_mut(|(v, mm)| {
@@ -190,6 +213,8 @@ struct Tiles<'a> {
     d: usize,
     y0: usize,
     origins: &'a [(usize, usize)],
+    /// Whether the outputs go through the ReLU.
+    relu: bool,
 }
 
 impl Tiles<'_> {
@@ -396,7 +421,7 @@ fn a_transform(t: &[Lanes; ALPHA], out: &mut [Lanes; M]) {
 }
 
 /// Output channels `16 k..16 k + 16` of the pixel `(i, j)` of the tile at
-/// `o`: `y` plus the bias `b`, through the ReLU, into the band of
+/// `o`: `y` plus the bias `b`, through the ReLU where the layer has it, into the band of
 /// `co`-channel rows, where the pixel lies inside the image.
 #[inline(always)]
 fn put(
@@ -414,8 +439,14 @@ fn put(
     }
     let (k, co) = kc;
     let dst = &mut band[((y_at - tiles.y0) * tiles.n + x_at) * co + 16 * k..][..16];
-    for l in 0..16 {
-        dst[l] = (y[l] + b[l]).max(0.0);
+    if tiles.relu {
+        for l in 0..16 {
+            dst[l] = (y[l] + b[l]).max(0.0);
+        }
+    } else {
+        for l in 0..16 {
+            dst[l] = y[l] + b[l];
+        }
     }
 }
 

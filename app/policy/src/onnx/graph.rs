@@ -369,7 +369,12 @@ pub(super) fn plan(checked: &Checked, batch: usize, only: Option<usize>) -> Resu
             }
         })
         .and_then(|m| m.with_input_fact(0, fact.into()))
-        .and_then(|m| m.into_optimized())
+        .and_then(|m| m.into_typed())
+        .and_then(|m| m.into_decluttered())
+        .and_then(|mut m| {
+            super::winograd_op::use_winograd(&mut m)?;
+            m.into_optimized()
+        })
         .and_then(|m| m.into_runnable())
         .map_err(|e| engine_refusal(checked, batch, &format!("{e:#}")))?;
     Ok(Arc::clone(&plan))
