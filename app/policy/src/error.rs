@@ -37,6 +37,9 @@ pub enum PolicyError {
     /// A demonstration cannot be used (the message names it).
     #[error("{0}")]
     Demo(String),
+    /// Long work was stopped from outside ([`crate::cancel`]).
+    #[error("{what} stopped: {why}")]
+    Stopped { what: String, why: String },
     /// The network failed (a bug, not bad user data).
     #[error("network: {0}")]
     Candle(#[from] candle_core::Error),

@@ -287,6 +287,7 @@ fn finetune_reference(
     let mut losses = Vec::with_capacity(recipe.steps);
     let mut snapshots: Vec<(usize, [Vec<Vec<f32>>; 2])> = Vec::new();
     for step in 0..recipe.steps {
+        crate::cancel::check("finetuning")?;
         let demo = &data[rng.random_range(0..data.len())];
         let t = &demo[rng.random_range(0..demo.len())];
         let target = match recipe.labels {
@@ -384,6 +385,7 @@ fn finetune_adam(
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut losses = Vec::with_capacity(steps);
     for _ in 0..steps {
+        crate::cancel::check("finetuning")?;
         let batch: Vec<Experience> = (0..experiences.len().min(FINETUNE_BATCH))
             .map(|_| experiences[rng.random_range(0..experiences.len())].clone())
             .collect();

@@ -17,6 +17,7 @@
 pub mod actors;
 pub mod bench;
 pub mod callable;
+pub mod cancel;
 pub mod cells;
 pub mod cone;
 pub mod curve;

@@ -270,6 +270,7 @@ pub fn finetune_transporter(
     let ex = examples(demos)?;
     let mut adam = Adam::new(&net.vars(), adam_config(LEARNING_RATE))?;
     for i in 0..iterations {
+        crate::cancel::check("finetuning the TransporterNet")?;
         train_step(&net, &mut adam, &ex, seed, i)?;
     }
     let mut net = net;

@@ -404,6 +404,8 @@ fn failed(e: &VizError, request: Option<&str>) -> String {
 /// One tab: forwards broadcasts and direct replies, and handles its requests.
 async fn client(socket: WebSocket, s: Arc<AppState>) {
     let (mut sink, mut stream) = socket.split();
+    // Raised when this tab leaves: a replay it asked for stops finetuning.
+    let left = Arc::new(std::sync::atomic::AtomicBool::new(false));
     let mut rx = s.tx.subscribe();
     let (direct_tx, mut direct_rx) = mpsc::channel::<String>(16);
     let info = s.info_now();
@@ -456,12 +458,12 @@ async fn client(socket: WebSocket, s: Arc<AppState>) {
             ClientMessage::parse(&text),
             Ok(ClientMessage::Replay { .. })
         ) {
-            let (s, tx) = (s.clone(), direct_tx.clone());
-            tokio::spawn(async move {
+            let (s, tx, left) = (s.clone(), direct_tx.clone(), left.clone());
+            tokio::spawn(PAGE_LEFT.scope(left, async move {
                 if let Some(reply) = handle(&s, &text).await {
                     let _ = tx.send(reply).await;
                 }
-            });
+            }));
             continue;
         }
         if let Some(reply) = handle(&s, &text).await
@@ -470,7 +472,15 @@ async fn client(socket: WebSocket, s: Arc<AppState>) {
             break;
         }
     }
+    left.store(true, Ordering::SeqCst);
     writer.abort();
+}
+
+tokio::task_local! {
+    /// The flag raised when the tab whose request this task serves leaves
+    /// (`client`), which the work it starts stops on
+    /// ([`seespot_policy::cancel`]).
+    static PAGE_LEFT: Arc<std::sync::atomic::AtomicBool>;
 }
 
 /// Handles one request; returns the direct reply, if any (state changes are broadcast).
@@ -655,7 +665,16 @@ pub async fn load_replay(
 ) -> Result<(), VizError> {
     let why = replay.slow.clone();
     let started = std::time::Instant::now();
-    let mut work = tokio::task::spawn_blocking(move || PreparedReplay::new(replay));
+    // Finetuning for it stops if the tab that asked leaves.
+    let left = PAGE_LEFT.try_with(Arc::clone).ok();
+    let mut work = tokio::task::spawn_blocking(move || match left {
+        Some(flag) => {
+            seespot_policy::cancel::scoped(flag, "the page that asked for the replay left", || {
+                PreparedReplay::new(replay)
+            })
+        }
+        None => PreparedReplay::new(replay),
+    });
     let mut tick = tokio::time::interval(std::time::Duration::from_secs(1));
     let prepared = loop {
         tokio::select! {
