@@ -301,6 +301,7 @@ pub fn adam_models(
             let policy = crate::memo::get_or_make(
                 "spot-q-adam",
                 &inputs,
+                &crate::memo::shipped_dir(&config.layout.models),
                 |p| Ok(PolicyNet::load(p)?),
                 |m, p| Ok(m.save(p)?),
                 || {

@@ -60,16 +60,36 @@ pub fn path_of(dir: &Path, kind: &str, inputs: &serde_json::Value) -> PathBuf {
     dir.join(format!("{kind}-{}.safetensors", &hex[..32]))
 }
 
-/// The finetune of `kind` from `inputs`: loaded from the cache where it is
-/// there (`load`), else made (`make`), kept (`save`, to the path it is
-/// given) and returned.
+/// The folder of the finetunes shipped beside the base models in `models`
+/// (made by `scripts/make-finetunes`): `<models>/finetuned/`, named as the
+/// cache names them and read before it.
+pub fn shipped_dir(models: &Path) -> PathBuf {
+    models.join("finetuned")
+}
+
+/// The finetune of `kind` from `inputs`: loaded from the shipped folder
+/// (`shipped`, read only) or the cache where it is there (`load`), else made
+/// (`make`), kept in the cache (`save`, to the path it is given) and
+/// returned. A shipped file that cannot be read is a warning, and the cache
+/// is tried next.
 pub fn get_or_make<T>(
     kind: &str,
     inputs: &serde_json::Value,
+    shipped: &Path,
     load: impl Fn(&Path) -> Result<T, EvalError>,
     save: impl FnOnce(&T, &Path) -> Result<(), EvalError>,
     make: impl FnOnce() -> Result<T, EvalError>,
 ) -> Result<T, EvalError> {
+    let shipped = path_of(shipped, kind, inputs);
+    if shipped.is_file() {
+        match load(&shipped) {
+            Ok(model) => return Ok(model),
+            Err(e) => eprintln!(
+                "warning: the shipped finetune {} cannot be read ({e}); trying the cache",
+                shipped.display()
+            ),
+        }
+    }
     let Some(dir) = cache_dir() else {
         return make();
     };

@@ -391,6 +391,7 @@ pub fn transporter_net(config: &EvalConfig, task: TaskId) -> Result<TransporterN
     crate::memo::get_or_make(
         "transporter",
         &inputs,
+        &crate::memo::shipped_dir(&config.layout.models),
         |p| Ok(TransporterNet::load(p)?),
         |m, p| Ok(m.save(p)?),
         || {

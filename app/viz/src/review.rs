@@ -70,9 +70,11 @@ pub fn replay(path: &Path, seed: u64, layout: &Layout) -> crate::error::Result<R
     let slow = finetunes_in_memory.then(|| {
         format!(
             "{} finetunes its models on the {} demonstrations the first time it is replayed \
-             (1 to 4 minutes on two cores), then reads them from the cache ({})",
+             (1 to 4 minutes on two cores) unless they are shipped in {} (scripts/make-finetunes \
+             makes them) or already in the cache ({})",
             record.method,
             record.task,
+            seespot_eval::memo::shipped_dir(&layout.models).display(),
             seespot_eval::memo::cache_dir().map_or_else(
                 || "none: no home folder".to_owned(),
                 |d| d.display().to_string()
