@@ -27,6 +27,27 @@ pub const FORMAT: u32 = 1;
 /// model another is making waits for it and loads it.
 static MAKING: Mutex<()> = Mutex::new(());
 
+thread_local! {
+    static WITHOUT_CACHE: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Runs `work` on this thread with the finetune cache neither read nor
+/// written: finetunes come from the shipped folder or are made. What checks
+/// that the shipped folder holds what a run needs uses it (with a raised
+/// stop flag, [`seespot_policy::cancel`], a missing finetune is then an
+/// error instead of minutes of work).
+pub fn without_cache<T>(work: impl FnOnce() -> T) -> T {
+    let before = WITHOUT_CACHE.replace(true);
+    struct Restore(bool);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            WITHOUT_CACHE.set(self.0);
+        }
+    }
+    let _restore = Restore(before);
+    work()
+}
+
 /// Where finetunes are kept: `$SEESPOT_CACHE/finetuned`, else
 /// `$XDG_CACHE_HOME/seespot/finetuned`, else `~/.cache/seespot/finetuned`
 /// (`None` without a home).
@@ -90,7 +111,7 @@ pub fn get_or_make<T>(
             ),
         }
     }
-    let Some(dir) = cache_dir() else {
+    let Some(dir) = cache_dir().filter(|_| !WITHOUT_CACHE.get()) else {
         return make();
     };
     let path = path_of(&dir, kind, inputs);
