@@ -131,9 +131,9 @@ block_kernel!(
     ]
 );
 
-/// One convolution, weights laid out `[ky][kx][in][out]`.
+/// One convolution, weights laid out `[ky][kx][in][out]`, its ReLU fused.
 #[derive(Clone, Debug)]
-struct Layer {
+pub(crate) struct Layer {
     spec: ConvSpec,
     weights: Vec<f32>,
     bias: Vec<f32>,
@@ -388,9 +388,35 @@ fn resize_for_overwrite(v: &mut Vec<f32>, len: usize) {
 }
 
 impl Layer {
+    /// The strided layer `spec` (weights `[ky][kx][in][out]`) with its ReLU,
+    /// where the trunk has blocked kernels for its channels: stride 2, 4 in
+    /// and 16 out (conv1) or 16 in and 32 out (conv2); `None` otherwise. An
+    /// ONNX file's convolutions of these shapes run through it
+    /// (`crate::onnx`).
+    pub(crate) fn strided(spec: ConvSpec, weights: Vec<f32>, bias: Vec<f32>) -> Option<Self> {
+        let blocked = matches!((spec.in_channels, spec.out_channels), (4, 16) | (16, 32));
+        (spec.stride == 2 && blocked).then_some(Self {
+            spec,
+            weights,
+            bias,
+            winograd: None,
+        })
+    }
+
+    /// Output channels.
+    pub(crate) fn out_channels(&self) -> usize {
+        self.spec.out_channels
+    }
+
+    /// The output side of a map of side `n`.
+    pub(crate) fn out_side(&self, n: usize) -> usize {
+        let s = self.spec;
+        (n + 2 * s.dilation - s.dilation * (KERNEL - 1) - 1) / s.stride + 1
+    }
+
     /// The layer on `batch` maps of side `n` into `out` (every element
     /// written); returns the output side.
-    fn forward_into(&self, x: &[f32], batch: usize, n: usize, out: &mut Vec<f32>) -> usize {
+    pub(crate) fn forward_into(&self, x: &[f32], batch: usize, n: usize, out: &mut Vec<f32>) -> usize {
         if let Some(w) = &self.winograd {
             resize_for_overwrite(out, batch * n * n * self.spec.out_channels);
             w.forward_into(x, batch, n, out);
@@ -398,7 +424,7 @@ impl Layer {
         }
         let s = self.spec;
         // Padding = dilation, as QNet::trunk calls conv2d.
-        let m = (n + 2 * s.dilation - s.dilation * (KERNEL - 1) - 1) / s.stride + 1;
+        let m = self.out_side(n);
         resize_for_overwrite(out, batch * m * m * s.out_channels);
         out.par_chunks_mut(m * s.out_channels)
             .enumerate()

@@ -106,11 +106,6 @@ impl Winograd {
         }
     }
 
-    /// This layer with the ReLU.
-    pub(crate) fn with_relu(self) -> Self {
-        Self { relu: true, ..self }
-    }
-
     /// Output channels.
     pub(crate) fn out_channels(&self) -> usize {
         self.out_channels

@@ -372,7 +372,7 @@ pub(super) fn plan(checked: &Checked, batch: usize, only: Option<usize>) -> Resu
         .and_then(|m| m.into_typed())
         .and_then(|m| m.into_decluttered())
         .and_then(|mut m| {
-            super::winograd_op::use_winograd(&mut m)?;
+            super::native_conv::use_native_kernels(&mut m)?;
             m.into_optimized()
         })
         .and_then(|m| m.into_runnable())

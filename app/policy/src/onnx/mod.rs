@@ -24,7 +24,7 @@
 pub mod export;
 mod external;
 mod graph;
-mod winograd_op;
+mod native_conv;
 
 /// The ONNX file's message type (its protobuf schema), for tools that
 /// build or edit models.

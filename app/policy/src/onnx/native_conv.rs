@@ -1,50 +1,74 @@
-//! An ONNX file's stride-1 3 x 3 convolutions through seespot's own Winograd
-//! kernel ([`crate::winograd`]), the one the native trunk runs, in place of
-//! the engine's direct convolution: 4 times fewer multiplies where most of a
-//! convolutional network's time goes (docs/embeddings.md, "Speed").
+//! An ONNX file's 3 x 3 convolutions through seespot's own kernels, the ones
+//! the native trunk runs, in place of the engine's: the stride-1 layers of 32
+//! input channels (32 or 64 out) in Winograd form ([`crate::winograd`], 4
+//! times fewer multiplies than a direct convolution, where most of a
+//! convolutional network's time goes), and the stride-2 layers of the trunk's
+//! shapes (4 in and 16 out, 16 in and 32 out) followed by a ReLU through its
+//! blocked direct kernels ([`crate::infer`]). docs/embeddings.md, "The
+//! engine", gives what it saves.
 //!
-//! [`use_winograd`] rewrites a typed model before the engine optimises it:
-//! each `Conv` whose weights and bias are constants, with 32 input channels,
-//! 32 or 64 outputs, a 3 x 3 kernel, stride 1, one group, the same dilation
-//! along both axes and the padding that keeps the map's size, on square
-//! float maps, becomes a [`WinogradConv`]. Every other convolution is left to
-//! the engine. The outputs agree with the direct convolution's to float
-//! rounding (the sums run in another order); the tests bound it.
+//! [`use_native_kernels`] rewrites a typed model before the engine optimises
+//! it: each `Conv` with constant weights and bias, a 3 x 3 kernel, one group,
+//! the same dilation along both axes and the padding `dilation` on every side
+//! (for stride 1, the size-keeping one), on square float maps, whose shape
+//! one of the kernels covers, becomes a [`NativeConv`], the ReLU that alone
+//! reads it (`max(x, 0)`) folded in. Every other convolution is left to the
+//! engine. The outputs agree with the engine's convolution to float rounding
+//! (the sums run in another order); the tests bound it.
 
 use std::sync::Arc;
 
 use tract_onnx::tract_core::internal::*;
+use tract_onnx::tract_core::ops::binary::TypedBinOp;
 use tract_onnx::tract_core::ops::cnn::{Conv, KernelFormat, PaddingSpec};
 use tract_onnx::tract_core::ops::nn::DataFormat;
 
+use crate::infer::Layer;
 use crate::net::{ConvSpec, KERNEL};
 use crate::winograd::Winograd;
 
-/// One convolution in Winograd form, channels last: input `[N, H, W, C]`,
-/// output `[N, H, W, out]`.
+/// The kernel a [`NativeConv`] runs.
 #[derive(Clone, Debug)]
-pub(super) struct WinogradConv {
-    layer: Arc<Winograd>,
+enum Kernel {
+    /// Stride 1, in Winograd form, with or without the ReLU.
+    Winograd(Arc<Winograd>),
+    /// Stride 2, direct, with the ReLU.
+    Strided(Arc<Layer>),
+}
+
+/// One convolution through seespot's kernels, channels last: input
+/// `[N, H, W, C]`, output `[N, H', W', out]`.
+#[derive(Clone, Debug)]
+pub(super) struct NativeConv {
+    kernel: Kernel,
     in_channels: usize,
 }
 
-impl PartialEq for WinogradConv {
+impl PartialEq for NativeConv {
     fn eq(&self, other: &Self) -> bool {
-        Arc::ptr_eq(&self.layer, &other.layer)
+        match (&self.kernel, &other.kernel) {
+            (Kernel::Winograd(a), Kernel::Winograd(b)) => Arc::ptr_eq(a, b),
+            (Kernel::Strided(a), Kernel::Strided(b)) => Arc::ptr_eq(a, b),
+            _ => false,
+        }
     }
 }
 
-impl Eq for WinogradConv {}
+impl Eq for NativeConv {}
 
-impl WinogradConv {
-    /// The Winograd form of `conv` at `node` of `model` and whether the
-    /// node's maps are channels first, or `None` where the kernel does not
-    /// cover it (module docs).
-    fn for_node(
-        model: &TypedModel,
-        node: &TypedNode,
-        conv: &Conv,
-    ) -> TractResult<Option<(Self, bool)>> {
+/// A convolution the kernels may cover: its layer, weights `[ky][kx][in][out]`
+/// and bias, and whether its maps are channels first.
+struct Candidate {
+    spec: ConvSpec,
+    weights: Vec<f32>,
+    bias: Vec<f32>,
+    nchw: bool,
+}
+
+impl Candidate {
+    /// `conv` at `node` of `model`, where its form is one the kernels take
+    /// (module docs), whatever its channels.
+    fn of(model: &TypedModel, node: &TypedNode, conv: &Conv) -> TractResult<Option<Self>> {
         let spec = &conv.pool_spec;
         let format = spec.data_format;
         if conv.group != 1
@@ -52,27 +76,29 @@ impl WinogradConv {
             || node.inputs.len() != 3
             || !matches!(format, DataFormat::NCHW | DataFormat::NHWC)
             || spec.kernel_shape.as_slice() != [KERNEL, KERNEL]
-            || spec
-                .strides
-                .as_ref()
-                .is_some_and(|s| s.iter().any(|&v| v != 1))
         {
             return Ok(None);
         }
+        let stride = match spec.strides.as_deref() {
+            None => 1,
+            Some([a, b]) if a == b => *a,
+            Some(_) => return Ok(None),
+        };
         let d = match spec.dilations.as_deref() {
             None => 1,
             Some([a, b]) if a == b => *a,
             Some(_) => return Ok(None),
         };
-        // The padding that keeps the size: `d` on every side.
-        let same = match &spec.padding {
+        // The padding `d` on every side (for stride 1, the one that keeps
+        // the size).
+        let padded = match &spec.padding {
             PaddingSpec::Explicit(b, a) | PaddingSpec::ExplicitOnnxPool(b, a, _) => {
                 b.iter().chain(a.iter()).all(|&p| p == d)
             }
-            PaddingSpec::SameUpper | PaddingSpec::SameLower => true,
+            PaddingSpec::SameUpper | PaddingSpec::SameLower => stride == 1,
             PaddingSpec::Valid => false,
         };
-        if !same {
+        if !padded {
             return Ok(None);
         }
         let input = model.outlet_fact(node.inputs[0])?;
@@ -102,7 +128,6 @@ impl WinogradConv {
         }
         let k = kernel.try_as_plain_ram()?;
         let k = k.as_slice::<f32>()?;
-        // The weights as the kernel takes them, `[ky][kx][in][out]`.
         let at = |ky: usize, kx: usize, c: usize, o: usize| match conv.kernel_fmt {
             KernelFormat::OIHW => k[((o * ci + c) * KERNEL + ky) * KERNEL + kx],
             KernelFormat::HWIO => k[((ky * KERNEL + kx) * ci + c) * co + o],
@@ -125,97 +150,145 @@ impl WinogradConv {
             n if n == co => b.to_vec(),
             _ => return Ok(None),
         };
-        let layer_spec = ConvSpec {
-            name: "onnx",
-            in_channels: ci,
-            out_channels: co,
-            stride: 1,
-            dilation: d,
-        };
-        Ok(Winograd::new(&layer_spec, &weights, &bias).map(|layer| {
-            let op = Self {
-                layer: Arc::new(layer.without_relu()),
+        Ok(Some(Self {
+            spec: ConvSpec {
+                name: "onnx",
                 in_channels: ci,
-            };
-            (op, format == DataFormat::NCHW)
+                out_channels: co,
+                stride,
+                dilation: d,
+            },
+            weights,
+            bias,
+            nchw: format == DataFormat::NCHW,
         }))
+    }
+
+    /// The op that runs it, with the ReLU (`relu`) or without, or `None`
+    /// where no kernel covers it.
+    fn op(self, relu: bool) -> Option<NativeConv> {
+        let kernel = if self.spec.stride == 1 {
+            let w = Winograd::new(&self.spec, &self.weights, &self.bias)?;
+            Kernel::Winograd(Arc::new(if relu { w } else { w.without_relu() }))
+        } else if relu {
+            Kernel::Strided(Arc::new(Layer::strided(self.spec, self.weights, self.bias)?))
+        } else {
+            return None;
+        };
+        Some(NativeConv {
+            kernel,
+            in_channels: self.spec.in_channels,
+        })
     }
 }
 
-impl Op for WinogradConv {
+impl NativeConv {
+    fn out_channels(&self) -> usize {
+        match &self.kernel {
+            Kernel::Winograd(w) => w.out_channels(),
+            Kernel::Strided(l) => l.out_channels(),
+        }
+    }
+
+    fn out_side(&self, n: usize) -> usize {
+        match &self.kernel {
+            Kernel::Winograd(_) => n,
+            Kernel::Strided(l) => l.out_side(n),
+        }
+    }
+}
+
+impl Op for NativeConv {
     fn name(&self) -> StaticName {
-        "SeespotWinogradConv".into()
+        "SeespotConv".into()
     }
 
     fn info(&self) -> TractResult<Vec<String>> {
+        let how = match &self.kernel {
+            Kernel::Winograd(_) => "Winograd",
+            Kernel::Strided(_) => "direct, stride 2, ReLU",
+        };
         Ok(vec![format!(
-            "{} -> {} channels, channels last",
+            "{} -> {} channels, channels last, {how}",
             self.in_channels,
-            self.layer.out_channels(),
+            self.out_channels(),
         )])
     }
 
     op_as_typed_op!();
 }
 
-impl EvalOp for WinogradConv {
+impl EvalOp for NativeConv {
     op_out_of_plan!();
 
     fn eval(&self, _ctx: &EvalContext, inputs: TVec<TValue>) -> TractResult<TVec<TValue>> {
         let input = args_1!(inputs);
         let shape = input.shape().to_vec();
-        ensure!(shape.len() == 4, "SeespotWinogradConv takes 4-d maps");
-        let (batch, n, co) = (shape[0], shape[1], self.layer.out_channels());
+        ensure!(shape.len() == 4, "SeespotConv takes 4-d maps");
+        let (batch, n, co) = (shape[0], shape[1], self.out_channels());
         let x = input.try_as_plain_ram()?;
         let x = x.as_slice::<f32>()?;
         ensure!(
             shape[2] == n && x.len() == batch * n * n * self.in_channels,
-            "SeespotWinogradConv takes square maps of {} channels",
+            "SeespotConv takes square maps of {} channels",
             self.in_channels
         );
-        let mut out = vec![0.0f32; batch * n * n * co];
-        self.layer.forward_into(x, batch, n, &mut out);
-        let out = tract_ndarray::Array4::from_shape_vec((batch, n, n, co), out)?;
+        let m = self.out_side(n);
+        let out = match &self.kernel {
+            Kernel::Winograd(w) => {
+                let mut out = vec![0.0f32; batch * m * m * co];
+                w.forward_into(x, batch, n, &mut out);
+                out
+            }
+            Kernel::Strided(l) => {
+                let mut out = Vec::new();
+                l.forward_into(x, batch, n, &mut out);
+                out
+            }
+        };
+        let out = tract_ndarray::Array4::from_shape_vec((batch, m, m, co), out)?;
         Ok(tvec![out.into_tensor().into_tvalue()])
     }
 }
 
-impl TypedOp for WinogradConv {
+impl TypedOp for NativeConv {
     fn output_facts(&self, inputs: &[&TypedFact]) -> TractResult<TVec<TypedFact>> {
-        let mut shape = inputs[0].shape.to_tvec();
-        shape[3] = self.layer.out_channels().to_dim();
-        Ok(tvec![f32::fact(shape)])
+        let shape = &inputs[0].shape;
+        let n = shape[1].to_usize()?;
+        let m = self.out_side(n);
+        Ok(tvec![f32::fact([
+            shape[0].clone(),
+            m.to_dim(),
+            m.to_dim(),
+            self.out_channels().to_dim()
+        ])])
     }
 
     as_op!();
 }
 
-/// Replaces every convolution of `model` the Winograd kernel covers (module
-/// docs) with a [`WinogradConv`], the ReLU that alone reads it (`max(x, 0)`)
-/// folded in; returns how many.
-pub(super) fn use_winograd(model: &mut TypedModel) -> TractResult<usize> {
+/// Replaces every convolution of `model` seespot's kernels cover (module
+/// docs) with a [`NativeConv`], the ReLU that alone reads it folded in;
+/// returns how many.
+pub(super) fn use_native_kernels(model: &mut TypedModel) -> TractResult<usize> {
     let mut found = Vec::new();
     for id in model.eval_order()? {
         let node = &model.nodes[id];
         if let Some(conv) = node.op_as::<Conv>()
-            && let Some((op, nchw)) = WinogradConv::for_node(model, node, conv)?
+            && let Some(candidate) = Candidate::of(model, node, conv)?
         {
             let relu = relu_of(model, id)?;
-            found.push((id, op, nchw, relu));
+            let nchw = candidate.nchw;
+            if let Some(op) = candidate.op(relu.is_some()) {
+                found.push((id, op, nchw, relu));
+            }
         }
     }
     let count = found.len();
     for (id, op, nchw, relu) in found {
         let node = &model.nodes[id];
-        // Channels-first maps are moved to the kernel's channels last and
+        // Channels-first maps are moved to the kernels' channels last and
         // back; the engine cancels the moves between two such layers.
-        let op = WinogradConv {
-            layer: match relu {
-                Some(_) => Arc::new((*op.layer).clone().with_relu()),
-                None => op.layer,
-            },
-            ..op
-        };
         let mut patch = TypedModelPatch::default();
         let mut wire = patch.tap_model(model, node.inputs[0])?;
         if nchw {
@@ -242,7 +315,6 @@ pub(super) fn use_winograd(model: &mut TypedModel) -> TractResult<usize> {
 /// The node that alone reads node `id`'s output, if it is a ReLU: `max` of
 /// it and a constant zero.
 fn relu_of(model: &TypedModel, id: usize) -> TractResult<Option<usize>> {
-    use tract_onnx::tract_core::ops::binary::TypedBinOp;
     if model.output_outlets()?.contains(&OutletId::new(id, 0)) {
         return Ok(None);
     }
@@ -273,8 +345,7 @@ mod tests {
     use super::*;
     use crate::PolicyNet;
     use tract_onnx::prelude::{Framework, InferenceModelExt};
-    use tract_onnx::tract_core::ops::binary::TypedBinOp;
-
+    
     /// The shipped stack policy's trunks exported, typed at one rotation.
     fn exported_trunks() -> TypedModel {
         let path =
@@ -298,18 +369,19 @@ mod tests {
     }
 
     #[test]
-    fn the_trunks_stride_1_layers_run_in_winograd_form_with_their_relu() {
+    fn the_trunks_layers_run_through_seespots_kernels_with_their_relu() {
         let plain = exported_trunks();
         let mut fast = plain.clone();
-        // conv3, conv4 (dilated 2) and conv5 (dilated 8) of both primitives'
-        // trunks; conv1 and conv2 (stride 2) stay the engine's.
-        assert_eq!(use_winograd(&mut fast).expect("test setup"), 6);
-        // Their ReLUs are folded in: 10 in the plain model, 4 left.
+        // All five layers of both primitives' trunks: conv1 and conv2
+        // (stride 2) direct, conv3, conv4 (dilated 2) and conv5 (dilated 8)
+        // in Winograd form.
+        assert_eq!(use_native_kernels(&mut fast).expect("test setup"), 10);
+        // Their ReLUs are folded in: 10 in the plain model, none left.
         fast.compact().expect("test setup");
         assert_eq!(count(&plain, is_max), 10);
-        assert_eq!(count(&fast, is_max), 4);
+        assert_eq!(count(&fast, is_max), 0);
         let fast = fast.into_optimized().expect("test setup");
-        assert_eq!(count(&fast, |n| n.op_is::<WinogradConv>()), 6);
+        assert_eq!(count(&fast, |n| n.op_is::<NativeConv>()), 10);
         assert_eq!(count(&fast, |n| n.op_is::<Conv>()), 0);
         let input: Vec<f32> = (0..4 * 112 * 112)
             .map(|i| 0.5 * (0.001 * i as f32).sin())
