@@ -18,7 +18,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
-use seespot_sim::{Actor, Provenance, Split, TaskId, Trial, TrialRecord};
+use seespot_sim::{Actor, Provenance, TaskId, Trial, TrialRecord};
 use seespot_ssr::layout::records_path;
 
 use crate::config::{EvalConfig, EvalError};
@@ -358,14 +358,6 @@ pub fn run_tasks_jobs(
 }
 
 /// A split as a sentence names it ("a training seed").
-fn split_words(split: Split) -> &'static str {
-    match split {
-        Split::Train => "training",
-        Split::Test => "test",
-        Split::Validation => "validation",
-    }
-}
-
 /// Checks `task`'s records file and readies what its new trials need (the
 /// finetuned models first: the provenance names them with their checksums).
 /// Returns the plan and the file's records of `config.seeds`, by seed. A
@@ -392,21 +384,15 @@ fn prepare(
         .collect();
     // A records file holds the seeds of one split (test, validation or
     // training), so that its report is a result on that split alone.
-    if let (Some(&(_, seed)), Some(other)) = (
-        todo.first(),
-        records
-            .iter()
-            .find(|r| Split::of(r.seed) != config.seeds.split()),
-    ) {
-        return Err(EvalError::Invalid(format!(
-            "{}: holds {} seeds (seed {}); seed {seed} is a {} seed, and a records \
-             file holds one split's seeds; evaluate into another --out (the shipped \
-             validation runs are in results/validation)",
-            path.display(),
-            split_words(Split::of(other.seed)),
-            other.seed,
-            split_words(config.seeds.split()),
-        )));
+    if let Some(&(_, seed)) = todo.first()
+        && let Some(why) = crate::records::refuse_seed(
+            &path,
+            &records,
+            seed,
+            "evaluate into another --out (the shipped validation runs are in results/validation)",
+        )
+    {
+        return Err(EvalError::Invalid(why));
     }
     // Made only when there are trials to run (a finished run's report and
     // checks read the files as they are).

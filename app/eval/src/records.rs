@@ -222,6 +222,36 @@ pub fn record_member(record: &TrialRecord) -> std::io::Result<Vec<u8>> {
 /// holding its line, and syncs it, so a killed evaluation loses at most the
 /// running trial. If the file ends in a member cut short, that fragment is
 /// cut off first, as [`read_records`] would have ignored it.
+/// Why `seed` may not join `records` (those of the file at `path`), if it
+/// may not: it is recorded already, or it is of another split (test,
+/// validation, training) than the file's, whose report must be a result on
+/// one split alone. `hint` ends the second message (where to write instead).
+pub fn refuse_seed(path: &Path, records: &[TrialRecord], seed: u64, hint: &str) -> Option<String> {
+    use seespot_sim::Split;
+    let words = |s: Split| match s {
+        Split::Train => "training",
+        Split::Test => "test",
+        Split::Validation => "validation",
+    };
+    if records.iter().any(|r| r.seed == seed) {
+        return Some(format!(
+            "{}: seed {seed} is recorded already",
+            path.display()
+        ));
+    }
+    let other = records
+        .iter()
+        .find(|r| Split::of(r.seed) != Split::of(seed))?;
+    Some(format!(
+        "{}: holds {} seeds (seed {}); seed {seed} is a {} seed, and a records \
+         file holds one split's seeds; {hint}",
+        path.display(),
+        words(Split::of(other.seed)),
+        other.seed,
+        words(Split::of(seed)),
+    ))
+}
+
 pub fn append_record(path: &Path, record: &TrialRecord) -> Result<(), RecordError> {
     let io = |source| RecordError::Io {
         path: path.display().to_string(),

@@ -248,11 +248,22 @@ pub fn read_records(path: PathBuf) -> PyResult<Vec<String>> {
 
 /// Appends one record (a JSON line as `Evaluator.run` returns it) to `path`
 /// as `seespot eval` does: a fragment left by a kill is cut off first, and
-/// the line is synced before this returns.
+/// the line is synced before this returns. A seed recorded already, or of
+/// another split than the file's records, is refused (`ValueError`), as
+/// `seespot eval` refuses it.
 #[pyfunction]
 pub fn append_record(path: PathBuf, line: &str) -> PyResult<()> {
     let record: seespot_sim::TrialRecord =
         serde_json::from_str(line).map_err(|e| bad("line", format!("not a trial record: {e}")))?;
+    let records = seespot_eval::records::read_records(&path).map_err(record_error)?;
+    if let Some(why) = seespot_eval::records::refuse_seed(
+        &path,
+        &records,
+        record.seed,
+        "append it to another file (the shipped validation runs are in results/validation)",
+    ) {
+        return Err(bad("line", why));
+    }
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir)
             .map_err(|e| pyo3::exceptions::PyOSError::new_err(format!("{}: {e}", dir.display())))?;
