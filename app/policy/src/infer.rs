@@ -416,7 +416,13 @@ impl Layer {
 
     /// The layer on `batch` maps of side `n` into `out` (every element
     /// written); returns the output side.
-    pub(crate) fn forward_into(&self, x: &[f32], batch: usize, n: usize, out: &mut Vec<f32>) -> usize {
+    pub(crate) fn forward_into(
+        &self,
+        x: &[f32],
+        batch: usize,
+        n: usize,
+        out: &mut Vec<f32>,
+    ) -> usize {
         if let Some(w) = &self.winograd {
             resize_for_overwrite(out, batch * n * n * self.spec.out_channels);
             w.forward_into(x, batch, n, out);

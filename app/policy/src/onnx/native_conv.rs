@@ -92,8 +92,10 @@ impl Candidate {
         // The padding `d` on every side (for stride 1, the one that keeps
         // the size).
         let padded = match &spec.padding {
-            PaddingSpec::Explicit(b, a) | PaddingSpec::ExplicitOnnxPool(b, a, _) => {
-                b.iter().chain(a.iter()).all(|&p| p == d)
+            PaddingSpec::Explicit(b, a) => b.iter().chain(a.iter()).all(|&p| p == d),
+            // Rounding the output size up changes it where the stride is 2.
+            PaddingSpec::ExplicitOnnxPool(b, a, ceil) => {
+                b.iter().chain(a.iter()).all(|&p| p == d) && (!ceil || stride == 1)
             }
             PaddingSpec::SameUpper | PaddingSpec::SameLower => stride == 1,
             PaddingSpec::Valid => false,
@@ -171,7 +173,11 @@ impl Candidate {
             let w = Winograd::new(&self.spec, &self.weights, &self.bias)?;
             Kernel::Winograd(Arc::new(if relu { w } else { w.without_relu() }))
         } else if relu {
-            Kernel::Strided(Arc::new(Layer::strided(self.spec, self.weights, self.bias)?))
+            Kernel::Strided(Arc::new(Layer::strided(
+                self.spec,
+                self.weights,
+                self.bias,
+            )?))
         } else {
             return None;
         };
@@ -345,7 +351,7 @@ mod tests {
     use super::*;
     use crate::PolicyNet;
     use tract_onnx::prelude::{Framework, InferenceModelExt};
-    
+
     /// The shipped stack policy's trunks exported, typed at one rotation.
     fn exported_trunks() -> TypedModel {
         let path =
