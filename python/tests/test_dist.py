@@ -85,12 +85,15 @@ def test_a_folder_another_evaluation_writes_to_is_refused(tmp_path: Path) -> Non
 
 
 def test_a_seed_recorded_twice_is_refused(tmp_path: Path) -> None:
-    """The records are read as ``seespot eval`` reads them: a trial twice is
-    an error naming the file and line, not a silent overwrite."""
+    """A trial twice is refused when it is appended, and a file holding one
+    twice (written by other means) when it is read, as ``seespot eval`` reads
+    it: an error naming the file and line, not a silent overwrite."""
     path = Path(seespot.records_path(tmp_path, "oracle", "stack"))
     line = seespot.Evaluator("oracle", "stack").run(1, 0)
     dist.append(path, line)
-    dist.append(path, line)
+    with pytest.raises(ValueError, match="seed 1 is recorded already"):
+        dist.append(path, line)
+    path.write_bytes(gzip.compress((line + "\n").encode()) * 2)
     with pytest.raises(ValueError, match="stack.jsonl.gz, line 2.*again"):
         dist.recorded(path)
     # A record cut short by a kill (half its gzip member) is dropped, and the
