@@ -109,14 +109,26 @@ def test_tasks_parquet_is_indexed_by_the_task_as_lerobot_writes_it(tmp_path: Pat
     assert all(tasks.iloc[i].name == task_of[i] for i in task_of)
     assert int(tasks.loc["stack"].task_index) == [r["task"] for r in rows].index("stack")
 
-    # Where LeRobot is installed, through LeRobot itself: a frame's task is its words.
-    try:
-        from lerobot.datasets.lerobot_dataset import LeRobotDataset
-    except ImportError:
-        return
+
+def test_lerobot_itself_reads_each_frames_task_as_its_words(tmp_path: Path) -> None:
+    """Through LeRobot itself (skipped where it is not installed; run with
+    lerobot 0.4.4): the dataset opens, every frame's task is its episode's
+    words, and a DataLoader batches it."""
+    pytest.importorskip("lerobot")
+    torch = pytest.importorskip("torch")
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    out = tmp_path / "lerobot"
+    export_demos(ROOT / "demos", out)
+    episodes = pq.read_table(out / "meta" / "episodes" / "chunk-000" / "file-000.parquet").to_pylist()
     ds = LeRobotDataset("seespot/demos", root=out)
+    assert len(ds) == sum(e["dataset_to_index"] - e["dataset_from_index"] for e in episodes)
     for e in episodes:
-        assert ds[e["dataset_from_index"]]["task"] == e["tasks"][0]
+        for i in range(e["dataset_from_index"], e["dataset_to_index"]):
+            assert ds[i]["task"] == e["tasks"][0]
+    batch = next(iter(torch.utils.data.DataLoader(ds, batch_size=8)))
+    assert batch["task"] == [ds[i]["task"] for i in range(8)]
+    assert tuple(batch["observation.images.color"].shape[:2]) == (8, 3)
 
 
 def test_export_refuses_a_folder_that_is_not_empty(tmp_path: Path) -> None:
