@@ -357,7 +357,6 @@ pub fn run_tasks_jobs(
     Ok(records)
 }
 
-/// A split as a sentence names it ("a training seed").
 /// Checks `task`'s records file and readies what its new trials need (the
 /// finetuned models first: the provenance names them with their checksums).
 /// Returns the plan and the file's records of `config.seeds`, by seed. A

@@ -63,9 +63,9 @@ pub fn cache_dir() -> Option<PathBuf> {
     Some(root.join("finetuned"))
 }
 
-/// The cache file of a finetune of `kind` made from `inputs` (checksums and
-/// recipe, as JSON).
-pub fn path_of(dir: &Path, kind: &str, inputs: &serde_json::Value) -> PathBuf {
+/// The file name of a finetune of `kind` made from `inputs` (checksums and
+/// recipe, as JSON), in the cache and in the shipped folder alike.
+pub fn file_name(kind: &str, inputs: &serde_json::Value) -> String {
     use sha2::{Digest, Sha256};
     let text = serde_json::json!({
         "seespot": seespot_sim::VERSION,
@@ -78,7 +78,7 @@ pub fn path_of(dir: &Path, kind: &str, inputs: &serde_json::Value) -> PathBuf {
         .iter()
         .map(|b| format!("{b:02x}"))
         .collect();
-    dir.join(format!("{kind}-{}.safetensors", &hex[..32]))
+    format!("{kind}-{}.safetensors", &hex[..32])
 }
 
 /// The folder of the finetunes shipped beside the base models in `models`
@@ -101,7 +101,8 @@ pub fn get_or_make<T>(
     save: impl FnOnce(&T, &Path) -> Result<(), EvalError>,
     make: impl FnOnce() -> Result<T, EvalError>,
 ) -> Result<T, EvalError> {
-    let shipped = path_of(shipped, kind, inputs);
+    let name = file_name(kind, inputs);
+    let shipped = shipped.join(&name);
     if shipped.is_file() {
         match load(&shipped) {
             Ok(model) => return Ok(model),
@@ -114,7 +115,7 @@ pub fn get_or_make<T>(
     let Some(dir) = cache_dir().filter(|_| !WITHOUT_CACHE.get()) else {
         return make();
     };
-    let path = path_of(&dir, kind, inputs);
+    let path = dir.join(&name);
     let _making = MAKING
         .lock()
         .unwrap_or_else(std::sync::PoisonError::into_inner);

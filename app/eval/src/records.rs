@@ -218,10 +218,6 @@ pub fn record_member(record: &TrialRecord) -> std::io::Result<Vec<u8>> {
     encoder.finish()
 }
 
-/// Appends one record to `path` (created if missing) as a gzip member
-/// holding its line, and syncs it, so a killed evaluation loses at most the
-/// running trial. If the file ends in a member cut short, that fragment is
-/// cut off first, as [`read_records`] would have ignored it.
 /// Why `seed` may not join `records` (those of the file at `path`), if it
 /// may not: it is recorded already, or it is of another split (test,
 /// validation, training) than the file's, whose report must be a result on
@@ -252,6 +248,10 @@ pub fn refuse_seed(path: &Path, records: &[TrialRecord], seed: u64, hint: &str) 
     ))
 }
 
+/// Appends one record to `path` (created if missing) as a gzip member
+/// holding its line, and syncs it, so a killed evaluation loses at most the
+/// running trial. If the file ends in a member cut short, that fragment is
+/// cut off first, as [`read_records`] would have ignored it.
 pub fn append_record(path: &Path, record: &TrialRecord) -> Result<(), RecordError> {
     let io = |source| RecordError::Io {
         path: path.display().to_string(),
